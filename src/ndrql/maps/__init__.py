@@ -1,0 +1,43 @@
+"""Maps: the ``GridMap`` type, readers and writers, the 50x50 planning grid and A*.
+
+Coordinates are ``(row, col)`` everywhere inside ndrql; file formats that use ``(x, y)`` are
+converted once, in their reader.
+"""
+
+from ndrql.maps.astar import AStarResult, astar4, astar8, octile, path_is_valid
+from ndrql.maps.grid import (
+    MOVES4,
+    PLANNING_SIZE,
+    GridMap,
+    PlanningGrid,
+    SnapWarning,
+    area_downscale,
+    bfs_distances,
+    cell_to_point,
+    check_connected,
+    grid_to_strings,
+    nearest_free,
+    planning_grid,
+    point_to_cell,
+)
+
+__all__ = [
+    "AStarResult",
+    "GridMap",
+    "MOVES4",
+    "PLANNING_SIZE",
+    "PlanningGrid",
+    "SnapWarning",
+    "area_downscale",
+    "astar4",
+    "astar8",
+    "bfs_distances",
+    "cell_to_point",
+    "check_connected",
+    "grid_to_strings",
+    "nearest_free",
+    "octile",
+    "path_is_valid",
+    "planning_grid",
+    "point_to_cell",
+]

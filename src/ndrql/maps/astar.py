@@ -1,0 +1,188 @@
+"""A* search: the optimality reference for every path metric.
+
+- :func:`astar4`: 4-connected, unit cost, Manhattan heuristic, on the planning grid (SPEC section 3:
+  the optimal path length that Q-learning paths are compared against).
+- :func:`astar8`: 8-connected with octile costs (diagonal = sqrt(2)) and no corner cutting (a
+  diagonal move needs both orthogonal neighbours free), as in the MovingAI benchmarks.
+
+Both are deterministic (ties broken by insertion order), keep no state between calls, and raise
+:class:`~ndrql.errors.NoPathError` when the goal cannot be reached.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ndrql.errors import NoPathError, PointError
+from ndrql.maps.grid import MOVES4, Cell
+
+SQRT2 = math.sqrt(2.0)
+
+
+@dataclass(frozen=True)
+class AStarResult:
+    """A shortest path found by A*."""
+
+    path: list[Cell]
+    """Cells from start to goal inclusive, as (row, col)."""
+    cost: float
+    """Path cost: number of moves for :func:`astar4`, octile length for :func:`astar8`."""
+    expanded: int
+    """Number of nodes expanded (popped and closed)."""
+
+    @property
+    def moves(self) -> int:
+        """Number of moves (``len(path) - 1``)."""
+        return len(self.path) - 1
+
+    @property
+    def length(self) -> float:
+        """Alias of :attr:`cost` (moves for 4-connected search)."""
+        return self.cost
+
+
+def _check_point(blocked: np.ndarray, point: Sequence[int], name: str) -> Cell:
+    r, c = int(point[0]), int(point[1])
+    h, w = blocked.shape
+    if not (0 <= r < h and 0 <= c < w):
+        raise PointError(f"{name} ({r}, {c}) is off the {h}x{w} grid")
+    if blocked[r, c]:
+        raise PointError(f"{name} ({r}, {c}) is on an obstacle")
+    return (r, c)
+
+
+def _reconstruct(parent: np.ndarray, goal_idx: int, w: int) -> list[Cell]:
+    path = []
+    idx = goal_idx
+    while idx >= 0:
+        path.append((idx // w, idx % w))
+        idx = int(parent[idx])
+    path.reverse()
+    return path
+
+
+def astar4(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> AStarResult:
+    """Shortest 4-connected path (unit moves) from ``start`` to ``goal`` avoiding ``blocked`` cells."""
+    blocked = np.asarray(blocked, dtype=bool)
+    h, w = blocked.shape
+    s = _check_point(blocked, start, "start")
+    g = _check_point(blocked, goal, "goal")
+    flat_blocked = blocked.ravel()
+    gr, gc = g
+    inf = np.iinfo(np.int64).max
+    best = np.full(h * w, inf, dtype=np.int64)
+    parent = np.full(h * w, -1, dtype=np.int64)
+    closed = np.zeros(h * w, dtype=bool)
+    s_idx = s[0] * w + s[1]
+    g_idx = gr * w + gc
+    best[s_idx] = 0
+    counter = 0
+    heap = [(abs(s[0] - gr) + abs(s[1] - gc), counter, 0, s_idx)]
+    expanded = 0
+    while heap:
+        _, _, gcost, idx = heapq.heappop(heap)
+        if closed[idx]:
+            continue
+        closed[idx] = True
+        expanded += 1
+        if idx == g_idx:
+            return AStarResult(_reconstruct(parent, g_idx, w), float(gcost), expanded)
+        r, c = divmod(idx, w)
+        ng = gcost + 1
+        for dr, dc in MOVES4:
+            nr, nc = r + dr, c + dc
+            if 0 <= nr < h and 0 <= nc < w:
+                nidx = nr * w + nc
+                if not flat_blocked[nidx] and not closed[nidx] and ng < best[nidx]:
+                    best[nidx] = ng
+                    parent[nidx] = idx
+                    counter += 1
+                    heapq.heappush(heap, (ng + abs(nr - gr) + abs(nc - gc), counter, ng, nidx))
+    raise NoPathError(f"no 4-connected path from start {s} to goal {g}")
+
+
+_MOVES8 = (
+    (-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),
+    (-1, -1, SQRT2), (-1, 1, SQRT2), (1, -1, SQRT2), (1, 1, SQRT2),
+)
+
+
+def octile(a: Sequence[int], b: Sequence[int]) -> float:
+    """Octile distance between two cells: the 8-connected cost on an empty map."""
+    dr, dc = abs(a[0] - b[0]), abs(a[1] - b[1])
+    return (SQRT2 - 1.0) * min(dr, dc) + max(dr, dc)
+
+
+def astar8(
+    blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], corner_cutting: bool = False
+) -> AStarResult:
+    """Shortest 8-connected path with octile costs; no corner cutting unless ``corner_cutting``.
+
+    Without corner cutting a diagonal move ``(dr, dc)`` needs ``(r + dr, c)`` and ``(r, c + dc)`` free
+    (MovingAI benchmark rule). ``cost`` is the octile length, comparable to a ``.scen`` optimal length.
+    """
+    blocked = np.asarray(blocked, dtype=bool)
+    h, w = blocked.shape
+    s = _check_point(blocked, start, "start")
+    g = _check_point(blocked, goal, "goal")
+    flat_blocked = blocked.ravel()
+    gr, gc = g
+    best = np.full(h * w, np.inf, dtype=np.float64)
+    parent = np.full(h * w, -1, dtype=np.int64)
+    closed = np.zeros(h * w, dtype=bool)
+    s_idx = s[0] * w + s[1]
+    g_idx = gr * w + gc
+    best[s_idx] = 0.0
+    counter = 0
+    heap = [(octile(s, g), counter, 0.0, s_idx)]
+    expanded = 0
+    while heap:
+        _, _, gcost, idx = heapq.heappop(heap)
+        if closed[idx]:
+            continue
+        closed[idx] = True
+        expanded += 1
+        if idx == g_idx:
+            return AStarResult(_reconstruct(parent, g_idx, w), float(gcost), expanded)
+        r, c = divmod(idx, w)
+        for dr, dc, step in _MOVES8:
+            nr, nc = r + dr, c + dc
+            if not (0 <= nr < h and 0 <= nc < w):
+                continue
+            nidx = nr * w + nc
+            if flat_blocked[nidx] or closed[nidx]:
+                continue
+            if dr and dc and not corner_cutting and (flat_blocked[nr * w + c] or flat_blocked[r * w + nc]):
+                continue
+            ng = gcost + step
+            if ng < best[nidx] - 1e-12:
+                best[nidx] = ng
+                parent[nidx] = idx
+                counter += 1
+                dh = abs(nr - gr)
+                dw = abs(nc - gc)
+                heapq.heappush(heap, (ng + (SQRT2 - 1.0) * min(dh, dw) + max(dh, dw), counter, ng, nidx))
+    raise NoPathError(f"no 8-connected path from start {s} to goal {g}")
+
+
+def path_is_valid(blocked: np.ndarray, path: Sequence[Sequence[int]], diagonal: bool = False, corner_cutting: bool = False) -> bool:
+    """Whether ``path`` stays on free cells and each step is one legal move (4- or 8-connected)."""
+    blocked = np.asarray(blocked, dtype=bool)
+    h, w = blocked.shape
+    for r, c in path:
+        if not (0 <= r < h and 0 <= c < w) or blocked[r, c]:
+            return False
+    for (r0, c0), (r1, c1) in zip(path, path[1:]):
+        dr, dc = r1 - r0, c1 - c0
+        if abs(dr) + abs(dc) == 1:
+            continue
+        if not (diagonal and abs(dr) == 1 and abs(dc) == 1):
+            return False
+        if not corner_cutting and (blocked[r0 + dr, c0] or blocked[r0, c0 + dc]):
+            return False
+    return True

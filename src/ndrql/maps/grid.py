@@ -1,0 +1,316 @@
+"""Occupancy maps and the 50x50 planning grid (SPEC section 1).
+
+A map is a boolean occupancy array, ``True`` = obstacle, addressed ``(row, col)``. The planning
+grid is the map downscaled by exact area averaging; a cell is blocked when at least half of its
+area is obstacle. Start and goal map to the cell containing the pixel's centre, and are snapped to
+the nearest free cell (BFS, with a :class:`SnapWarning`) when that cell is blocked. Start and goal
+must be 4-connected on the planning grid, otherwise :class:`~ndrql.errors.NoPathError`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Sequence, Tuple
+
+import numpy as np
+
+from ndrql.errors import NoPathError, PointError
+
+Cell = Tuple[int, int]
+
+#: Side of the planning grid (paper: 201 -> 50).
+PLANNING_SIZE = 50
+
+#: The four moves of the planning grid, in action order: up, down, left, right.
+MOVES4: tuple[Cell, ...] = ((-1, 0), (1, 0), (0, -1), (0, 1))
+
+
+class SnapWarning(UserWarning):
+    """A start or goal fell in a blocked planning cell and was moved to the nearest free one."""
+
+
+@dataclass(frozen=True)
+class GridMap:
+    """A boolean occupancy map: ``obstacles[row, col]`` is ``True`` on an obstacle.
+
+    The array is copied and made read-only, so a ``GridMap`` never changes after construction.
+    """
+
+    obstacles: np.ndarray
+    """Boolean array of shape (H, W), ``True`` = obstacle."""
+    resolution: float | None = None
+    """Metres per pixel (ROS maps), ``None`` when the source has no scale."""
+    origin: tuple[float, ...] | None = None
+    """World pose of the lower-left pixel, ``(x, y, yaw)`` (ROS maps), else ``None``."""
+    source: str | None = None
+    """Where the map came from (a path or a dataset sample id), for reports."""
+
+    def __post_init__(self) -> None:
+        arr = np.asarray(self.obstacles)
+        if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1:
+            raise ValueError(f"GridMap needs a non-empty 2-D array, got shape {arr.shape}")
+        arr = np.array(arr, dtype=bool, copy=True)
+        arr.setflags(write=False)
+        object.__setattr__(self, "obstacles", arr)
+        if self.origin is not None:
+            object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(height, width)`` in pixels."""
+        return self.obstacles.shape  # type: ignore[return-value]
+
+    @property
+    def height(self) -> int:
+        return int(self.obstacles.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.obstacles.shape[1])
+
+    @property
+    def obstacle_ratio(self) -> float:
+        """Fraction of pixels that are obstacles."""
+        return float(self.obstacles.mean())
+
+    def contains(self, point: Sequence[int]) -> bool:
+        """Whether ``(row, col)`` lies on the map."""
+        r, c = point
+        return 0 <= r < self.height and 0 <= c < self.width
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, GridMap):
+            return NotImplemented
+        return (
+            self.obstacles.shape == other.obstacles.shape
+            and bool(np.array_equal(self.obstacles, other.obstacles))
+            and self.resolution == other.resolution
+            and self.origin == other.origin
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+# ---------------------------------------------------------------------------------------------
+# Area averaging
+
+
+def _overlap_matrix(n_in: int, n_out: int) -> np.ndarray:
+    """Integer overlaps, in units of ``1 / n_out`` input pixels, of input pixel ``j`` with output cell ``i``.
+
+    Output cell ``i`` covers input interval ``[i * n_in / n_out, (i + 1) * n_in / n_out)``; scaled by
+    ``n_out`` this is ``[i * n_in, (i + 1) * n_in)`` and pixel ``j`` is ``[j * n_out, (j + 1) * n_out)``.
+    Every row sums to ``n_in``. Exact for any sizes, shrinking or growing.
+    """
+    i = np.arange(n_out, dtype=np.int64)[:, None]
+    j = np.arange(n_in, dtype=np.int64)[None, :]
+    lo = np.maximum(i * n_in, j * n_out)
+    hi = np.minimum((i + 1) * n_in, (j + 1) * n_out)
+    return np.maximum(hi - lo, 0)
+
+
+def area_downscale(values: np.ndarray, shape: tuple[int, int] = (PLANNING_SIZE, PLANNING_SIZE)) -> np.ndarray:
+    """Resize a 2-D array to ``shape`` by exact area averaging (each output = mean over its area).
+
+    Used for the planning grid and for model outputs (SPEC section 1). Works for any input size and
+    aspect ratio, including non-integer ratios such as 201 -> 50.
+    """
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.ndim != 2:
+        raise ValueError(f"area_downscale needs a 2-D array, got shape {arr.shape}")
+    h_in, w_in = arr.shape
+    h_out, w_out = shape
+    rows = _overlap_matrix(h_in, h_out).astype(np.float64)
+    cols = _overlap_matrix(w_in, w_out).astype(np.float64)
+    return (rows @ arr @ cols.T) / float(h_in * w_in)
+
+
+def planning_grid(obstacles: np.ndarray | GridMap, size: int | tuple[int, int] = PLANNING_SIZE) -> np.ndarray:
+    """Blocked cells of the planning grid: area-average the obstacles, blocked where the mean >= 0.5.
+
+    Computed in exact integer arithmetic, so a cell that is exactly half obstacle is blocked.
+    """
+    arr = obstacles.obstacles if isinstance(obstacles, GridMap) else np.asarray(obstacles)
+    if arr.ndim != 2 or arr.size == 0:
+        raise ValueError(f"planning_grid needs a non-empty 2-D array, got shape {arr.shape}")
+    h_out, w_out = (size, size) if isinstance(size, int) else size
+    h_in, w_in = arr.shape
+    rows = _overlap_matrix(h_in, h_out)
+    cols = _overlap_matrix(w_in, w_out)
+    area = rows @ arr.astype(np.int64) @ cols.T  # obstacle area, in units of 1/(h_out*w_out) px
+    return 2 * area >= h_in * w_in
+
+
+def point_to_cell(point: Sequence[int], source_shape: tuple[int, int], grid_shape: tuple[int, int]) -> Cell:
+    """The planning cell that contains the centre of source pixel ``(row, col)``."""
+    r, c = int(point[0]), int(point[1])
+    h_in, w_in = source_shape
+    h_out, w_out = grid_shape
+    if not (0 <= r < h_in and 0 <= c < w_in):
+        raise PointError(f"point ({r}, {c}) is off the {h_in}x{w_in} map")
+    return ((2 * r + 1) * h_out // (2 * h_in), (2 * c + 1) * w_out // (2 * w_in))
+
+
+def cell_to_point(cell: Sequence[float], source_shape: tuple[int, int], grid_shape: tuple[int, int]) -> tuple[float, float]:
+    """Centre of planning cell ``(row, col)`` in source-pixel coordinates (for drawing)."""
+    h_in, w_in = source_shape
+    h_out, w_out = grid_shape
+    return ((cell[0] + 0.5) * h_in / h_out - 0.5, (cell[1] + 0.5) * w_in / w_out - 0.5)
+
+
+# ---------------------------------------------------------------------------------------------
+# Breadth-first search helpers
+
+
+def bfs_distances(blocked: np.ndarray, source: Cell) -> np.ndarray:
+    """4-connected move counts from ``source`` to every cell (``-1`` where unreachable or blocked)."""
+    blocked = np.asarray(blocked, dtype=bool)
+    h, w = blocked.shape
+    dist = np.full((h, w), -1, dtype=np.int64)
+    sr, sc = source
+    if blocked[sr, sc]:
+        return dist
+    dist[sr, sc] = 0
+    queue = deque([(sr, sc)])
+    while queue:
+        r, c = queue.popleft()
+        d = dist[r, c] + 1
+        for dr, dc in MOVES4:
+            nr, nc = r + dr, c + dc
+            if 0 <= nr < h and 0 <= nc < w and dist[nr, nc] < 0 and not blocked[nr, nc]:
+                dist[nr, nc] = d
+                queue.append((nr, nc))
+    return dist
+
+
+def nearest_free(blocked: np.ndarray, cell: Cell) -> Cell:
+    """Nearest free cell to ``cell`` by 4-connected BFS over the whole grid (obstacles are crossed).
+
+    Ties go to the first cell found in move order up, down, left, right. ``cell`` itself when free.
+    """
+    blocked = np.asarray(blocked, dtype=bool)
+    h, w = blocked.shape
+    if not blocked[cell]:
+        return (int(cell[0]), int(cell[1]))
+    seen = np.zeros((h, w), dtype=bool)
+    seen[cell] = True
+    queue = deque([(int(cell[0]), int(cell[1]))])
+    while queue:
+        r, c = queue.popleft()
+        for dr, dc in MOVES4:
+            nr, nc = r + dr, c + dc
+            if 0 <= nr < h and 0 <= nc < w and not seen[nr, nc]:
+                if not blocked[nr, nc]:
+                    return (nr, nc)
+                seen[nr, nc] = True
+                queue.append((nr, nc))
+    raise NoPathError("the planning grid has no free cell at all")
+
+
+def check_connected(blocked: np.ndarray, start: Cell, goal: Cell) -> None:
+    """Raise :class:`NoPathError` unless ``start`` and ``goal`` are 4-connected through free cells."""
+    dist = bfs_distances(blocked, start)
+    if dist[goal] < 0:
+        raise NoPathError(
+            f"start {tuple(start)} and goal {tuple(goal)} are not 4-connected on the "
+            f"{blocked.shape[0]}x{blocked.shape[1]} planning grid (a gap narrower than a cell closes at the >= 0.5 rule)"
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# The planning problem
+
+
+@dataclass(frozen=True)
+class PlanningGrid:
+    """A planning problem on the downscaled grid: blocked cells plus start and goal cells.
+
+    Build it with :meth:`from_map`; ``start``/``goal`` are planning-grid ``(row, col)`` cells, already
+    snapped to free cells and known to be 4-connected.
+    """
+
+    blocked: np.ndarray
+    """Boolean array (h, w), ``True`` = blocked cell."""
+    start: Cell
+    """Start cell (row, col) on the planning grid."""
+    goal: Cell
+    """Goal cell (row, col) on the planning grid."""
+    source_shape: tuple[int, int]
+    """Shape (H, W) of the source map in pixels."""
+    source_start: Cell
+    """Start as given, in source-map pixels (row, col)."""
+    source_goal: Cell
+    """Goal as given, in source-map pixels (row, col)."""
+    snapped: tuple[bool, bool] = field(default=(False, False))
+    """Whether start, goal were moved off a blocked cell."""
+
+    def __post_init__(self) -> None:
+        arr = np.array(self.blocked, dtype=bool, copy=True)
+        arr.setflags(write=False)
+        object.__setattr__(self, "blocked", arr)
+
+    @classmethod
+    def from_map(
+        cls,
+        grid_map: GridMap | np.ndarray,
+        start: Sequence[int],
+        goal: Sequence[int],
+        size: int | tuple[int, int] = PLANNING_SIZE,
+        check: bool = True,
+    ) -> "PlanningGrid":
+        """Downscale ``grid_map``, map ``start``/``goal`` (source pixels, row-col) to cells, snap, check.
+
+        Raises :class:`PointError` for a point off the map, :class:`NoPathError` when start and goal
+        are not 4-connected (unless ``check=False``). Emits :class:`SnapWarning` when a point moves.
+        """
+        obstacles = grid_map.obstacles if isinstance(grid_map, GridMap) else np.asarray(grid_map, dtype=bool)
+        blocked = planning_grid(obstacles, size)
+        cells = []
+        snapped = []
+        for name, point in (("start", start), ("goal", goal)):
+            if len(point) != 2:
+                raise PointError(f"{name} must be (row, col), got {tuple(point)!r}")
+            r, c = int(point[0]), int(point[1])
+            if not (0 <= r < obstacles.shape[0] and 0 <= c < obstacles.shape[1]):
+                raise PointError(
+                    f"{name} ({r}, {c}) is off the map: rows 0..{obstacles.shape[0] - 1}, cols 0..{obstacles.shape[1] - 1}"
+                )
+            cell = point_to_cell((r, c), obstacles.shape, blocked.shape)
+            free = nearest_free(blocked, cell)
+            if free != cell:
+                warnings.warn(
+                    f"{name} ({r}, {c}) falls in blocked planning cell {cell}; moved to nearest free cell {free}",
+                    SnapWarning,
+                    stacklevel=2,
+                )
+            cells.append(free)
+            snapped.append(free != cell)
+        if check:
+            check_connected(blocked, cells[0], cells[1])
+        return cls(
+            blocked=blocked,
+            start=cells[0],
+            goal=cells[1],
+            source_shape=(int(obstacles.shape[0]), int(obstacles.shape[1])),
+            source_start=(int(start[0]), int(start[1])),
+            source_goal=(int(goal[0]), int(goal[1])),
+            snapped=(snapped[0], snapped[1]),
+        )
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.blocked.shape  # type: ignore[return-value]
+
+    def to_strings(self) -> list[str]:
+        """The grid as text rows: ``#`` blocked, ``.`` free."""
+        return grid_to_strings(self.blocked)
+
+
+def grid_to_strings(blocked: np.ndarray, marks: dict[Cell, str] | None = None) -> list[str]:
+    """Rows of text, ``#`` blocked and ``.`` free; ``marks`` overrides single cells (e.g. ``S``/``G``)."""
+    rows = [["#" if b else "." for b in row] for row in np.asarray(blocked, dtype=bool)]
+    for (r, c), ch in (marks or {}).items():
+        rows[r][c] = ch
+    return ["".join(row) for row in rows]

@@ -20,6 +20,16 @@ from ndrql.maps.grid import (
     planning_grid,
     point_to_cell,
 )
+from ndrql.maps.readers import (
+    Scenario,
+    load_map,
+    read_image,
+    read_movingai_map,
+    read_movingai_scen,
+    read_npy,
+    read_ros_yaml,
+)
+from ndrql.maps.writers import atomic_path, save_map, write_npy, write_png
 
 __all__ = [
     "AStarResult",
@@ -40,4 +50,15 @@ __all__ = [
     "path_is_valid",
     "planning_grid",
     "point_to_cell",
+    "Scenario",
+    "atomic_path",
+    "load_map",
+    "read_image",
+    "read_movingai_map",
+    "read_movingai_scen",
+    "read_npy",
+    "read_ros_yaml",
+    "save_map",
+    "write_npy",
+    "write_png",
 ]

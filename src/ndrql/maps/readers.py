@@ -1,0 +1,333 @@
+"""Map readers: plain images, ROS ``map_server`` YAML, MovingAI ``.map``/``.scen``, ``.npy``.
+
+Every reader returns a :class:`~ndrql.maps.grid.GridMap` (``True`` = obstacle, ``(row, col)``) and
+turns any problem with the file into :class:`~ndrql.errors.MapFormatError` with a one-line message.
+:func:`load_map` picks the reader from the file extension. The dataset layout has its own reader,
+:func:`ndrql.dataset.layout.load_sample`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ndrql.errors import MapFormatError
+from ndrql.maps.grid import GridMap
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pbm", ".bmp", ".tif", ".tiff")
+YAML_SUFFIXES = (".yaml", ".yml")
+MOVINGAI_FREE = frozenset(".GS")
+MOVINGAI_BLOCKED = frozenset("@OTW")
+ROS_MODES = ("trinary", "scale", "raw")
+ROS_REQUIRED_KEYS = ("image", "resolution", "origin", "occupied_thresh", "free_thresh")
+
+
+def _require_file(path: Path) -> None:
+    if not path.exists():
+        raise MapFormatError(f"map file not found: {path}")
+    if not path.is_file():
+        raise MapFormatError(f"not a file: {path}")
+
+
+def _decode_image(path: Path) -> np.ndarray:
+    """Decode an image to a float array of shape (H, W) or (H, W, C) with values in 0..255.
+
+    Alpha is kept as the last channel for ROS ``scale`` mode; 16-bit images are scaled to 0..255.
+    """
+    from PIL import Image
+
+    _require_file(path)
+    try:
+        with Image.open(path) as img:
+            img.load()
+            mode = img.mode
+            if mode in ("1", "P", "CMYK", "YCbCr", "LAB", "HSV", "PA"):
+                img = img.convert("RGBA" if "transparency" in img.info or mode == "PA" else "RGB")
+                mode = img.mode
+            arr = np.asarray(img)
+    except MapFormatError:
+        raise
+    except Exception as exc:  # Pillow raises many types on corrupt input (OSError, ValueError, SyntaxError, ...)
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise MapFormatError(f"cannot read image {path}: {reason}") from exc
+    if arr.ndim not in (2, 3) or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise MapFormatError(f"cannot read image {path}: unexpected shape {arr.shape}")
+    arr = arr.astype(np.float64)
+    if mode.startswith("I") or mode == "F":
+        top = 65535.0 if arr.max(initial=0) > 255 else 255.0
+        arr = np.clip(arr * (255.0 / top), 0, 255)
+    return arr
+
+
+def _gray(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Split a decoded image into gray (mean of the colour channels) and alpha (or ``None``)."""
+    if arr.ndim == 2:
+        return arr, None
+    channels = arr.shape[2]
+    if channels == 2:  # LA
+        return arr[..., 0], arr[..., 1]
+    if channels == 4:  # RGBA
+        return arr[..., :3].mean(axis=2), arr[..., 3]
+    return arr[..., :3].mean(axis=2), None
+
+
+def read_image(path: str | Path, invert: bool = False, threshold: float = 128) -> GridMap:
+    """Read a plain image map: dark pixels (gray < ``threshold``) are obstacles; ``invert`` flips that.
+
+    Colour images use the mean of their channels; transparency is ignored.
+    """
+    path = Path(path)
+    gray, _ = _gray(_decode_image(path))
+    obstacles = gray < threshold
+    if invert:
+        obstacles = ~obstacles
+    return GridMap(obstacles, source=str(path))
+
+
+def _ros_float(doc: dict, key: str, path: Path) -> float:
+    try:
+        value = float(doc[key])
+    except (TypeError, ValueError):
+        raise MapFormatError(f"ROS map {path}: '{key}' must be a number, got {doc[key]!r}") from None
+    if not math.isfinite(value):
+        raise MapFormatError(f"ROS map {path}: '{key}' must be finite, got {value}")
+    return value
+
+
+def read_ros_yaml(path: str | Path, crop: bool = False) -> GridMap:
+    """Read a ROS ``map_server`` map (YAML + image), as ``map_server`` interprets it.
+
+    ``p = (255 - v) / 255`` (``v / 255`` when ``negate``) with ``v`` the mean of the colour channels;
+    ``trinary``: occupied when ``p > occupied_thresh``, free when ``p < free_thresh``, else unknown;
+    ``scale``: as trinary, but in-between values are occupancy ``(p - free) / (occ - free)``, or
+    unknown when the pixel is not opaque; ``raw``: ``v`` is the occupancy in percent (> 100 = unknown).
+    Unknown cells and cells with occupancy >= 50 % count as obstacles. ``crop`` keeps only the
+    bounding box of the known cells (the origin moves with it). Row 0 is the image's top row; the
+    YAML origin is the pose of the lower-left pixel, kept as given.
+    """
+    import yaml
+
+    path = Path(path)
+    _require_file(path)
+    try:
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise MapFormatError(f"cannot parse ROS map YAML {path}: {reason}") from None
+    if not isinstance(doc, dict):
+        raise MapFormatError(f"ROS map {path}: expected a mapping of keys, got {type(doc).__name__}")
+    missing = [k for k in ROS_REQUIRED_KEYS if k not in doc]
+    if missing:
+        raise MapFormatError(f"ROS map {path}: missing key(s) {', '.join(missing)}")
+    resolution = _ros_float(doc, "resolution", path)
+    if resolution <= 0:
+        raise MapFormatError(f"ROS map {path}: 'resolution' must be positive, got {resolution}")
+    occ = _ros_float(doc, "occupied_thresh", path)
+    free = _ros_float(doc, "free_thresh", path)
+    if not (0.0 <= free <= occ <= 1.0):
+        raise MapFormatError(f"ROS map {path}: need 0 <= free_thresh <= occupied_thresh <= 1, got {free}, {occ}")
+    origin = doc["origin"]
+    if not isinstance(origin, (list, tuple)) or len(origin) not in (2, 3):
+        raise MapFormatError(f"ROS map {path}: 'origin' must be [x, y, yaw], got {origin!r}")
+    try:
+        origin = [float(v) for v in origin] + ([0.0] if len(origin) == 2 else [])
+    except (TypeError, ValueError):
+        raise MapFormatError(f"ROS map {path}: 'origin' must hold numbers, got {origin!r}") from None
+    negate = doc.get("negate", 0)
+    if negate not in (0, 1, True, False):
+        raise MapFormatError(f"ROS map {path}: 'negate' must be 0 or 1, got {negate!r}")
+    mode = doc.get("mode", "trinary")
+    if mode not in ROS_MODES:
+        raise MapFormatError(f"ROS map {path}: unknown mode {mode!r}; valid: {', '.join(ROS_MODES)}")
+    image = doc["image"]
+    if not isinstance(image, str) or not image.strip():
+        raise MapFormatError(f"ROS map {path}: 'image' must be a file name, got {image!r}")
+    image_path = Path(image) if Path(image).is_absolute() else path.parent / image
+    if not image_path.exists():
+        raise MapFormatError(f"ROS map {path}: image file not found: {image_path}")
+
+    gray, alpha = _gray(_decode_image(image_path))
+    if mode == "raw":
+        unknown = gray > 100
+        obstacles = unknown | (gray >= 50)
+    else:
+        p = gray / 255.0 if negate else (255.0 - gray) / 255.0
+        occupied = p > occ
+        unknown = ~occupied & ~(p < free)
+        if mode == "scale":  # in-between pixels are known occupancies unless transparent (map_server)
+            in_between = unknown
+            unknown = in_between & (alpha < 255) if alpha is not None else np.zeros_like(in_between)
+            span = occ - free
+            level = (p - free) / span if span > 0 else np.ones_like(p)
+            occupied = occupied | (in_between & ~unknown & (level >= 0.5))
+        obstacles = occupied | unknown
+
+    if crop:
+        known = ~unknown
+        if not known.any():
+            raise MapFormatError(f"ROS map {path}: crop requested but every cell is unknown")
+        rows = np.flatnonzero(known.any(axis=1))
+        cols = np.flatnonzero(known.any(axis=0))
+        r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+        height = obstacles.shape[0]
+        # the new lower-left pixel is (r1 - 1, c0): shift by c0 columns and (height - r1) rows, in the map frame
+        dx, dy = c0 * resolution, (height - r1) * resolution
+        yaw = origin[2]
+        origin = [
+            origin[0] + dx * math.cos(yaw) - dy * math.sin(yaw),
+            origin[1] + dx * math.sin(yaw) + dy * math.cos(yaw),
+            yaw,
+        ]
+        obstacles = obstacles[r0:r1, c0:c1]
+    return GridMap(obstacles, resolution=resolution, origin=tuple(origin), source=str(path))
+
+
+def _read_text(path: Path, what: str) -> str:
+    _require_file(path)
+    try:
+        return path.read_bytes().decode("ascii")
+    except UnicodeDecodeError:
+        raise MapFormatError(f"{what} {path}: not an ASCII text file") from None
+
+
+def read_movingai_map(path: str | Path) -> GridMap:
+    """Read a MovingAI ``.map``: header ``type octile``, ``height H``, ``width W``, ``map``, then H rows.
+
+    ``.`` ``G`` ``S`` are free; ``@`` ``O`` ``T`` ``W`` are blocked. Row 0 is the first map line, column 0
+    its first character (MovingAI's y and x).
+    """
+    path = Path(path)
+    lines = _read_text(path, "MovingAI map").splitlines()
+    header: dict[str, str] = {}
+    i = 0
+    while i < len(lines):
+        line = lines[i].strip()
+        i += 1
+        if not line:
+            continue
+        if line.lower() == "map":
+            break
+        parts = line.split()
+        if len(parts) != 2 or parts[0].lower() not in ("type", "height", "width"):
+            raise MapFormatError(f"MovingAI map {path}: bad header line {i}: {line[:40]!r}")
+        header[parts[0].lower()] = parts[1]
+    else:
+        raise MapFormatError(f"MovingAI map {path}: bad header, no 'map' line")
+    missing = [k for k in ("type", "height", "width") if k not in header]
+    if missing:
+        raise MapFormatError(f"MovingAI map {path}: bad header, missing {', '.join(missing)}")
+    if header["type"].lower() != "octile":
+        raise MapFormatError(f"MovingAI map {path}: bad header, type {header['type']!r} (only 'octile' is supported)")
+    try:
+        height, width = int(header["height"]), int(header["width"])
+    except ValueError:
+        raise MapFormatError(f"MovingAI map {path}: bad header, height/width must be integers") from None
+    if height < 1 or width < 1:
+        raise MapFormatError(f"MovingAI map {path}: bad header, height and width must be positive")
+    rows = [ln.rstrip("\r") for ln in lines[i:]]
+    while rows and not rows[-1].strip():
+        rows.pop()
+    if len(rows) != height:
+        raise MapFormatError(f"MovingAI map {path}: header says height {height}, found {len(rows)} rows")
+    obstacles = np.zeros((height, width), dtype=bool)
+    for r, row in enumerate(rows):
+        if len(row) != width:
+            raise MapFormatError(f"MovingAI map {path}: row {r} has {len(row)} cells, header says width {width}")
+        bad = set(row) - MOVINGAI_FREE - MOVINGAI_BLOCKED
+        if bad:
+            raise MapFormatError(f"MovingAI map {path}: row {r} has unknown terrain {''.join(sorted(bad))[:10]!r}")
+        obstacles[r] = [ch in MOVINGAI_BLOCKED for ch in row]
+    return GridMap(obstacles, source=str(path))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One MovingAI scenario line, converted to ``(row, col)`` (MovingAI x = column, y = row)."""
+
+    bucket: int
+    map: str
+    """The map file name as written in the ``.scen`` (relative to the benchmark's map folder)."""
+    width: int
+    height: int
+    start: tuple[int, int]
+    goal: tuple[int, int]
+    optimal_length: float
+    """Octile length of an optimal path without corner cutting."""
+
+
+def read_movingai_scen(path: str | Path) -> list[Scenario]:
+    """Read a MovingAI ``.scen``: an optional ``version`` line, then one tab-separated scenario per line:
+    ``bucket map width height start_x start_y goal_x goal_y optimal_length``.
+    """
+    path = Path(path)
+    lines = _read_text(path, "MovingAI scenario").splitlines()
+    out: list[Scenario] = []
+    start_line = 0
+    if lines and lines[0].strip().lower().startswith("version"):
+        parts = lines[0].split()
+        if len(parts) != 2:
+            raise MapFormatError(f"MovingAI scenario {path}: bad version line {lines[0][:40]!r}")
+        try:
+            float(parts[1])
+        except ValueError:
+            raise MapFormatError(f"MovingAI scenario {path}: bad version line {lines[0][:40]!r}") from None
+        start_line = 1
+    for n, line in enumerate(lines[start_line:], start=start_line + 1):
+        if not line.strip():
+            continue
+        parts = line.rstrip("\r\n").split("\t") if "\t" in line else line.split()
+        parts = [p.strip() for p in parts]
+        if len(parts) != 9:
+            raise MapFormatError(f"MovingAI scenario {path}: line {n} has {len(parts)} fields, expected 9")
+        try:
+            bucket, width, height, sx, sy, gx, gy = (int(parts[k]) for k in (0, 2, 3, 4, 5, 6, 7))
+            optimal = float(parts[8])
+        except ValueError:
+            raise MapFormatError(f"MovingAI scenario {path}: line {n}: non-numeric field") from None
+        if width < 1 or height < 1 or not math.isfinite(optimal) or optimal < 0:
+            raise MapFormatError(f"MovingAI scenario {path}: line {n}: bad size or length")
+        for x, y in ((sx, sy), (gx, gy)):
+            if not (0 <= x < width and 0 <= y < height):
+                raise MapFormatError(f"MovingAI scenario {path}: line {n}: point ({x}, {y}) outside {width}x{height}")
+        out.append(Scenario(bucket, parts[1], width, height, (sy, sx), (gy, gx), optimal))
+    return out
+
+
+def read_npy(path: str | Path) -> GridMap:
+    """Read a 2-D ``.npy`` array: non-zero (``True``) = obstacle. Pickled objects are refused."""
+    path = Path(path)
+    _require_file(path)
+    try:
+        arr = np.load(path, allow_pickle=False)
+    except Exception as exc:  # numpy raises ValueError, OSError, EOFError, ... on corrupt files
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise MapFormatError(f"cannot read .npy map {path}: {reason}") from None
+    if not isinstance(arr, np.ndarray) or arr.ndim != 2 or 0 in arr.shape:
+        raise MapFormatError(f".npy map {path}: expected a non-empty 2-D array, got shape {getattr(arr, 'shape', None)}")
+    if arr.dtype.kind not in "biuf":
+        raise MapFormatError(f".npy map {path}: expected a boolean or numeric array, got dtype {arr.dtype}")
+    if arr.dtype.kind == "f" and not np.isfinite(arr).all():
+        raise MapFormatError(f".npy map {path}: contains NaN or infinite values")
+    return GridMap(arr != 0, source=str(path))
+
+
+def load_map(path: str | Path, *, invert: bool = False, threshold: float = 128, crop: bool = False) -> GridMap:
+    """Load a map, choosing the reader by extension (image, ROS YAML, MovingAI ``.map``, ``.npy``).
+
+    ``invert`` and ``threshold`` apply to plain images, ``crop`` to ROS maps.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in IMAGE_SUFFIXES:
+        return read_image(path, invert=invert, threshold=threshold)
+    if suffix in YAML_SUFFIXES:
+        return read_ros_yaml(path, crop=crop)
+    if suffix == ".map":
+        return read_movingai_map(path)
+    if suffix == ".npy":
+        return read_npy(path)
+    supported = ", ".join(IMAGE_SUFFIXES + YAML_SUFFIXES + (".map", ".npy"))
+    raise MapFormatError(f"unsupported map format {suffix or '(no extension)'!r} for {path}; supported: {supported}")

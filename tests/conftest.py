@@ -1,0 +1,38 @@
+"""Shared fixtures: the real dataset (skipped when absent) and the console script."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+#: The dataset lives beside the repository: ``../shared/data/path-planning-dataset``.
+DATASET_DIR = (REPO_ROOT.parent / "shared" / "data" / "path-planning-dataset").resolve()
+
+
+@pytest.fixture(scope="session")
+def dataset_root() -> Path:
+    """Root of the real path-planning dataset; the test is skipped when it is absent.
+
+    Override the location with the ``NDRQL_DATASET`` environment variable.
+    """
+    root = Path(os.environ.get("NDRQL_DATASET", DATASET_DIR))
+    if not (root / "TRAIN").is_dir() or not (root / "TEST" / "SEEN").is_dir():
+        pytest.skip(f"dataset not found at {root} (expected ../shared/data/path-planning-dataset beside the repo)")
+    return root
+
+
+@pytest.fixture(scope="session")
+def ndrql_exe() -> list[str]:
+    """Command prefix that runs the real ``ndrql`` console script of this environment."""
+    exe = Path(sys.executable).with_name("ndrql")
+    if exe.exists():
+        return [str(exe)]
+    found = shutil.which("ndrql")
+    if found:
+        return [found]
+    pytest.skip("the ndrql console script is not installed (run `make test`)")

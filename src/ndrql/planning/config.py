@@ -1,0 +1,97 @@
+"""Frozen configuration of the Q-learning planners, with the defaults of SPEC sections 2-4."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+from ndrql.planning import rules
+
+
+@dataclass(frozen=True)
+class QLConfig:
+    """Hyper-parameters of tabular Q-learning (SPEC section 2) and of convergence (section 3)."""
+
+    alpha: float = 0.1
+    """Learning rate (paper: fixed 0.1)."""
+    epsilon: float = 0.2
+    """Exploration rate of epsilon-greedy (paper: fixed 0.2)."""
+    gamma: float = 0.95
+    """Discount factor (SPEC 2: 0.95; 0.9 drowns the goal's value 60 moves away)."""
+    max_steps: int | None = None
+    """Moves per episode before it is cut; ``None`` = 4 x the number of grid cells."""
+    max_episodes: int = 20000
+    """Episodes before a run stops and is reported as not converged."""
+    window: int = 20
+    """W: converged once the greedy rollout reaches the goal with the same path W episodes running."""
+    reward_collision: float = rules.REWARD_COLLISION
+    """Eq. 1 scenario 1: moving into an obstacle or off the map (the agent stays)."""
+    reward_goal: float = rules.REWARD_GOAL
+    """Eq. 1 scenario 2: reaching the goal (the episode ends)."""
+    reward_revisit: float = rules.REWARD_REVISIT
+    """Eq. 1 scenario 3: moving into a cell already visited in this episode."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.alpha <= 1.0:
+            raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
+        if not 0.0 <= self.epsilon <= 1.0:
+            raise ValueError(f"epsilon must be in [0, 1], got {self.epsilon}")
+        if not 0.0 <= self.gamma < 1.0:
+            raise ValueError(f"gamma must be in [0, 1), got {self.gamma}")
+        if self.max_steps is not None and self.max_steps < 1:
+            raise ValueError(f"max_steps must be >= 1, got {self.max_steps}")
+        if self.max_episodes < 1:
+            raise ValueError(f"max_episodes must be >= 1, got {self.max_episodes}")
+        if self.window < 1:
+            raise ValueError(f"window must be >= 1, got {self.window}")
+
+    def steps_cap(self, cells: int) -> int:
+        """``max_steps`` resolved for a grid of ``cells`` cells (default ``4 * cells``)."""
+        return int(self.max_steps) if self.max_steps is not None else 4 * int(cells)
+
+
+@dataclass(frozen=True)
+class PriorConfig:
+    """Parameters of the priors (SPEC section 4, paper Eqs. 2-7)."""
+
+    r0: float = 0.0
+    """Eq. 2: base reward for a move into free space (plain QL: ``r_c = r0 = 0``)."""
+    r_max: float = 5.0
+    """Eqs. 2-4: maximum continuous reward, shared by every method (keep r_max / (1 - gamma) <= 100)."""
+    g_row: float = 10.0
+    """Eq. 2: G_x, decay length of D-CRF along rows (x = row in the dataset), in cells."""
+    g_col: float = 10.0
+    """Eq. 2: G_y, decay length of D-CRF along columns, in cells."""
+    omega_crf: float = 0.5
+    """Eq. 4: weight of NDR-CRF against D-CRF."""
+    omega_qi: float = 0.5
+    """Eq. 6: weight of the region mask against the distance term."""
+    mask_low: float = -10.0
+    """Eq. 7: MASK value outside the thresholded region (0 inside)."""
+    thd_start: float = 0.99
+    """Eq. 7: the adaptive threshold starts here ..."""
+    thd_step: float = 0.01
+    """... and drops by this much until the region connects start and goal."""
+
+    def __post_init__(self) -> None:
+        for name in ("omega_crf", "omega_qi", "thd_start"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {v}")
+        if self.thd_step <= 0:
+            raise ValueError(f"thd_step must be > 0, got {self.thd_step}")
+        if self.g_row <= 0 or self.g_col <= 0:
+            raise ValueError("g_row and g_col must be > 0")
+
+
+def field_docs(cls) -> dict[str, str]:
+    """``{field: one-line doc}`` of a config dataclass, read from the attribute docstrings."""
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(cls))
+    body = tree.body[0].body  # type: ignore[attr-defined]
+    docs: dict[str, str] = {}
+    for prev, node in zip(body, body[1:]):
+        if isinstance(prev, ast.AnnAssign) and isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
+            docs[prev.target.id] = str(node.value.value)  # type: ignore[union-attr]
+    return {f.name: docs.get(f.name, "") for f in fields(cls)}

@@ -1,0 +1,233 @@
+"""Tabular Q-learning (SPEC sections 2-3) compiled with numba: the whole run in one call.
+
+:func:`train` runs every episode (epsilon-greedy with random tie-breaking, the update of SPEC 2,
+visited-cell tracking per episode) and, after each episode, the deterministic greedy rollout that
+decides convergence (SPEC 3). Nothing runs in Python per step or per episode. The reward and the
+transition are :func:`ndrql.planning.rules.step`, compiled here; the random stream is xoshiro256**
+seeded by splitmix64 (:mod:`ndrql.planning.rng` is its Python twin), so a run depends only on its
+seed, whatever else runs in the process.
+
+Importing this module imports numba; compiled code is cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ndrql.planning import rules
+from ndrql.planning.rules import GOAL
+
+_step = nb.njit(cache=True)(rules.step)
+_greedy_action = nb.njit(cache=True)(rules.greedy_action)
+_max_q = nb.njit(cache=True)(rules.max_q)
+
+#: ``_SELECT[mask, j]``: the j-th set bit of a 4-bit action mask (the j-th candidate action).
+_SELECT = np.array([[[b for b in range(4) if m >> b & 1][min(j, max(bin(m).count("1") - 1, 0))] if m else 0
+                     for j in range(4)] for m in range(16)], dtype=np.int64)
+
+
+@nb.njit(cache=True)
+def _rotl(x, k):
+    return (x << np.uint64(k)) | (x >> np.uint64(64 - k))
+
+
+@nb.njit(cache=True)
+def seed_state(seed):
+    """xoshiro256** state from ``seed`` via splitmix64 (same as :func:`ndrql.planning.rng.seed_state`)."""
+    st = np.empty(4, dtype=np.uint64)
+    x = np.uint64(seed)
+    for i in range(4):
+        x = x + np.uint64(0x9E3779B97F4A7C15)
+        z = x
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        st[i] = z ^ (z >> np.uint64(31))
+    return st
+
+
+@nb.njit(cache=True)
+def next_u64(st):
+    """Next output of xoshiro256** (state updated in place)."""
+    s0 = st[0]
+    s1 = st[1]
+    s2 = st[2]
+    s3 = st[3]
+    result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
+    t = s1 << np.uint64(17)
+    s2 ^= s0
+    s3 ^= s1
+    s1 ^= s2
+    s0 ^= s3
+    s2 ^= t
+    s3 = _rotl(s3, 45)
+    st[0] = s0
+    st[1] = s1
+    st[2] = s2
+    st[3] = s3
+    return result
+
+
+@nb.njit(cache=True)
+def _xoshiro(s0, s1, s2, s3):
+    """xoshiro256** on a state held in locals: returns ``(output, s0, s1, s2, s3)``."""
+    result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
+    t = s1 << np.uint64(17)
+    s2 ^= s0
+    s3 ^= s1
+    s1 ^= s2
+    s0 ^= s3
+    s2 ^= t
+    s3 = _rotl(s3, 45)
+    return result, s0, s1, s2, s3
+
+
+@nb.njit(cache=True)
+def _draws(seed, n):
+    """``n`` raw draws for ``seed`` (tests compare them with the Python twin)."""
+    st = seed_state(seed)
+    out = np.empty(n, dtype=np.uint64)
+    for i in range(n):
+        out[i] = next_u64(st)
+    return out
+
+
+@nb.njit(cache=True)
+def _rollout(q, nxt, start, goal, seen, rmark, path, max_moves):
+    """Greedy rollout (ties -> lowest action). Fills ``path[0..L]``; returns ``L`` or -1 on failure.
+
+    Fails on a revisit (a blocked move counts: the agent stays on a visited cell) or after
+    ``max_moves`` moves without reaching the goal.
+    """
+    s = start
+    seen[s] = rmark
+    path[0] = s
+    n = 0
+    while n < max_moves:
+        a = _greedy_action(q, s)
+        s2 = nxt[s, a]
+        if s2 == s or seen[s2] == rmark:
+            return -1
+        n += 1
+        path[n] = s2
+        if s2 == goal:
+            return n
+        seen[s2] = rmark
+        s = s2
+    return -1
+
+
+@nb.njit(cache=True, nogil=True)
+def train(
+    nxt,
+    start,
+    goal,
+    r_c,
+    q,
+    seed,
+    alpha,
+    gamma,
+    eps_thr,
+    max_steps,
+    max_episodes,
+    window,
+    r_collision,
+    r_goal,
+    r_revisit,
+):
+    """Run Q-learning until convergence or ``max_episodes``; ``q`` (cells, 4) is updated in place.
+
+    Arguments: ``nxt`` from :func:`rules.next_table`; ``start``/``goal`` flat cell indices; ``r_c``
+    flat per-cell rewards; ``eps_thr`` from :func:`ndrql.planning.rng.eps_threshold`.
+
+    Returns ``(n_episodes, steps, returns, success, greedy_len, conv_episode, conv_steps, path_len,
+    path)``: per-episode arrays of length ``max_episodes`` (valid up to ``n_episodes``), where
+    ``greedy_len`` is the greedy rollout's length after the episode (-1 if it failed);
+    ``conv_episode`` is the 0-based convergence episode (-1 if none), ``conv_steps`` the training
+    steps summed up to and including it; ``path[0..path_len]`` the last successful greedy path
+    (``path_len == -1`` if no rollout ever reached the goal).
+    """
+    cells = nxt.shape[0]
+    st = seed_state(seed)
+    x0 = st[0]
+    x1 = st[1]
+    x2 = st[2]
+    x3 = st[3]
+    visited = np.zeros(cells, dtype=np.int32)
+    seen = np.zeros(cells, dtype=np.int32)
+    cur = np.empty(cells + 1, dtype=np.int64)
+    best = np.empty(cells + 1, dtype=np.int64)
+    steps = np.zeros(max_episodes, dtype=np.int64)
+    returns = np.zeros(max_episodes, dtype=np.float64)
+    success = np.zeros(max_episodes, dtype=np.bool_)
+    greedy_len = np.full(max_episodes, -1, dtype=np.int64)
+    mask32 = np.uint64(0xFFFFFFFF)
+    thr = np.uint64(eps_thr)
+    best_len = -1
+    streak = 0
+    total = 0
+    conv_episode = -1
+    conv_steps = -1
+    n_done = 0
+    for ep in range(max_episodes):
+        mark = ep + 1
+        s = start
+        visited[s] = mark
+        ret = 0.0
+        n = 0
+        reached = False
+        while n < max_steps:
+            u, x0, x1, x2, x3 = _xoshiro(x0, x1, x2, x3)
+            lo = u & mask32
+            # Epsilon-greedy with random tie-breaking, branch-free: the set of candidate actions
+            # is a 4-bit mask (all four when exploring, else the tied maxima), one is picked
+            # uniformly with the low 32 bits of the draw.
+            m = _max_q(q, s)
+            t0 = np.int64(q[s, 0] == m)
+            t1 = np.int64(q[s, 1] == m)
+            t2 = np.int64(q[s, 2] == m)
+            t3 = np.int64(q[s, 3] == m)
+            mask = t0 | (t1 << 1) | (t2 << 2) | (t3 << 3)
+            k = t0 + t1 + t2 + t3
+            if (u >> np.uint64(32)) < thr:
+                mask = 15
+                k = 4
+            j = np.int64((lo * np.uint64(k)) >> np.uint64(32))
+            a = _SELECT[mask, j]
+            s2, r, outcome = _step(nxt, goal, r_c, visited, mark, s, a, r_collision, r_goal, r_revisit)
+            n += 1
+            ret += r
+            if outcome == GOAL:
+                q[s, a] += alpha * (r - q[s, a])
+                reached = True
+                break
+            q[s, a] += alpha * (r + gamma * _max_q(q, s2) - q[s, a])
+            s = s2
+        steps[ep] = n
+        returns[ep] = ret
+        success[ep] = reached
+        total += n
+        n_done = ep + 1
+        length = _rollout(q, nxt, start, goal, seen, mark, cur, cells)
+        greedy_len[ep] = length
+        if length >= 0:
+            same = length == best_len
+            if same:
+                for i in range(length + 1):
+                    if cur[i] != best[i]:
+                        same = False
+                        break
+            if same:
+                streak += 1
+            else:
+                streak = 1
+                for i in range(length + 1):
+                    best[i] = cur[i]
+                best_len = length
+        else:
+            streak = 0
+        if streak >= window:
+            conv_episode = ep
+            conv_steps = total
+            break
+    return n_done, steps, returns, success, greedy_len, conv_episode, conv_steps, best_len, best

@@ -1,0 +1,148 @@
+"""The priors of the paper (Eqs. 2-7, SPEC section 4), on the planning grid.
+
+Two kinds, freely composed by :mod:`ndrql.planning.methods`:
+
+- continuous rewards ``r_c`` (an ``(H, W)`` array, the reward of a plain move into a cell):
+  D-CRF (Eq. 2), NDR-CRF (Eq. 3) and their mix (Eq. 4);
+- Q-table initialisations (a ``(H * W, 4)`` array): D-QI (Eq. 5) and NDR-QI (Eq. 6) whose mask
+  (Eq. 7) uses the adaptive threshold of :func:`adaptive_threshold`.
+
+Coordinates: the paper's ``x`` is the row and ``y`` the column (the dataset's convention), so
+``G_x`` is :attr:`PriorConfig.g_row`. Region and guideline arrays must already be at the planning
+grid's resolution (see :func:`ndrql.planning.methods.downscale_priors`).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy import ndimage
+
+from ndrql.planning import rules
+from ndrql.planning.config import PriorConfig
+
+_FOUR = ndimage.generate_binary_structure(2, 1)
+
+
+class ThresholdWarning(UserWarning):
+    """NDR-QI found no threshold whose region connects start and goal; its mask is 0 everywhere."""
+
+
+def _check_field(name: str, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.shape != tuple(shape):
+        raise ValueError(
+            f"{name} has shape {arr.shape} but the planning grid is {tuple(shape)}; "
+            "downscale it first (ndrql.planning.methods.downscale_priors)"
+        )
+    return arr
+
+
+def d_crf(shape: tuple[int, int], goal: tuple[int, int], cfg: PriorConfig = PriorConfig()) -> np.ndarray:
+    """Eq. 2, D-CRF: ``r0 + r_max * exp(-|x - x_d| / G_x - |y - y_d| / G_y)`` per cell (x = row)."""
+    rows = np.arange(shape[0], dtype=np.float64)[:, None]
+    cols = np.arange(shape[1], dtype=np.float64)[None, :]
+    return cfg.r0 + cfg.r_max * np.exp(-np.abs(rows - goal[0]) / cfg.g_row - np.abs(cols - goal[1]) / cfg.g_col)
+
+
+def ndr_crf(guideline: np.ndarray, cfg: PriorConfig = PriorConfig()) -> np.ndarray:
+    """Eq. 3, NDR-CRF: ``NDR_g(cell) * r_max`` (``guideline`` = probabilities on the planning grid)."""
+    return np.asarray(guideline, dtype=np.float64) * cfg.r_max
+
+
+def mixed_crf(guideline: np.ndarray, goal: tuple[int, int], cfg: PriorConfig = PriorConfig()) -> np.ndarray:
+    """Eq. 4: ``omega * NDR-CRF + (1 - omega) * (D-CRF - r0) + r0``.
+
+    The paper omits ``r0`` "for simplicity"; it is added back once as a base (0 by default).
+    """
+    g = np.asarray(guideline, dtype=np.float64)
+    dist = d_crf(g.shape, goal, cfg) - cfg.r0
+    return cfg.r0 + cfg.omega_crf * ndr_crf(g, cfg) + (1.0 - cfg.omega_crf) * dist
+
+
+def _next_cells(blocked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column of ``s'`` for every ``(s, a)`` (``s`` itself when the move is blocked)."""
+    nxt = rules.next_table(blocked)
+    return np.divmod(nxt, blocked.shape[1])
+
+
+def d_qi(blocked: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
+    """Eq. 5, D-QI: ``Q(s, a) = exp(-dist(s', goal))``, ``s'`` where ``a`` leads, Euclidean in cells."""
+    blocked = np.asarray(blocked, dtype=bool)
+    r2, c2 = _next_cells(blocked)
+    return np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
+
+
+def region_connects(
+    region: np.ndarray, blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], thd: float
+) -> bool:
+    """Whether the free cells with ``region > thd`` 4-connect ``start`` and ``goal``."""
+    inside = (np.asarray(region) > thd) & ~np.asarray(blocked, dtype=bool)
+    if not (inside[tuple(start)] and inside[tuple(goal)]):
+        return False
+    labels, _ = ndimage.label(inside, structure=_FOUR)
+    return bool(labels[tuple(start)] == labels[tuple(goal)])
+
+
+def adaptive_threshold(
+    region: np.ndarray,
+    blocked: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    cfg: PriorConfig = PriorConfig(),
+) -> float | None:
+    """Eq. 7's ``thd``: from ``thd_start`` down by ``thd_step`` until the region connects (Sec. 3.3).
+
+    Returns the highest such threshold (rounded to 1e-9, so 0.99, 0.98, ... exactly), or ``None``
+    when not even ``thd = 0`` connects start and goal.
+    """
+    blocked = np.asarray(blocked, dtype=bool)
+    region = _check_field("region", region, blocked.shape)
+    n = int(np.floor(cfg.thd_start / cfg.thd_step + 1e-9))
+    for i in range(n + 1):
+        thd = round(cfg.thd_start - i * cfg.thd_step, 9)
+        if thd < 0:
+            break
+        if region_connects(region, blocked, start, goal, thd):
+            return thd
+    return None
+
+
+def region_mask(region: np.ndarray, thd: float | None, cfg: PriorConfig = PriorConfig()) -> np.ndarray:
+    """Eq. 7: 0 where ``N_r > thd``, ``mask_low`` (-10) elsewhere; all 0 when ``thd`` is ``None``."""
+    region = np.asarray(region, dtype=np.float64)
+    if thd is None:
+        return np.zeros_like(region)
+    return np.where(region > thd, 0.0, cfg.mask_low)
+
+
+def ndr_qi(
+    blocked: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    region: np.ndarray,
+    cfg: PriorConfig = PriorConfig(),
+    thd: float | None = ...,  # type: ignore[assignment]
+) -> tuple[np.ndarray, float | None]:
+    """Eq. 6, NDR-QI: ``Q(s, a) = omega * MASK(N_r(s')) + (1 - omega) * exp(-dist(s', goal))``.
+
+    ``thd`` defaults to :func:`adaptive_threshold`; when none connects, MASK is 0 everywhere and a
+    :class:`ThresholdWarning` is emitted. Returns ``(q0, thd)``.
+    """
+    blocked = np.asarray(blocked, dtype=bool)
+    region = _check_field("region", region, blocked.shape)
+    if thd is ...:
+        thd = adaptive_threshold(region, blocked, start, goal, cfg)
+        if thd is None:
+            warnings.warn(
+                "NDR-QI: no threshold in [0, 0.99] makes the region connect start and goal; "
+                "the region mask is 0 everywhere",
+                ThresholdWarning,
+                stacklevel=2,
+            )
+    mask = region_mask(region, thd, cfg).ravel()
+    r2, c2 = _next_cells(blocked)
+    masked = mask[r2 * blocked.shape[1] + c2]
+    q0 = cfg.omega_qi * masked + (1.0 - cfg.omega_qi) * np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
+    return q0, thd

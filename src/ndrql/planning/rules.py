@@ -1,0 +1,116 @@
+"""The Q-learning problem of SPEC section 2 (paper Eq. 1), defined once.
+
+The compiled kernel (:mod:`ndrql.planning.kernel`), the numpy reference
+(:mod:`ndrql.planning.reference`) and the Gymnasium environment (:mod:`ndrql.env`) all use the
+functions below: :func:`next_table` fixes where each action leads, :func:`step` fixes the reward,
+the visited-cell bookkeeping and termination. :func:`step` and :func:`greedy_action` are written in
+the subset of Python that numba compiles; the kernel compiles these very functions.
+
+States are flat cell indices ``s = row * W + col`` of the planning grid. Obstacle cells are never
+states; their rows of the transition table point to themselves.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Action deltas ``(d_row, d_col)`` in action order: 0 up, 1 down, 2 left, 3 right.
+ACTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (1, 0), (0, -1), (0, 1))
+#: Human-readable action names, in action order.
+ACTION_NAMES: tuple[str, ...] = ("up", "down", "left", "right")
+N_ACTIONS = 4
+
+#: Eq. 1, scenario 1: moving into an obstacle or off the map (the agent stays, the episode goes on).
+REWARD_COLLISION = -10.0
+#: Eq. 1, scenario 2: reaching the goal (the episode ends).
+REWARD_GOAL = 40.0
+#: Eq. 1, scenario 3: moving into a cell already visited in this episode.
+REWARD_REVISIT = -5.0
+
+#: Outcome codes returned by :func:`step`.
+MOVE, COLLISION, REVISIT, GOAL = 0, 1, 2, 3
+OUTCOME_NAMES: tuple[str, ...] = ("move", "collision", "revisit", "goal")
+
+
+def next_table(blocked: np.ndarray) -> np.ndarray:
+    """Transition table ``nxt[s, a]``: the cell action ``a`` leads to from cell ``s`` (SPEC 2).
+
+    A move off the map or into an obstacle leaves the agent where it is (``nxt[s, a] == s``).
+    ``blocked`` is a bool ``(H, W)`` array, ``True`` = obstacle. Returns int32 ``(H * W, 4)``.
+    """
+    blocked = np.asarray(blocked, dtype=bool)
+    if blocked.ndim != 2:
+        raise ValueError(f"blocked must be a 2-D bool array, got shape {blocked.shape}")
+    h, w = blocked.shape
+    rows, cols = np.divmod(np.arange(h * w, dtype=np.int64), w)
+    nxt = np.empty((h * w, N_ACTIONS), dtype=np.int32)
+    for a, (dr, dc) in enumerate(ACTIONS):
+        r2, c2 = rows + dr, cols + dc
+        inside = (r2 >= 0) & (r2 < h) & (c2 >= 0) & (c2 < w)
+        target = np.where(inside, r2 * w + c2, rows * w + cols)
+        ok = inside.copy()
+        ok[inside] = ~blocked.ravel()[target[inside]]
+        nxt[:, a] = np.where(ok, target, rows * w + cols)
+    return nxt
+
+
+def step(nxt, goal, r_c, visited, mark, s, a, r_collision, r_goal, r_revisit):
+    """One move of Eq. 1 from cell ``s`` with action ``a``: returns ``(s_next, reward, outcome)``.
+
+    - blocked or off the map: ``r_collision``, the agent stays (``s_next == s``), outcome ``COLLISION``;
+    - the goal: ``r_goal``, outcome ``GOAL`` (the episode ends);
+    - a cell with ``visited[cell] == mark`` (already visited this episode): ``r_revisit``;
+    - any other cell: ``r_c[cell]``, outcome ``MOVE``.
+
+    The target cell is then marked visited (``visited[s_next] = mark``). ``r_c`` is flat
+    (``H * W``); ``mark`` identifies the current episode so ``visited`` need not be cleared.
+    Written as selects rather than early returns so the compiled kernel has no hard-to-predict
+    branches here; the precedence is collision, goal, revisit, move.
+    """
+    s2 = nxt[s, a]
+    revisit = visited[s2] == mark
+    visited[s2] = mark
+    r = r_c[s2]
+    outcome = MOVE
+    if revisit:
+        r = r_revisit
+        outcome = REVISIT
+    if s2 == goal:
+        r = r_goal
+        outcome = GOAL
+    if s2 == s:
+        r = r_collision
+        outcome = COLLISION
+    return s2, r, outcome
+
+
+def greedy_action(q, s):
+    """``argmax_a q[s, a]`` with ties broken by the lowest action index (SPEC 3 rollouts)."""
+    best = 0
+    v = q[s, 0]
+    for a in range(1, 4):
+        if q[s, a] > v:
+            v = q[s, a]
+            best = a
+    return best
+
+
+def max_q(q, s):
+    """``max_a q[s, a]``, the bootstrap target of the update (a pairwise tree: shorter latency)."""
+    a = q[s, 0]
+    b = q[s, 1]
+    c = q[s, 2]
+    d = q[s, 3]
+    ab = a if a >= b else b
+    cd = c if c >= d else d
+    return ab if ab >= cd else cd
+
+
+def cell_index(cell, width: int) -> int:
+    """Flat index of ``(row, col)``."""
+    return int(cell[0]) * int(width) + int(cell[1])
+
+
+def index_cell(s: int, width: int) -> tuple[int, int]:
+    """``(row, col)`` of a flat index."""
+    return int(s) // int(width), int(s) % int(width)

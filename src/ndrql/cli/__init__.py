@@ -15,8 +15,10 @@ from ndrql.errors import NdrqlError
 
 #: Subcommand modules (under ``ndrql.cli``), in the order ``--help`` lists them.
 SUBCOMMANDS: tuple[str, ...] = (
+    "demo_cmd",
     "map_cmd",
     "astar_cmd",
+    "plan_cmd",
     "train_cmd",
     "eval_cmd",
     "predict_cmd",

@@ -1,0 +1,226 @@
+"""Helpers shared by the subcommands: map and point arguments, dataset samples, JSON/PNG output.
+
+A subcommand that plans on a map calls :func:`add_problem_arguments` on its parser and
+:func:`resolve_problem` on the parsed namespace; it gets a :class:`Problem` (map, start, goal in
+source pixels, and a description for reports). Every bad input raises an
+:class:`~ndrql.errors.NdrqlError` subclass, which the dispatcher prints as one line (exit code 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+from ndrql.errors import DatasetError, NdrqlError, PointError
+from ndrql.maps.grid import Cell, GridMap
+
+SAMPLE_SPLITS = ("train", "seen", "unseen")
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A map with a start and a goal, as ``(row, col)`` source pixels."""
+
+    grid_map: GridMap
+    start: Cell
+    goal: Cell
+    info: dict[str, Any] = field(default_factory=dict)
+    """Where it came from: map file or dataset sample (split, index, category)."""
+
+
+def parse_point(text: str, name: str = "point") -> Cell:
+    """Parse ``"row,col"`` (integers, spaces allowed) into ``(row, col)``; :class:`PointError` otherwise."""
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) != 2:
+        raise PointError(f"{name} must be ROW,COL (two integers), got {text!r}")
+    try:
+        return (int(parts[0]), int(parts[1]))
+    except ValueError:
+        raise PointError(f"{name} must be ROW,COL (two integers), got {text!r}") from None
+
+
+def parse_sample_spec(text: str) -> tuple[Path, str, int]:
+    """Parse ``DATASET_DIR:SPLIT:INDEX`` (split = train|seen|unseen); the directory may contain ``:``."""
+    parts = str(text).rsplit(":", 2)
+    if len(parts) != 3 or not parts[0]:
+        raise DatasetError(f"--sample must be DATASET_DIR:SPLIT:INDEX, got {text!r}")
+    root, split, index = parts
+    split = split.strip().lower()
+    if split not in SAMPLE_SPLITS:
+        raise DatasetError(f"unknown split {split!r} in --sample; valid: {', '.join(SAMPLE_SPLITS)}")
+    try:
+        idx = int(index)
+    except ValueError:
+        raise DatasetError(f"sample index must be an integer, got {index!r}") from None
+    return Path(root), split, idx
+
+
+def load_sample_problem(spec: str) -> Problem:
+    """Map, start and goal of a dataset sample given as ``DATASET_DIR:SPLIT:INDEX``."""
+    from ndrql.dataset.layout import load_sample
+
+    root, split, index = parse_sample_spec(spec)
+    if not root.is_dir():
+        raise DatasetError(f"dataset directory not found: {root}")
+    sample = load_sample(root, split, index)
+    source = f"{root}:{split}:{index}"
+    grid_map = GridMap(sample.map, source=source)
+    info = {
+        "source": source,
+        "sample": {"root": str(root), "split": split, "index": index, "category": sample.category,
+                   "map_index": sample.map_index, "rrt_cost": sample.cost},
+    }
+    return Problem(grid_map, tuple(sample.start), tuple(sample.goal), info)  # type: ignore[arg-type]
+
+
+def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = False) -> None:
+    """``MAP`` (any supported format) or ``--sample DATASET_DIR:SPLIT:INDEX``, plus reader options."""
+    parser.add_argument("map", nargs=None if map_required else "?", metavar="MAP",
+                        help="map file: image (.png .jpg .pgm .bmp), ROS map_server .yaml, MovingAI .map, or .npy")
+    if not map_required:
+        parser.add_argument("--sample", metavar="DATASET_DIR:SPLIT:INDEX",
+                            help="a dataset sample instead of MAP (split: train|seen|unseen); supplies start and goal")
+    parser.add_argument("--invert", action="store_true", help="images: light pixels are obstacles")
+    parser.add_argument("--threshold", type=float, default=128, metavar="V",
+                        help="images: gray value below which a pixel is dark (default: 128)")
+    parser.add_argument("--crop", action="store_true", help="ROS maps: crop to the bounding box of known cells")
+
+
+def add_problem_arguments(parser: argparse.ArgumentParser) -> None:
+    """Map arguments plus ``--start ROW,COL`` and ``--goal ROW,COL`` (source-map pixels)."""
+    add_map_arguments(parser)
+    parser.add_argument("--start", metavar="ROW,COL", help="start in map pixels (row, col); overrides a sample's")
+    parser.add_argument("--goal", metavar="ROW,COL", help="goal in map pixels (row, col); overrides a sample's")
+
+
+def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
+    """The map named by ``args``: a :class:`Problem` for ``--sample``, else a :class:`GridMap`."""
+    from ndrql.maps.readers import load_map
+
+    sample = getattr(args, "sample", None)
+    if sample and args.map:
+        raise NdrqlError("give either MAP or --sample, not both")
+    if sample:
+        return load_sample_problem(sample)
+    if not args.map:
+        raise NdrqlError("no map given: pass MAP or --sample DATASET_DIR:SPLIT:INDEX")
+    return load_map(args.map, invert=args.invert, threshold=args.threshold, crop=args.crop)
+
+
+def resolve_problem(args: argparse.Namespace) -> Problem:
+    """Map, start and goal from ``MAP --start --goal`` or ``--sample`` (whose points ``--start``/``--goal`` override)."""
+    loaded = load_map_argument(args)
+    if isinstance(loaded, Problem):
+        start = parse_point(args.start, "--start") if args.start else loaded.start
+        goal = parse_point(args.goal, "--goal") if args.goal else loaded.goal
+        problem = Problem(loaded.grid_map, start, goal, loaded.info)
+    else:
+        missing = [flag for flag in ("--start", "--goal") if not getattr(args, flag[2:])]
+        if missing:
+            raise PointError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels)")
+        problem = Problem(loaded, parse_point(args.start, "--start"), parse_point(args.goal, "--goal"),
+                          {"source": loaded.source})
+    for name, point in (("start", problem.start), ("goal", problem.goal)):
+        if not problem.grid_map.contains(point):
+            h, w = problem.grid_map.shape
+            raise PointError(f"{name} {point[0]},{point[1]} is off the map (rows 0..{h - 1}, cols 0..{w - 1})")
+    return problem
+
+
+def map_info(grid_map: GridMap) -> dict[str, Any]:
+    """Size, obstacle ratio and (for ROS maps) resolution/origin of a map, JSON-ready."""
+    info: dict[str, Any] = {
+        "source": grid_map.source,
+        "height": grid_map.height,
+        "width": grid_map.width,
+        "obstacle_ratio": round(grid_map.obstacle_ratio, 6),
+    }
+    if grid_map.resolution is not None:
+        info["resolution"] = grid_map.resolution
+    if grid_map.origin is not None:
+        info["origin"] = list(grid_map.origin)
+    return info
+
+
+def _jsonable(obj: Any) -> Any:
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def write_json(path: str | Path, data: Any) -> Path:
+    """Write ``data`` as indented JSON, atomically (``-`` writes to stdout); parent folders are created."""
+    text = json.dumps(_jsonable(data), indent=2) + "\n"
+    if str(path) == "-":
+        sys.stdout.write(text)
+        return Path("-")
+    from ndrql.maps.writers import atomic_path
+
+    path = prepare_output(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return path
+
+
+def prepare_output(path: str | Path) -> Path:
+    """Create the parent folders of an output file; a clear error if that is impossible."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise NdrqlError(f"cannot create output folder {path.parent}: {exc.strerror or exc}") from None
+    return path
+
+
+def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 120) -> Path:
+    """Create an Agg figure, call ``draw(ax)``, save it atomically to ``path`` (format from the extension)."""
+    from ndrql.maps.writers import atomic_path
+    from ndrql.viz.maps import new_figure
+
+    path = prepare_output(path)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    fig = new_figure(figsize=figsize, dpi=dpi)
+    ax = fig.add_subplot(1, 1, 1)
+    draw(ax)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        try:
+            fig.savefig(tmp, format=fmt)
+        except ValueError as exc:
+            raise NdrqlError(f"cannot save figure {path}: {exc}") from None
+    return path
+
+
+@contextmanager
+def warnings_to_stderr() -> Iterator[None]:
+    """Show warnings raised inside the block as ``ndrql: warning: ...`` lines on stderr."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        try:
+            yield
+        finally:
+            seen = set()
+            for w in caught:
+                msg = str(w.message)
+                if msg not in seen:
+                    seen.add(msg)
+                    print(f"ndrql: warning: {msg}", file=sys.stderr)

@@ -1,0 +1,76 @@
+"""``ndrql map``: inspect and convert maps (``info``, ``convert``)."""
+
+from __future__ import annotations
+
+import argparse
+
+EXAMPLES = """examples:
+  ndrql map info warehouse.yaml --crop
+  ndrql map info --sample ../shared/data/path-planning-dataset:unseen:950
+  ndrql map convert arena.map arena.png
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    from ndrql.cli.common import add_map_arguments
+
+    p = subparsers.add_parser(
+        "map", help="inspect or convert a map", description="Inspect or convert a map.",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = p.add_subparsers(dest="map_command", metavar="ACTION", required=True)
+
+    info = sub.add_parser(
+        "info", help="size, obstacle ratio and the planning grid as text",
+        description="Print the map's size, obstacle ratio and its planning grid (# blocked, . free).",
+    )
+    add_map_arguments(info)
+    info.add_argument("--size", type=int, default=50, metavar="N", help="planning grid side (default: 50)")
+    info.add_argument("--json", metavar="FILE", help="also write the information as JSON ('-' for stdout)")
+    info.set_defaults(func=run_info)
+
+    conv = sub.add_parser(
+        "convert", help="convert a map to .png or .npy",
+        description="Read any supported map and write it as .png (black = obstacle) or .npy (bool, True = obstacle).",
+    )
+    add_map_arguments(conv, map_required=True)
+    conv.add_argument("output", metavar="OUTPUT", help="output file, .png or .npy")
+    conv.set_defaults(func=run_convert)
+
+
+def run_info(args: argparse.Namespace) -> int:
+    from ndrql.cli.common import Problem, load_map_argument, map_info, write_json
+    from ndrql.errors import NdrqlError
+    from ndrql.maps.grid import planning_grid
+
+    if args.size < 1:
+        raise NdrqlError(f"--size must be positive, got {args.size}")
+    loaded = load_map_argument(args)
+    grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
+    info = map_info(grid_map)
+    blocked = planning_grid(grid_map, args.size)
+    rows = ["".join("#" if b else "." for b in row) for row in blocked]
+    print(f"map: {grid_map.source}")
+    print(f"size: {grid_map.height} rows x {grid_map.width} cols")
+    print(f"obstacles: {100 * grid_map.obstacle_ratio:.2f}%")
+    if grid_map.resolution is not None:
+        print(f"resolution: {grid_map.resolution} m/px, origin: {list(grid_map.origin or ())}")
+    if isinstance(loaded, Problem):
+        print(f"sample start: {loaded.start}, goal: {loaded.goal} (row, col), category: {loaded.info['sample']['category']}")
+        info.update(loaded.info, start=list(loaded.start), goal=list(loaded.goal))
+    print(f"planning grid {blocked.shape[0]}x{blocked.shape[1]} ({100 * blocked.mean():.1f}% blocked):")
+    print("\n".join(rows))
+    if args.json:
+        info.update(planning_size=list(blocked.shape), grid=rows)
+        write_json(args.json, info)
+    return 0
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    from ndrql.cli.common import load_map_argument, prepare_output
+    from ndrql.maps.writers import save_map
+
+    grid_map = load_map_argument(args)
+    out = save_map(grid_map, prepare_output(args.output))
+    print(f"wrote {out} ({grid_map.height}x{grid_map.width})")
+    return 0

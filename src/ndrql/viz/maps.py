@@ -1,0 +1,77 @@
+"""Plots of maps, planning grids and paths. Every function draws on a given ``ax`` and returns its
+artists; none calls ``show`` or touches the global backend (use :func:`new_figure` + ``savefig``).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+
+def new_figure(figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 100) -> Any:
+    """A matplotlib ``Figure`` bound to the Agg canvas, independent of pyplot and its backend."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def plot_occupancy(ax: Any, obstacles: np.ndarray, *, alpha: float = 1.0, color: str = "black",
+                   extent: Sequence[float] | None = None, zorder: int = 0) -> Any:
+    """Draw obstacles in ``color`` on a transparent background; returns the ``AxesImage``.
+
+    Pixel ``(row, col)`` is centred at ``x = col``, ``y = row`` (row 0 on top) unless ``extent`` says otherwise.
+    """
+    from matplotlib.colors import ListedColormap
+
+    obstacles = np.asarray(obstacles, dtype=bool)
+    h, w = obstacles.shape
+    cmap = ListedColormap([(1, 1, 1, 0), color])
+    if extent is None:
+        extent = (-0.5, w - 0.5, h - 0.5, -0.5)
+    return ax.imshow(obstacles.astype(np.uint8), cmap=cmap, vmin=0, vmax=1, alpha=alpha,
+                     interpolation="nearest", extent=extent, zorder=zorder)
+
+
+def plot_path(ax: Any, path: Sequence[Sequence[float]], *, color: str = "tab:red", linewidth: float = 2.0,
+              label: str | None = "path", zorder: int = 3) -> list[Any]:
+    """Draw a path given as ``(row, col)`` points (in the axes' pixel frame); returns the line."""
+    pts = np.asarray(path, dtype=float).reshape(-1, 2)
+    return ax.plot(pts[:, 1], pts[:, 0], "-", color=color, linewidth=linewidth, label=label, zorder=zorder)
+
+
+def plot_endpoints(ax: Any, start: Sequence[float], goal: Sequence[float], *, size: float = 80) -> list[Any]:
+    """Mark start (green circle) and goal (blue star), points as ``(row, col)``; returns both artists."""
+    s = ax.scatter([start[1]], [start[0]], s=size, c="tab:green", marker="o", edgecolors="white", label="start", zorder=4)
+    g = ax.scatter([goal[1]], [goal[0]], s=size * 1.6, c="tab:blue", marker="*", edgecolors="white", label="goal", zorder=4)
+    return [s, g]
+
+
+def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, path_cells: Sequence[Sequence[int]],
+                         source_start: Sequence[int], source_goal: Sequence[int], *, title: str | None = None) -> list[Any]:
+    """The source map, the planning grid's blocked cells (shaded) and a planning-grid path, in source pixels.
+
+    Cell centres are converted with :func:`ndrql.maps.grid.cell_to_point`; returns every artist drawn.
+    """
+    from ndrql.maps.grid import cell_to_point
+
+    obstacles = np.asarray(obstacles, dtype=bool)
+    h, w = obstacles.shape
+    artists: list[Any] = []
+    artists.append(plot_occupancy(ax, obstacles, color="black", zorder=1))
+    artists.append(plot_occupancy(ax, blocked, color="tab:orange", alpha=0.3, extent=(-0.5, w - 0.5, h - 0.5, -0.5), zorder=2))
+    pts = [cell_to_point(c, (h, w), blocked.shape) for c in path_cells]
+    artists += plot_path(ax, pts, label=f"A* path ({len(path_cells) - 1} moves)")
+    artists += plot_endpoints(ax, source_start, source_goal)
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("col")
+    ax.set_ylabel("row")
+    if title:
+        artists.append(ax.set_title(title, fontsize=9))
+    artists.append(ax.legend(loc="best", fontsize=7, framealpha=0.8))
+    return artists

@@ -1,0 +1,31 @@
+# ndrql: two entry points, `make demo` and `make test`. Both create .venv if needed and install the
+# package with the CPU torch pin (constraints.txt); the install is skipped while pyproject.toml and
+# constraints.txt are unchanged since the last one (stamp file inside .venv).
+
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.ndrql-install-stamp
+PYTEST_ARGS ?= -q
+
+.PHONY: all install demo test clean
+
+all: test
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): $(BIN)/python pyproject.toml constraints.txt
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[test]'
+	@touch $(STAMP)
+
+install: $(STAMP)
+
+demo: install
+	$(BIN)/ndrql demo --out out
+
+test: install
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+clean:
+	rm -rf out .pytest_cache .hypothesis build dist

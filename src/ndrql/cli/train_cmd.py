@@ -1,0 +1,46 @@
+"""``ndrql train``: train (or resume) an NDR model on the dataset.
+
+Example::
+
+    ndrql train --data ../shared/data/path-planning-dataset --run-dir ~/.cache/ndrql/runs/ndr --epochs 8
+    ndrql train --run-dir ~/.cache/ndrql/runs/ndr --resume      # continue after an interruption
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ndrql.cli.options import add_dataclass_options, dataclass_from_args
+
+
+def default_run_dir(model: str) -> Path:
+    """``$NDRQL_CACHE/runs/<model>``: training state stays outside the repository."""
+    from ndrql.dataset.cache import cache_dir
+
+    return cache_dir() / "runs" / model
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from ndrql.training.loop import TrainConfig
+
+    p = sub.add_parser("train", help="train or resume an NDR model", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--run-dir", type=Path, default=None, help="where checkpoints and metrics.csv go (default: $NDRQL_CACHE/runs/<model>)")
+    p.add_argument("--resume", action="store_true", help="continue from <run-dir>/last.pt (same data order and schedule)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (log lines only)")
+    add_dataclass_options(p, TrainConfig)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ndrql.dataset.layout import check_root, default_root
+    from ndrql.training.loop import TrainConfig, train
+
+    cfg = dataclass_from_args(TrainConfig, args)
+    if args.data is None and default_root() is not None:
+        cfg = dataclass_from_args(TrainConfig, args, data=str(default_root()))
+    check_root(cfg.data)
+    run_dir = args.run_dir or default_run_dir(cfg.model)
+    print(f"run directory: {run_dir}", flush=True)
+    train(cfg, run_dir, resume=args.resume, progress=not args.no_progress, log=lambda m: print(m, flush=True))
+    return 0

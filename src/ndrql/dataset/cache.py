@@ -1,0 +1,127 @@
+"""A compact local cache of the decoded dataset, so training never decodes a JPEG twice.
+
+One ``.npz`` per split under ``$NDRQL_CACHE`` (default ``~/.cache/ndrql``), with bit-packed masks:
+maps (per map file), start/goal, guideline and region per sample, category ids, and for UNSEEN the
+original (upstream, broken for 900..1199) region labels resized to 201 px for the paper-comparable F1.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ndrql.dataset import layout
+
+CACHE_VERSION = 1
+
+
+def cache_dir() -> Path:
+    """Root of ndrql's local caches (``$NDRQL_CACHE`` or ``~/.cache/ndrql``)."""
+    return Path(os.environ.get("NDRQL_CACHE", Path.home() / ".cache" / "ndrql"))
+
+
+def pack(mask: np.ndarray) -> np.ndarray:
+    """Bit-pack a (..., 201, 201) bool mask along the last axis."""
+    return np.packbits(mask.astype(bool), axis=-1)
+
+
+def unpack(packed: np.ndarray, width: int = layout.SIDE) -> np.ndarray:
+    """Inverse of :func:`pack`."""
+    return np.unpackbits(packed, axis=-1, count=width).astype(bool)
+
+
+@dataclass(frozen=True)
+class SplitArrays:
+    """Decoded split: packed masks and per-sample metadata (see module docstring)."""
+
+    split: str
+    maps: np.ndarray  # (n_maps, 201, 26) packed
+    map_index: np.ndarray  # (n,) int
+    points: np.ndarray  # (n, 4) int: start row, start col, goal row, goal col
+    guideline: np.ndarray  # (n, 201, 26) packed
+    region: np.ndarray  # (n, 201, 26) packed (corrected labels)
+    region_original: np.ndarray  # (n, 201, 26) packed upstream labels (resized to 201 where needed)
+    category: np.ndarray  # (n,) int category id within the split
+
+    def __len__(self) -> int:
+        return len(self.map_index)
+
+    def obstacles(self, i: int) -> np.ndarray:
+        """Obstacle mask of sample ``i``."""
+        return unpack(self.maps[self.map_index[i]])
+
+
+def _decode_sample(args: tuple[str, str, int]) -> tuple:
+    root, split, i = args
+    s = layout.load_sample(root, split, i)
+    orig = s.region_original
+    if orig is not None and orig.shape != (layout.SIDE, layout.SIDE):
+        orig = layout.resize_bilinear_cv2(orig.astype(np.uint8) * 255, layout.SIDE, layout.SIDE) > 127
+    elif orig is None:
+        orig = s.region
+    return (s.start + s.goal, pack(s.guideline), pack(s.region), pack(orig))
+
+
+def _decode_map(args: tuple[str, str, int]) -> np.ndarray:
+    root, split, i = args
+    return pack(layout.load_map(root, split, i))
+
+
+def cache_path(root: str | Path, split: str) -> Path:
+    """Where the cache of ``split`` of the dataset at ``root`` lives (keyed by the root's real path)."""
+    key = hashlib.sha1(str(Path(root).resolve()).encode()).hexdigest()[:10]
+    return cache_dir() / "dataset" / f"{key}-v{CACHE_VERSION}" / f"{split}.npz"
+
+
+def build_split(root: str | Path, split: str, workers: int = 2, progress: bool = True) -> Path:
+    """Decode a split once into its cache file (atomic write) and return the path."""
+    from tqdm import tqdm
+
+    split = layout.normalize_split(split)
+    layout.check_root(root)
+    path = cache_path(root, split)
+    if path.exists():
+        return path
+    n = layout.SPLIT_SIZES[split]
+    n_maps = 4000 if split == "train" else n
+    root = str(root)
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        maps = list(
+            tqdm(pool.map(_decode_map, [(root, split, i) for i in range(n_maps)], chunksize=64),
+                 total=n_maps, desc=f"decode {split} maps", disable=not progress)
+        )
+        rows = list(
+            tqdm(pool.map(_decode_sample, [(root, split, i) for i in range(n)], chunksize=64),
+                 total=n, desc=f"decode {split} samples", disable=not progress)
+        )
+    arrays = {
+        "maps": np.stack(maps),
+        "map_index": np.array([layout.map_index(split, i) for i in range(n)], np.int32),
+        "points": np.array([r[0] for r in rows], np.int16),
+        "guideline": np.stack([r[1] for r in rows]),
+        "region": np.stack([r[2] for r in rows]),
+        "region_original": np.stack([r[3] for r in rows]),
+        "category": np.array([layout.CATEGORIES[split].index(layout.category(split, i)) for i in range(n)], np.int8),
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".tmp{os.getpid()}.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+    return path
+
+
+def load_split(root: str | Path, split: str, build: bool = True, progress: bool = True) -> SplitArrays:
+    """Load a split from the cache, building the cache first when needed."""
+    split = layout.normalize_split(split)
+    path = cache_path(root, split)
+    if not path.exists():
+        if not build:
+            raise FileNotFoundError(path)
+        build_split(root, split, progress=progress)
+    with np.load(path) as z:
+        return SplitArrays(split=split, **{k: z[k] for k in z.files})

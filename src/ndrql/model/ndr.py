@@ -1,0 +1,107 @@
+"""The NDR model (paper, Network Structure; SPEC section 5).
+
+STDC backbone -> simplified pyramid pooling on stage 5 -> two attention fusion modules (with stage 4,
+then stage 3) -> region head; the region probability concatenated with the input channels feeds a
+4-level UNet that predicts the guideline. Inputs of any size are padded to a multiple of 32 inside
+and outputs come back at the input size, as logits (apply ``torch.sigmoid`` for probabilities).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from ndrql.model.backbone import STDC_DEPTHS, STDCBackbone
+from ndrql.model.context import SimplePyramidPooling
+from ndrql.model.decoders import RegionHead, UNetDecoder
+from ndrql.model.fusion import AttentionFusion
+
+
+@dataclass(frozen=True)
+class NDRConfig:
+    """Architecture of an NDR network; saved beside the weights so checkpoints rebuild themselves."""
+
+    arch: str = "ndr"
+    """Model family name in the registry."""
+    backbone: str = "stdc1"
+    """STDC variant: stdc1 (paper) or stdc2."""
+    width: float = 0.5
+    """Channel width multiplier of the backbone (1.0 = paper's STDC1; 0.5 = CPU default)."""
+    in_channels: int = 3
+    """Input channels: map, start, goal (single-pixel encoding)."""
+    context_channels: int = 128
+    """Channels of the pyramid pooling output (PP-LiteSeg-T: 128)."""
+    fusion_channels: tuple[int, int] = (96, 64)
+    """Output channels of the two attention fusion modules (with stage 4, then stage 3)."""
+    guideline_decoder: bool = True
+    """Predict the guideline with the UNet decoder (False = region-only ablation)."""
+    unet_base: int = 16
+    """Channels of the UNet's first level (doubles per level, 4 levels)."""
+    encoding: str = "point"
+    """Input encoding of start and goal the model was trained with (see ndrql.dataset.encodings)."""
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "NDRConfig":
+        """Rebuild from ``asdict`` output (tuples come back from lists)."""
+        known = {f.name for f in fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise ValueError(f"unknown config fields: {sorted(unknown)}")
+        kwargs = dict(data)
+        if "fusion_channels" in kwargs:
+            kwargs["fusion_channels"] = tuple(kwargs["fusion_channels"])
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict:
+        """Plain-types dictionary (safe for ``torch.load(weights_only=True)``)."""
+        d = asdict(self)
+        d["fusion_channels"] = list(self.fusion_channels)
+        return d
+
+
+def pad_to_multiple(x: torch.Tensor, multiple: int = 32) -> tuple[torch.Tensor, tuple[int, int]]:
+    """Zero-pad bottom/right so H and W are multiples of ``multiple``; return the original size."""
+    h, w = x.shape[-2:]
+    ph, pw = (-h) % multiple, (-w) % multiple
+    if ph or pw:
+        x = F.pad(x, (0, pw, 0, ph))
+    return x, (h, w)
+
+
+class NDRNet(nn.Module):
+    """NDR network: ``forward(x: (B, C, H, W)) -> (region_logits, guideline_logits)``, each (B, 1, H, W).
+
+    With ``guideline_decoder=False`` the guideline output is ``None``.
+    """
+
+    def __init__(self, config: NDRConfig = NDRConfig()):
+        super().__init__()
+        if config.backbone not in STDC_DEPTHS:
+            raise ValueError(f"unknown backbone {config.backbone!r}; valid: {', '.join(STDC_DEPTHS)}")
+        self.config = config
+        self.backbone = STDCBackbone(config.backbone, config.in_channels, config.width)
+        c3, c4, c5 = self.backbone.out_channels
+        f4, f3 = config.fusion_channels
+        self.context = SimplePyramidPooling(c5, config.context_channels, config.context_channels)
+        self.fuse4 = AttentionFusion(c4, config.context_channels, f4)
+        self.fuse3 = AttentionFusion(c3, f4, f3)
+        self.region_head = RegionHead(f3, f3)
+        self.guideline = UNetDecoder(config.in_channels + 1, config.unet_base) if config.guideline_decoder else None
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+        if x.ndim != 4 or x.shape[1] != self.config.in_channels:
+            raise ValueError(
+                f"expected input (B, {self.config.in_channels}, H, W), got {tuple(x.shape)}; "
+                "build inputs with ndrql.dataset.encodings.encode_input"
+            )
+        xp, (h, w) = pad_to_multiple(x)
+        s3, s4, s5 = self.backbone(xp)
+        y = self.fuse3(s3, self.fuse4(s4, self.context(s5)))
+        region = F.interpolate(self.region_head(y), size=xp.shape[-2:], mode="bilinear", align_corners=False)
+        guide = None
+        if self.guideline is not None:
+            guide = self.guideline(torch.cat([torch.sigmoid(region), xp], dim=1))[..., :h, :w]
+        return region[..., :h, :w], guide

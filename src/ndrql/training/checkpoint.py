@@ -1,0 +1,67 @@
+"""Self-describing checkpoints: format tag, package version, model config and metrics beside the weights.
+
+Written atomically (temporary file + ``os.replace``) and read with ``torch.load(weights_only=True)``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from ndrql import __version__
+from ndrql.errors import CheckpointError
+
+FORMAT = "ndrql-checkpoint"
+#: Bumped when the meaning of saved weights changes; older files give a clear error.
+FORMAT_VERSION = 1
+
+
+def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> Path:
+    """Write ``payload`` plus the format header to ``path`` atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {"format": FORMAT, "format_version": FORMAT_VERSION, "ndrql_version": __version__, **payload}
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    torch.save(data, tmp)
+    os.replace(tmp, path)
+    return path
+
+
+def load_checkpoint(path: str | Path) -> dict[str, Any]:
+    """Read and validate a checkpoint; every failure is a CheckpointError with the reason."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint not found: {path}")
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises many types for corrupt or foreign files
+        raise CheckpointError(f"cannot read checkpoint {path}: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise CheckpointError(f"{path} is not an ndrql checkpoint (no '{FORMAT}' header)")
+    if data.get("format_version") != FORMAT_VERSION:
+        raise CheckpointError(
+            f"{path} has checkpoint format {data.get('format_version')} (written by ndrql {data.get('ndrql_version')}); "
+            f"this ndrql reads format {FORMAT_VERSION}"
+        )
+    if "config" not in data or "model" not in data:
+        raise CheckpointError(f"{path} lacks the model config or weights")
+    return data
+
+
+def model_from_checkpoint(data: dict[str, Any]) -> torch.nn.Module:
+    """Rebuild the network from a loaded checkpoint's config and load its weights (fp32)."""
+    from ndrql.model.registry import build_model
+
+    try:
+        model = build_model(dict(data["config"]))
+    except (ValueError, TypeError) as exc:
+        raise CheckpointError(f"checkpoint config does not describe a known model: {exc}") from None
+    state = {k: v.float() if v.is_floating_point() else v for k, v in data["model"].items()}
+    try:
+        model.load_state_dict(state)
+    except RuntimeError as exc:
+        raise CheckpointError(f"weights do not fit the architecture in the checkpoint: {str(exc).splitlines()[0]}") from None
+    return model.eval()

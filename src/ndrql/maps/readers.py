@@ -232,14 +232,14 @@ def read_movingai_map(path: str | Path) -> GridMap:
         rows.pop()
     if len(rows) != height:
         raise MapFormatError(f"MovingAI map {path}: header says height {height}, found {len(rows)} rows")
-    obstacles = np.zeros((height, width), dtype=bool)
-    for r, row in enumerate(rows):
+    for r, row in enumerate(rows):  # validate everything before allocating anything
         if len(row) != width:
             raise MapFormatError(f"MovingAI map {path}: row {r} has {len(row)} cells, header says width {width}")
         bad = set(row) - MOVINGAI_FREE - MOVINGAI_BLOCKED
         if bad:
             raise MapFormatError(f"MovingAI map {path}: row {r} has unknown terrain {''.join(sorted(bad))[:10]!r}")
-        obstacles[r] = [ch in MOVINGAI_BLOCKED for ch in row]
+    codes = np.frombuffer("".join(rows).encode("ascii"), dtype=np.uint8).reshape(height, width)
+    obstacles = np.isin(codes, np.frombuffer("".join(sorted(MOVINGAI_BLOCKED)).encode("ascii"), dtype=np.uint8))
     return GridMap(obstacles, source=str(path))
 
 

@@ -193,3 +193,14 @@ def test_astar8_matches_dijkstra_on_random_maps(seed):
     else:
         res = astar8(blocked, s, g)
         assert res.cost == pytest.approx(ref) and path_is_valid(blocked, res.path, diagonal=True)
+
+
+@pytest.mark.data
+def test_known_disconnected_sample_raises_no_path_error(dataset_root):
+    # SPEC section 1: the >= 0.5 rule closes narrow gaps; SEEN 904 is one of the 27 such SEEN samples.
+    from ndrql.dataset.layout import load_sample
+
+    sample = load_sample(dataset_root, "seen", 904)
+    with pytest.raises(NoPathError, match="not 4-connected"):
+        PlanningGrid.from_map(sample.map, sample.start, sample.goal)
+    assert bfs_distances(sample.map, sample.start)[sample.goal] > 0  # but the full-resolution map connects them

@@ -1,27 +1,37 @@
 """Tabular Q-learning planners of the paper: rules (Eq. 1), compiled kernel, priors (Eqs. 2-7).
 
-Light on import: the numba kernel loads on first use. The main entry points::
+Light on import (names load on first use; numba only when a run starts)::
 
     from ndrql.planning import plan, run_many, PlanJob, QLConfig, PriorConfig, METHODS
 """
 
-from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.methods import METHODS, Method, Priors, build_priors, get_method, predict_priors
-from ndrql.planning.results import EpisodeRecords, PlanResult
-from ndrql.planning.runner import PlanJob, plan, run_many
+from __future__ import annotations
 
-__all__ = [
-    "METHODS",
-    "EpisodeRecords",
-    "Method",
-    "PlanJob",
-    "PlanResult",
-    "PriorConfig",
-    "Priors",
-    "QLConfig",
-    "build_priors",
-    "get_method",
-    "plan",
-    "predict_priors",
-    "run_many",
-]
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "QLConfig": "config",
+    "PriorConfig": "config",
+    "METHODS": "methods",
+    "Method": "methods",
+    "Priors": "methods",
+    "build_priors": "methods",
+    "get_method": "methods",
+    "predict_priors": "methods",
+    "EpisodeRecords": "results",
+    "PlanResult": "results",
+    "PlanJob": "runner",
+    "plan": "runner",
+    "run_many": "runner",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f"ndrql.planning.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ndrql.planning' has no attribute {name!r}")

@@ -8,6 +8,7 @@ inputs and seed, so results are identical whether runs go one by one, in threads
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -179,8 +180,8 @@ def default_workers() -> int:
 def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "process") -> list[PlanResult]:
     """Run ``jobs`` on ``workers`` cores (default: all) and return results in job order.
 
-    ``backend``: ``"process"`` (a process pool; each worker loads the cached kernel once) or
-    ``"thread"`` (the kernel releases the GIL). With one worker or one job, runs in this process.
+    ``backend``: ``"process"`` (a process pool, forked where the platform allows so workers inherit
+    the loaded kernel) or ``"thread"`` (the kernel releases the GIL). With one worker or one job, runs in this process.
     Results do not depend on the backend or the number of workers.
     """
     jobs = list(jobs)
@@ -189,16 +190,19 @@ def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "pr
         raise ValueError(f"workers must be >= 1, got {workers}")
     if workers == 1 or len(jobs) <= 1:
         return [_run_job(j) for j in jobs]
-    if backend == "thread":
-        from ndrql.planning import kernel  # noqa: F401  (compile/load once, before the threads start)
+    from ndrql.planning import kernel
 
+    kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
+    if backend == "thread":
         with ThreadPoolExecutor(max_workers=workers) as pool:
             return list(pool.map(_run_job, jobs))
     if backend != "process":
         raise ValueError(f"unknown backend {backend!r}; valid: process, thread")
     n_chunks = min(len(jobs), workers * 4)
     chunks = [jobs[i::n_chunks] for i in range(n_chunks)]
-    with ProcessPoolExecutor(max_workers=min(workers, n_chunks)) as pool:
+    methods = multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
+    with ProcessPoolExecutor(max_workers=min(workers, n_chunks), mp_context=ctx) as pool:
         parts = list(pool.map(_run_chunk, chunks))
     out: list[PlanResult | None] = [None] * len(jobs)
     for i, part in enumerate(parts):

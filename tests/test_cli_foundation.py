@@ -90,6 +90,8 @@ def test_astar_on_a_dataset_sample(ndrql_exe, dataset_root, tmp_path):
     assert cells[0] == pg.start and cells[-1] == pg.goal and path_is_valid(pg.blocked, cells)
     assert data["length"] == astar4(pg.blocked, pg.start, pg.goal).moves == bfs_distances(pg.blocked, pg.start)[pg.goal]
     assert data["sample"]["category"] == "GAPS"
+    printed = next(ln for ln in out.splitlines() if ln.startswith("path (planning-grid row,col): "))
+    assert [tuple(map(int, p.split(","))) for p in printed.split(": ")[1].split()] == cells
     assert (tmp_path / "s.png").stat().st_size > 1000
 
 

@@ -128,6 +128,7 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
     print(f"planning grid: {pg.shape[0]}x{pg.shape[1]}, {100 * pg.blocked.mean():.1f}% blocked; "
           f"start {pg.start} <- pixel {pg.source_start}, goal {pg.goal} <- pixel {pg.source_goal}")
     print(f"A* (4-connected): {res.moves} moves, {res.expanded} nodes expanded")
+    print("path (planning-grid row,col): " + " ".join(f"{r},{c}" for r, c in res.path))
     if args.print_grid:
         marks = {c: "*" for c in res.path}
         marks.update({pg.start: "S", pg.goal: "G"})

@@ -179,9 +179,9 @@ def train(
         while n < max_steps:
             u, x0, x1, x2, x3 = _xoshiro(x0, x1, x2, x3)
             lo = u & mask32
-            # Epsilon-greedy with random tie-breaking, branch-free: the set of candidate actions
-            # is a 4-bit mask (all four when exploring, else the tied maxima), one is picked
-            # uniformly with the low 32 bits of the draw.
+            # Epsilon-greedy with random tie-breaking: the candidate actions are a 4-bit mask (all
+            # four when exploring, else the tied maxima); one is picked uniformly with the low 32
+            # bits of the draw (the same rule as ndrql.planning.reference).
             m = _max_q(q, s)
             t0 = np.int64(q[s, 0] == m)
             t1 = np.int64(q[s, 1] == m)
@@ -192,8 +192,11 @@ def train(
             if (u >> np.uint64(32)) < thr:
                 mask = 15
                 k = 4
-            j = np.int64((lo * np.uint64(k)) >> np.uint64(32))
-            a = _SELECT[mask, j]
+            if k == 1:  # a unique best action (most steps once Q has values): no draw needed
+                a = 0 if t0 else (1 if t1 else (2 if t2 else 3))
+            else:
+                j = np.int64((lo * np.uint64(k)) >> np.uint64(32))
+                a = _SELECT[mask, j]
             s2, r, outcome = _step(nxt, goal, r_c, visited, mark, s, a, r_collision, r_goal, r_revisit)
             n += 1
             ret += r

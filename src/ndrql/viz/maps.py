@@ -73,5 +73,9 @@ def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, pa
     ax.set_ylabel("row")
     if title:
         artists.append(ax.set_title(title, fontsize=9))
-    artists.append(ax.legend(loc="best", fontsize=7, framealpha=0.8))
+    from matplotlib.patches import Patch
+
+    handles, labels = ax.get_legend_handles_labels()
+    handles += [Patch(color="black", label="obstacle"), Patch(color="tab:orange", alpha=0.3, label="blocked planning cell")]
+    artists.append(ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=3, fontsize=7, frameon=False))
     return artists

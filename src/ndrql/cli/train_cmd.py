@@ -22,7 +22,7 @@ def default_run_dir(model: str) -> Path:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ndrql.training.loop import TrainConfig
+    from ndrql.training.config import TrainConfig
 
     p = sub.add_parser("train", help="train or resume an NDR model", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run-dir", type=Path, default=None, help="where checkpoints and metrics.csv go (default: $NDRQL_CACHE/runs/<model>)")
@@ -34,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ndrql.dataset.layout import check_root, default_root
-    from ndrql.training.loop import TrainConfig, train
+    from ndrql.training.config import TrainConfig
+    from ndrql.training.loop import train
 
     cfg = dataclass_from_args(TrainConfig, args)
     if args.data is None and default_root() is not None:

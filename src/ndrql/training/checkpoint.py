@@ -65,3 +65,19 @@ def model_from_checkpoint(data: dict[str, Any]) -> torch.nn.Module:
     except RuntimeError as exc:
         raise CheckpointError(f"weights do not fit the architecture in the checkpoint: {str(exc).splitlines()[0]}") from None
     return model.eval()
+
+
+def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: dict[str, Any] | None = None) -> Path:
+    """Write a slim inference checkpoint (config, metrics, fp16 weights, no optimizer) from a training one."""
+    data = load_checkpoint(src)
+    model_cfg = dict(data["config"])
+    weights = {k: (v.half() if half and v.is_floating_point() else v) for k, v in data["model"].items()}
+    payload = {
+        "config": model_cfg,
+        "model": weights,
+        "metrics": data.get("metrics", {}),
+        "train_config": data.get("train_config", {}),
+        "state": {k: v for k, v in data.get("state", {}).items() if isinstance(v, (int, float))},
+        **(extra or {}),
+    }
+    return save_checkpoint(dst, payload)

@@ -12,7 +12,7 @@ import csv
 import math
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -22,52 +22,11 @@ from ndrql.dataset.batches import train_batches
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.splits import train_val_split
 from ndrql.errors import CheckpointError
-from ndrql.model.registry import build_model, preset
+from ndrql.model.registry import build_model
 from ndrql.training.checkpoint import load_checkpoint, save_checkpoint
+from ndrql.training.config import TrainConfig
 from ndrql.training.evaluate import evaluate
 from ndrql.training.losses import ndr_loss
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Everything that defines a training run (saved in every checkpoint)."""
-
-    data: str = "../shared/data/path-planning-dataset"
-    """Dataset root in its original layout."""
-    model: str = "ndr-stdc1-half"
-    """Model preset (ndrql.model.registry.PRESETS)."""
-    model_overrides: dict = field(default_factory=dict)
-    """Config fields overriding the preset (e.g. {'unet_base': 8})."""
-    encoding: str = "point"
-    """Input encoding of start and goal (ndrql.dataset.encodings)."""
-    epochs: int = 8
-    """Epochs of the cosine schedule."""
-    batch_size: int = 16
-    """Samples per optimisation step."""
-    lr: float = 2e-3
-    """Peak AdamW learning rate."""
-    weight_decay: float = 1e-4
-    """AdamW weight decay."""
-    warmup_steps: int = 300
-    """Linear warm-up steps before the cosine decay."""
-    val_fraction: float = 0.05
-    """Fraction of TRAIN's distinct maps held out for validation (never a SEEN map)."""
-    seed: int = 0
-    """Seed of the split, the data order and the augmentation."""
-    augment: bool = True
-    """Dihedral augmentation of map, points and labels together."""
-    bf16: bool = True
-    """bfloat16 autocast on the CPU (measured faster; see docs/performance.md)."""
-    threads: int = 0
-    """Torch intra-op threads (0 = all cores)."""
-    checkpoint_minutes: float = 5.0
-    """Minutes between mid-epoch checkpoints."""
-    max_steps: int = 0
-    """Stop after this many optimisation steps in this invocation (0 = no limit; for tests)."""
-
-    def model_config(self) -> dict:
-        """Model config dict: preset + overrides + the input encoding."""
-        return preset(self.model, encoding=self.encoding, **self.model_overrides) if self.model != "rgp" else preset(self.model, **self.model_overrides)
 
 
 def learning_rate(cfg: TrainConfig, global_step: int, total_steps: int) -> float:

@@ -15,14 +15,16 @@ class TrainConfig:
     """Model preset (ndrql.model.registry.PRESETS)."""
     model_overrides: dict = field(default_factory=dict)
     """Config fields overriding the preset (e.g. {'unet_base': 8})."""
-    encoding: str = "point"
-    """Input encoding of start and goal (ndrql.dataset.encodings)."""
+    encoding: str = ""
+    """Input encoding of start and goal (ndrql.dataset.encodings); empty = the preset's own (NDR: point, RGP: rgb)."""
     epochs: int = 8
     """Epochs of the cosine schedule."""
     batch_size: int = 16
-    """Samples per optimisation step."""
+    """Samples per optimisation step and process (global batch = batch_size x world size under DDP)."""
     lr: float = 2e-3
     """Peak AdamW learning rate."""
+    scale_lr: bool = False
+    """Linear scaling rule under DDP: peak lr x world size (off: --lr is used as given)."""
     weight_decay: float = 1e-4
     """AdamW weight decay."""
     warmup_steps: int = 300
@@ -34,7 +36,13 @@ class TrainConfig:
     augment: bool = True
     """Dihedral augmentation of map, points and labels together."""
     bf16: bool = True
-    """bfloat16 autocast on the CPU (measured faster; see docs/performance.md)."""
+    """Mixed precision: bf16 autocast on the CPU (measured faster); on CUDA see --amp-dtype; off on MPS."""
+    device: str = "auto"
+    """Device: auto (CUDA when available, else CPU), cpu, cuda or mps."""
+    amp_dtype: str = "auto"
+    """Autocast dtype on CUDA: auto (bf16 where supported, else fp16), bf16, or fp16 (with a GradScaler)."""
+    loader_workers: int = 2
+    """DataLoader worker processes building batches into pinned memory on GPU (the CPU path builds them inline)."""
     threads: int = 0
     """Torch intra-op threads (0 = all cores)."""
     checkpoint_minutes: float = 5.0
@@ -46,4 +54,7 @@ class TrainConfig:
         """Model config dict: preset + overrides + the input encoding."""
         from ndrql.model.registry import preset
 
-        return preset(self.model, encoding=self.encoding, **self.model_overrides)
+        overrides = dict(self.model_overrides)
+        if self.encoding:
+            overrides["encoding"] = self.encoding
+        return preset(self.model, **overrides)

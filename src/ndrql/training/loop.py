@@ -101,7 +101,7 @@ def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, progress:
         bar = tqdm(total=steps_per_epoch, initial=state["step"], desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not progress, unit="step")
         loss_sum, loss_n = 0.0, 0
         epoch_t0 = time.perf_counter()
-        for step, (x, region, guide) in train_batches(train_data, tr_idx, cfg.batch_size, cfg.seed, epoch, state["step"], cfg.augment, cfg.encoding):
+        for step, (x, region, guide) in train_batches(train_data, tr_idx, cfg.batch_size, cfg.seed, epoch, state["step"], cfg.augment, model_cfg["encoding"]):
             t0 = time.perf_counter()
             for group in opt.param_groups:
                 group["lr"] = learning_rate(cfg, state["global_step"], total_steps)
@@ -129,7 +129,7 @@ def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, progress:
                 bar.close()
                 return dict(state)
         bar.close()
-        res = evaluate(model, train_data, val_idx, encoding=cfg.encoding, bf16=cfg.bf16).summary()
+        res = evaluate(model, train_data, val_idx, encoding=model_cfg["encoding"], bf16=cfg.bf16).summary()
         score = res["region_f1"] + (res["guideline_f1"] if np.isfinite(res["guideline_f1"]) else 0.0)
         state.update(epoch=epoch + 1, step=0)
         row = {"epoch": epoch + 1, "global_step": state["global_step"], "train_hours": round(state["train_seconds"] / 3600, 4),

@@ -22,6 +22,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "train_cmd",
     "eval_cmd",
     "predict_cmd",
+    "reproduce_cmd",
 )
 
 

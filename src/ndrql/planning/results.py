@@ -74,10 +74,12 @@ class PlanResult:
     """Seconds for priors plus training, in the process that ran it."""
     records: EpisodeRecords | None = field(default=None, compare=False, repr=False)
     """Per-episode records, kept only when asked for (``keep_records=True``)."""
+    q_table: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """Final Q-table ``(cells, 4)``, kept only when asked for (``keep_q=True``); never in the JSON."""
 
     def to_dict(self, include_records: bool = False) -> dict[str, Any]:
         """Plain-JSON form; records only with ``include_records``."""
-        out = {k: v for k, v in asdict(self).items() if k != "records"}
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k not in ("records", "q_table")}
         if include_records and self.records is not None:
             out["records"] = self.records.to_dict()
         return out

@@ -63,11 +63,13 @@ def plan(
     guideline: np.ndarray | None = None,
     priors: Priors | None = None,
     keep_records: bool = False,
+    keep_q: bool = False,
 ) -> PlanResult:
     """One Q-learning run of ``method`` with ``seed`` on a planning grid (SPEC sections 2-4).
 
     Raises :class:`PointError` for a start/goal off the grid or blocked and :class:`NoPathError`
-    when they are not 4-connected. ``priors`` (from :func:`build_priors`) skips rebuilding them.
+    when they are not 4-connected. ``priors`` (from :func:`build_priors`) skips rebuilding them; a
+    ``Priors`` whose ``q0`` is a previous run's final Q-table (``keep_q=True``) warm-starts the run.
     """
     t0 = time.perf_counter()
     m = get_method(method)
@@ -131,6 +133,7 @@ def plan(
         threshold=priors.threshold,
         wall_time=time.perf_counter() - t0,
         records=EpisodeRecords(steps.copy(), rets.copy(), succ.copy(), glen.copy()) if keep_records else None,
+        q_table=q if keep_q else None,
     )
 
 

@@ -1,0 +1,143 @@
+"""``ndrql reproduce TARGET``: regenerate the paper's tables and figures (and the ``scale`` study)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import shlex
+import sys
+
+TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "all")
+
+EXAMPLES = """examples:
+  ndrql reproduce table3                       # 8 fixed maps x QL, O-QL, IQL, NDR-QL x 10 seeds -> results/table3/
+  ndrql reproduce table2 --seeds 10 --workers 2
+  ndrql reproduce scale --per-category 50      # 200 SEEN + 200 UNSEEN samples, 10 seeds each
+  ndrql reproduce table3 --executor ray        # same table, runs on a local Ray instance (pip install 'ndrql[ray]')
+  ndrql reproduce table4 --budget 3000         # prints/runs the training of every Table 4 variant
+  ndrql reproduce dynamic
+
+Results go to results/<target>/ (markdown table, summary.json, PNG figures, one JSON per finished
+task under tasks/). Re-running resumes: finished tasks are read back, not recomputed; a change of
+seeds, configuration or model weights recomputes the affected tasks. NDR predictions are cached per
+sample under results/predictions/. Runs with the same seeds give the same table whatever the
+executor and number of workers.
+"""
+
+#: Config fields that become flags (``max_episodes`` -> ``--max-episodes``).
+_QL_FLAGS = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window")
+_PRIOR_FLAGS = ("r_max", "g_row", "g_col", "omega_crf", "omega_qi")
+
+
+def _add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str, ...]) -> None:
+    from ndrql.planning.config import field_docs
+
+    docs = field_docs(cls)
+    defaults = cls()
+    types = {f.name: f.type for f in dataclasses.fields(cls)}
+    for name in names:
+        default = getattr(defaults, name)
+        kind = int if "int" in str(types[name]) else float
+        group.add_argument(f"--{name.replace('_', '-')}", dest=f"cfg_{name}", type=kind, default=None, metavar="V",
+                           help=f"{docs[name]} (default: {'4 x cells' if default is None else default})")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    from ndrql.planning.config import PriorConfig, QLConfig
+
+    p = subparsers.add_parser(
+        "reproduce",
+        help="regenerate the paper's tables and figures (table1-4, dynamic, scale)",
+        description="Run one of the paper's experiments end to end and write a markdown table and "
+        "figures under the results directory. Sweeps are resumable and run on a local process pool "
+        "(default) or on Ray.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("target", choices=TARGETS, metavar="TARGET", help=f"one of: {', '.join(TARGETS)}")
+    p.add_argument("--out", metavar="DIR", help="results directory (default: results/<target>)")
+    p.add_argument("--data", metavar="DIR", help="dataset root (default: ../shared/data/path-planning-dataset)")
+    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
+    p.add_argument("--seeds", type=int, default=10, metavar="N", help="runs per map and method (default: 10)")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
+    p.add_argument("--workers", type=int, default=2, metavar="N", help="parallel workers (default: 2)")
+    p.add_argument("--executor", choices=("process", "serial", "ray"), default="process",
+                   help="where tasks run (default: process; ray needs pip install 'ndrql[ray]')")
+    p.add_argument("--ray-address", metavar="ADDR", help="connect to this Ray cluster instead of starting a local one")
+    p.add_argument("--per-category", type=int, default=50, metavar="N",
+                   help="scale: samples per category and split (default: 50 -> 200 SEEN + 200 UNSEEN)")
+    p.add_argument("--budget", type=int, default=None, metavar="STEPS",
+                   help="table4: optimiser steps per variant (default: the TrainConfig default)")
+    p.add_argument("--run", action="store_true", help="table4: train the variants now (default: print the commands)")
+    p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4: evaluate on the first N samples per split")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    _add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
+    _add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
+    p.set_defaults(func=run)
+
+
+def _options(args: argparse.Namespace):
+    from ndrql.errors import NdrqlError
+    from ndrql.experiments.planning_tables import SweepOptions
+    from ndrql.planning.config import PriorConfig, QLConfig
+
+    cfgs = []
+    for cls, names in ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)):
+        kwargs = {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
+        try:
+            cfgs.append(cls(**kwargs))
+        except ValueError as exc:
+            raise NdrqlError(f"bad option: {exc}") from None
+    if args.seeds < 1:
+        raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
+    if args.workers < 1:
+        raise NdrqlError(f"--workers must be >= 1, got {args.workers}")
+    command = "ndrql " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv and "ndrql" in sys.argv[0] else ""
+    return SweepOptions(seeds=args.seeds, seed0=args.seed, workers=args.workers, executor=args.executor,
+                        ray_address=args.ray_address, progress=not args.no_progress, ql=cfgs[0], priors=cfgs[1],
+                        data=args.data, weights=args.weights, command=command)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from ndrql.errors import NdrqlError
+
+    if args.executor == "ray":
+        from ndrql.experiments.sweep import ray_available
+
+        if not ray_available():
+            raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)")
+    if args.per_category < 1 or args.per_category > 300:
+        raise NdrqlError(f"--per-category must be in 1..300, got {args.per_category}")
+    opts = _options(args)
+    targets = ["table1", "table3", "table2", "dynamic", "scale", "table4"] if args.target == "all" else [args.target]
+    log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
+    for target in targets:
+        out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
+        if target == "table3":
+            from ndrql.experiments.planning_tables import table3 as fn
+            path = fn(opts, out, log=log)
+        elif target == "table2":
+            from ndrql.experiments.planning_tables import table2 as fn
+            path = fn(opts, out, log=log)
+        elif target == "scale":
+            from ndrql.experiments.planning_tables import scale
+
+            path = scale(opts, out, per_category=args.per_category, log=log)
+        elif target == "dynamic":
+            from ndrql.experiments.dynamic import dynamic
+
+            path = dynamic(opts, out, log=log)
+        elif target == "table1":
+            from ndrql.experiments.model_tables import table1
+
+            path = table1(out, data=args.data, weights=args.weights, limit=args.limit, progress=not args.no_progress,
+                          command=opts.command, log=log)
+        else:
+            from ndrql.experiments.model_tables import table4
+
+            path = table4(out, data=args.data, budget=args.budget, run=args.run, limit=args.limit,
+                          progress=not args.no_progress, command=opts.command, log=log)
+        print(f"{target}: wrote {path}")
+    return 0

@@ -1,0 +1,183 @@
+"""Dataset samples as planning problems, the fixed maps of Tables 2-3, and cached NDR predictions.
+
+A :class:`Problem` is what every planning experiment needs: the 50x50 planning grid, start and goal
+cells, the A* length and (for N-* methods) the NDR region/guideline downscaled to the grid.
+Predictions are made once per sample with a :class:`~ndrql.model.predict.Predictor` and cached as
+``.npz`` (float16, map resolution) under ``<results>/predictions/``, keyed by the weights' digest,
+so a different model never reuses a stale prediction.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import warnings
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ndrql.errors import DatasetError, NdrqlError, NoPathError
+
+
+@dataclass(frozen=True)
+class MapRef:
+    """A dataset sample picked for a table."""
+
+    split: str
+    """``seen`` or ``unseen`` (TEST/SEEN, TEST/UNSEEN)."""
+    index: int
+    """Sample index in the split."""
+    label: str = ""
+    """Name in the table (``MAP-1``)."""
+    reason: str = ""
+    """Why this sample (from the versioned list)."""
+
+    @property
+    def key(self) -> str:
+        return f"{self.split}-{self.index}"
+
+
+def table3_maps() -> list[MapRef]:
+    """The 8 fixed maps of Table 3, from ``maps_table3.json`` (Table 2 uses the first 5)."""
+    text = resources.files("ndrql.experiments").joinpath("maps_table3.json").read_text()
+    data = json.loads(text)
+    return [MapRef(m["split"], int(m["index"]), m["label"], m["reason"]) for m in data["maps"]]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One planning problem from a dataset sample."""
+
+    split: str
+    index: int
+    category: str
+    obstacles: np.ndarray
+    """Map at full resolution (201x201, ``True`` = obstacle)."""
+    source_start: tuple[int, int]
+    source_goal: tuple[int, int]
+    blocked: np.ndarray
+    """Planning grid (50x50)."""
+    start: tuple[int, int]
+    goal: tuple[int, int]
+    astar: int
+    """Optimal 4-connected moves on the planning grid."""
+    region: np.ndarray | None = None
+    """NDR region at planning-grid shape (``None`` until predictions are attached)."""
+    guideline: np.ndarray | None = None
+
+    @property
+    def key(self) -> str:
+        return f"{self.split}-{self.index}"
+
+
+def load_problem(root: str | Path, split: str, index: int, size: int = 50) -> Problem:
+    """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
+    4-connected on the planning grid (SPEC 1: experiments skip such samples and count them)."""
+    from ndrql.dataset.layout import load_sample
+    from ndrql.maps.astar import astar4
+    from ndrql.maps.grid import PlanningGrid
+
+    s = load_sample(root, split, index)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # snapping is expected on some samples; the grid records it
+        pg = PlanningGrid.from_map(s.map, s.start, s.goal, size=size)
+    opt = int(astar4(pg.blocked, pg.start, pg.goal).moves)
+    return Problem(s.split, s.index, s.category, s.map, tuple(s.start), tuple(s.goal),  # type: ignore[arg-type]
+                   np.array(pg.blocked), tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
+
+
+def load_problems(root: str | Path, refs: list[tuple[str, int]], size: int = 50) -> tuple[list[Problem], list[dict]]:
+    """Problems for ``(split, index)`` pairs, and the skipped ones with the reason."""
+    out, skipped = [], []
+    for split, index in refs:
+        try:
+            out.append(load_problem(root, split, index, size))
+        except NoPathError as exc:
+            skipped.append({"split": split, "index": index, "reason": f"disconnected on the planning grid: {exc}"})
+    return out, skipped
+
+
+def resolve_root(root: str | Path | None) -> Path:
+    """The dataset root (given, ``$NDRQL_DATASET``, or beside the repository)."""
+    from ndrql.dataset.layout import default_root
+
+    if root is None:
+        root = os.environ.get("NDRQL_DATASET") or default_root()
+    if root is None:
+        raise DatasetError("dataset not found; pass --data DIR (the path-planning-dataset folder)")
+    root = Path(root)
+    if not (root / "TEST" / "SEEN").is_dir():
+        raise DatasetError(f"no TEST/SEEN in {root}; pass --data DIR (the path-planning-dataset folder)")
+    return root
+
+
+def file_digest(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()[:16]
+
+
+class PredictionCache:
+    """NDR predictions per sample, made once and kept on disk (module docstring)."""
+
+    def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1):
+        from ndrql.model.predict import default_weights_path
+
+        self.dir = Path(cache_dir)
+        self.weights = Path(weights) if weights is not None else default_weights_path()
+        if not self.weights.is_file():
+            raise NdrqlError(
+                f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "
+                "(set NDRQL_WEIGHTS or pass --weights FILE)"
+            )
+        self.digest = file_digest(self.weights)
+        self.threads = threads
+        self._predictor: Any = None
+        self.computed = 0
+
+    def describe(self) -> dict[str, str]:
+        return {"weights": str(self.weights), "weights_sha256_16": self.digest}
+
+    def path(self, p: Problem) -> Path:
+        return self.dir / f"{p.key}.npz"
+
+    def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Region and guideline at the map's resolution (float32), from the cache or the model."""
+        path = self.path(p)
+        if path.is_file():
+            try:
+                with np.load(path, allow_pickle=False) as d:
+                    if str(d["weights"]) == self.digest:
+                        return d["region"].astype(np.float32), d["guideline"].astype(np.float32)
+            except (OSError, ValueError, KeyError):
+                pass
+        if self._predictor is None:
+            from ndrql.model.predict import Predictor
+
+            self._predictor = Predictor.load(self.weights, threads=self.threads)
+        pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
+        if pred.guideline is None:
+            raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")
+        self.dir.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
+        np.savez_compressed(tmp, region=pred.region.astype(np.float16), guideline=pred.guideline.astype(np.float16),
+                            weights=np.array(self.digest))
+        os.replace(tmp, path)
+        self.computed += 1
+        return pred.region.astype(np.float16).astype(np.float32), pred.guideline.astype(np.float16).astype(np.float32)
+
+    def attach(self, p: Problem) -> Problem:
+        """``p`` with region and guideline downscaled to its planning grid (area averaging, SPEC 1)."""
+        from dataclasses import replace
+
+        from ndrql.planning.methods import downscale_priors
+
+        region, guideline = self.full(p)
+        r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
+        return replace(p, region=r, guideline=g)

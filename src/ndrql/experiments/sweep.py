@@ -1,0 +1,225 @@
+"""Resumable sweeps: many independent tasks, one atomic JSON file per finished task.
+
+A :class:`Task` is a top-level (picklable) function, its arguments, a unique ``key`` and a
+``fingerprint`` of everything that determines its result. :func:`run_sweep` first reads the task
+files already in ``out_dir`` and reuses every one whose fingerprint matches; it runs the others on
+an executor and writes each result the moment it arrives (temporary file + ``os.replace``), so a
+sweep killed at any point resumes without redoing finished work. Results come back keyed by task,
+so whatever ran them, and in whatever order they finished, the tables built from them are the same.
+
+Executors: ``serial`` (this process), ``process`` (a local process pool, forked where possible so
+workers inherit compiled kernels; the default) and ``ray`` (``pip install ndrql[ray]``; a local Ray
+instance, or an existing cluster given by ``ray_address``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing
+import os
+import socket
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from ndrql.errors import NdrqlError
+
+#: Valid executor names for :func:`run_sweep`.
+EXECUTORS = ("process", "serial", "ray")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One unit of a sweep: ``fn(*args)`` must return a JSON-serialisable value."""
+
+    key: str
+    """Unique name in the sweep; also the file name (``<key>.json``), so only ``[A-Za-z0-9._+-]``."""
+    fn: Callable[..., Any]
+    """A module-level function (it is pickled to run in other processes)."""
+    args: tuple = ()
+    """Arguments of ``fn`` (picklable)."""
+    fingerprint: str = ""
+    """Digest of everything that determines the result; a stored file with another one is recomputed."""
+
+
+@dataclass
+class SweepReport:
+    """What :func:`run_sweep` did."""
+
+    results: dict[str, Any]
+    """Result of every task, by key (reused and computed alike)."""
+    computed: list[str] = field(default_factory=list)
+    """Keys computed by this call, in the order they finished."""
+    reused: list[str] = field(default_factory=list)
+    """Keys read back from files written before."""
+    seconds: float = 0.0
+    """Wall time of the call."""
+
+
+def fingerprint(*parts: Any) -> str:
+    """Short, stable digest of JSON-serialisable ``parts`` (dataclasses via ``vars``)."""
+    blob = json.dumps(parts, sort_keys=True, default=lambda o: vars(o) if hasattr(o, "__dict__") else repr(o))
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def _check_key(key: str) -> None:
+    if not key or not all(ch.isalnum() or ch in "._+-" for ch in key):
+        raise ValueError(f"task key {key!r} must be non-empty and use only letters, digits and . _ + -")
+
+
+def task_path(out_dir: str | Path, key: str) -> Path:
+    return Path(out_dir) / f"{key}.json"
+
+
+def write_json_atomic(path: str | Path, payload: Any) -> None:
+    """Write JSON to ``path`` so that readers see the old file or the whole new one, never a part."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "w") as fh:
+        json.dump(payload, fh, separators=(",", ":"))
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def read_task(out_dir: str | Path, task: Task) -> dict | None:
+    """The stored record of ``task`` if there is one with the same fingerprint, else ``None``."""
+    path = task_path(out_dir, task.key)
+    try:
+        with open(path) as fh:
+            rec = json.load(fh)
+    except (FileNotFoundError, json.JSONDecodeError, UnicodeDecodeError):
+        return None
+    if not isinstance(rec, dict) or rec.get("key") != task.key or rec.get("fingerprint") != task.fingerprint:
+        return None
+    return rec
+
+
+def _call(fn: Callable[..., Any], args: tuple) -> tuple[Any, dict]:
+    t0 = time.perf_counter()
+    out = fn(*args)
+    return out, {"pid": os.getpid(), "host": socket.gethostname(), "seconds": time.perf_counter() - t0}
+
+
+def _progress(total: int, initial: int, desc: str, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, desc=desc, unit="task", disable=not enabled, file=sys.stderr,
+                dynamic_ncols=True, smoothing=0.1)
+
+
+def run_sweep(
+    tasks: Iterable[Task],
+    out_dir: str | Path,
+    executor: str = "process",
+    workers: int = 2,
+    progress: bool = True,
+    desc: str = "sweep",
+    ray_address: str | None = None,
+) -> SweepReport:
+    """Run ``tasks`` not already stored in ``out_dir``; store each result as it finishes (module doc)."""
+    t0 = time.perf_counter()
+    tasks = list(tasks)
+    if executor not in EXECUTORS:
+        raise NdrqlError(f"unknown executor {executor!r}; valid: {', '.join(EXECUTORS)}")
+    if workers < 1:
+        raise NdrqlError(f"workers must be >= 1, got {workers}")
+    seen: set[str] = set()
+    for t in tasks:
+        _check_key(t.key)
+        if t.key in seen:
+            raise ValueError(f"duplicate task key {t.key!r}")
+        seen.add(t.key)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    report = SweepReport(results={})
+    todo: list[Task] = []
+    for t in tasks:
+        rec = read_task(out_dir, t)
+        if rec is None:
+            todo.append(t)
+        else:
+            report.results[t.key] = rec["result"]
+            report.reused.append(t.key)
+    bar = _progress(len(tasks), len(report.reused), desc, progress)
+
+    def done(task: Task, result: Any, meta: dict) -> None:
+        meta["finished_at"] = time.time()
+        write_json_atomic(task_path(out_dir, task.key),
+                          {"key": task.key, "fingerprint": task.fingerprint, "result": result, "meta": meta})
+        report.results[task.key] = result
+        report.computed.append(task.key)
+        bar.update(1)
+
+    try:
+        if not todo:
+            pass
+        elif executor == "serial" or (executor == "process" and (workers == 1 or len(todo) == 1)):
+            for t in todo:
+                done(t, *_call(t.fn, t.args))
+        elif executor == "process":
+            _run_process(todo, workers, done)
+        else:
+            _run_ray(todo, workers, done, ray_address)
+    finally:
+        bar.close()
+    # Key order of the input, whatever the completion order.
+    report.results = {t.key: report.results[t.key] for t in tasks}
+    report.seconds = time.perf_counter() - t0
+    return report
+
+
+def _run_process(todo: list[Task], workers: int, done: Callable[[Task, Any, dict], None]) -> None:
+    methods = multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
+    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx) as pool:
+        pending = {pool.submit(_call, t.fn, t.args): t for t in todo}
+        try:
+            while pending:
+                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    task = pending.pop(fut)
+                    done(task, *fut.result())
+        except BaseException:
+            for fut in pending:
+                fut.cancel()
+            raise
+
+
+def ray_available() -> bool:
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _run_ray(todo: list[Task], workers: int, done: Callable[[Task, Any, dict], None], address: str | None) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)") from None
+    started = False
+    if not ray.is_initialized():
+        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
+        if address:
+            ray.init(address=address, **kwargs)
+        else:
+            ray.init(num_cpus=workers, **kwargs)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=2)(_call)
+        pending = {remote.remote(t.fn, t.args): t for t in todo}
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            for ref in ready:
+                task = pending.pop(ref)
+                done(task, *ray.get(ref))
+    finally:
+        if started:
+            ray.shutdown()

@@ -22,7 +22,7 @@ $(STAMP): $(BIN)/python pyproject.toml constraints.txt
 install: $(STAMP)
 
 demo: install
-	$(BIN)/ndrql demo --out out
+	$(BIN)/ndrql demo
 
 test: install
 	$(BIN)/python -m pytest $(PYTEST_ARGS)

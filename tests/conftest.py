@@ -36,3 +36,17 @@ def ndrql_exe() -> list[str]:
     if found:
         return [found]
     pytest.skip("the ndrql console script is not installed (run `make test`)")
+
+
+@pytest.fixture(scope="session")
+def model_weights() -> Path:
+    """The NDR model weights ``ndrql plan`` uses by default; the test is skipped when there are none.
+
+    That is ``$NDRQL_WEIGHTS`` if set, else the file shipped in the package (``ndrql/data/ndr_default.pt``).
+    """
+    from ndrql.model.predict import default_weights_path
+
+    path = default_weights_path()
+    if not path.is_file():
+        pytest.skip(f"no NDR model weights at {path} (shipped as src/ndrql/data/ndr_default.pt, or set NDRQL_WEIGHTS)")
+    return path

@@ -118,12 +118,12 @@ def test_astar_octile_movingai_scenario(ndrql_exe, tmp_path):
     assert data["start"] == [0, 0] and data["goal"] == [2, 0]
 
 
-def test_demo_writes_png_and_json(ndrql_exe, tmp_path):
-    rc, out, err = run(ndrql_exe, "demo", "--out", tmp_path / "demo")
+def test_demo_writes_png_and_json(ndrql_exe, tmp_path, model_weights):
+    rc, out, err = run(ndrql_exe, "demo", "--out", tmp_path / "demo", "--seeds", "2")
     assert rc == 0, err
-    data = json.loads((tmp_path / "demo" / "demo.json").read_text())
-    assert data["length"] == len(data["path"]) - 1 > 0
-    assert (tmp_path / "demo" / "demo.png").exists()
+    data = json.loads((tmp_path / "demo" / "results.json").read_text())
+    assert data["methods"] == ["QL", "IQL", "NDR-QL"] and len(data["runs"]) == 6
+    assert (tmp_path / "demo" / "compare.png").exists()
 
 
 # ------------------------------------------------------------------ bad input: one line, exit 2

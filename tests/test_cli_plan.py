@@ -75,7 +75,7 @@ def test_compare_prints_a_table(ndrql_exe, room_npy):
 
 def test_not_converged_is_reported(ndrql_exe, room_npy, tmp_path):
     out = tmp_path / "nc.json"
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--max-episodes", "2", "--json", out)
+    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--method", "QL", "--max-episodes", "2", "--json", out)
     assert r.returncode == 0, r.stderr
     assert "NOT converged" in r.stdout
     data = json.loads(out.read_text())
@@ -87,7 +87,7 @@ def test_not_converged_is_reported(ndrql_exe, room_npy, tmp_path):
     [
         (["--method", "DQN"], "valid methods: QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL"),
         (["--compare", "QL,nope"], "unknown method 'nope'"),
-        (["--method", "NDR-QL"], "no model weights yet; pass --prior-from"),
+        (["--method", "NDR-QL", "--weights", "/nonexistent/ndr.pt"], "missing model weights: /nonexistent/ndr.pt"),
         (["--seeds", "0"], "--seeds must be >= 1"),
         (["--gamma", "1.5"], "gamma"),
         (["--method", "N-C", "--prior-from", "missing.npz"], "prior file not found"),

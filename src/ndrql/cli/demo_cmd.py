@@ -1,35 +1,90 @@
-"""``ndrql demo``: plan on the bundled sample map and write a picture and a JSON report.
+"""``ndrql demo``: QL, IQL and NDR-QL on the bundled sample map, with figures and a table.
 
-For now this runs A* (the optimality reference) on the bundled map; it becomes the NDR-QL plan
-once the model and planners exist.
+The same as ``ndrql plan <bundled map> --compare QL,IQL,NDR-QL --seeds 10`` plus the files a first
+look needs: ``compare.png`` (each method's path, the NDR overlay, convergence steps per seed),
+``ndr-ql.png`` (the NDR-QL plan alone), ``table.md`` and ``results.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
+
+DEMO_METHODS = ("QL", "IQL", "NDR-QL")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "demo", help="plan on the bundled sample map (writes out/demo.png, out/demo.json)",
-        description="Plan on the bundled 201x201 sample map (path-planning dataset, TEST/SEEN 906) "
-        "and write a picture and a JSON report.",
-        epilog="example:\n  ndrql demo --out out/", formatter_class=argparse.RawDescriptionHelpFormatter,
+        "demo", help="QL vs IQL vs NDR-QL on the bundled sample map (figures and a table in out/demo/)",
+        description="Plan on the bundled 201x201 sample map (path-planning dataset, TEST/SEEN 906) with QL, "
+        "IQL and NDR-QL on the same seeds, print the comparison table and write compare.png, ndr-ql.png, "
+        "table.md and results.json.",
+        epilog="examples:\n  ndrql demo                      # writes out/demo/\n"
+        "  ndrql demo --out /tmp/demo --seeds 20",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--out", default="out", metavar="DIR", help="output folder (default: out)")
+    p.add_argument("--out", default="out/demo", metavar="DIR", help="output folder (default: out/demo)")
+    p.add_argument("--seeds", type=int, default=10, metavar="N", help="seeds 0..N-1 for every method (default: 10)")
+    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
+    p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
     p.set_defaults(func=run)
+
+
+def table_markdown(report: Any) -> list[str]:
+    """A Markdown table of the comparison: convergence, steps, episodes, path ratio per method."""
+    from ndrql.planning.results import summarize
+
+    def f(v: Any, nd: int = 0) -> str:
+        return "-" if v is None else f"{v:,.{nd}f}"
+
+    lines = ["| method | converged | steps, mean | steps, median | steps, 95% CI | episodes, mean | path / A* |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for m in report.methods:
+        rs = report.runs(m)
+        conv = [r for r in rs if r.converged]
+        st = summarize([r.convergence_steps for r in conv])
+        ep = summarize([r.convergence_episode for r in conv])
+        ra = summarize([r.length_ratio for r in conv])
+        ci = f"{f(st['ci95_low'])} - {f(st['ci95_high'])}" if st["ci95_low"] is not None else "-"
+        lines.append(f"| {m} | {len(conv)}/{len(rs)} | {f(st['mean'])} | {f(st['median'])} | {ci} | "
+                     f"{f(ep['mean'])} | {f(ra['mean'], 3)} |")
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ndrql.cli.astar_cmd import solve
-    from ndrql.cli.common import Problem
+    from ndrql.api import solve
+    from ndrql.cli.common import warnings_to_stderr, write_json
+    from ndrql.cli.plan_cmd import _save, _summary
+    from ndrql.errors import NdrqlError
     from ndrql.maps.bundled import bundled_sample
+    from ndrql.viz.plan import compare_figure, plan_figure
 
+    if args.seeds < 1:
+        raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
     sample = bundled_sample()
-    problem = Problem(sample.grid_map, sample.start, sample.goal, {"source": sample.description})
     out = Path(args.out)
-    options = argparse.Namespace(size=50, octile=False, print_grid=False,
-                                 json=str(out / "demo.json"), png=str(out / "demo.png"))
-    return solve(problem, options)
+    with warnings_to_stderr():
+        report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
+                       workers=args.workers, info={"source": sample.description})
+    pg = report.grid
+    print(f"demo map: {sample.description}")
+    print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "
+          f"goal {pg.goal} (pixel {sample.goal}); model {report.weights}")
+    print("\n".join(_summary(report)))
+    table = table_markdown(report)
+    head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.description}); seeds 0..{args.seeds - 1}; "
+            f"A* optimum {report.astar_length} moves; NDR-QI threshold {report.thresholds.get('NDR-QL')}.")
+    written = [
+        _save(compare_figure(report), str(out / "compare.png")),
+        _save(plan_figure(report, method="NDR-QL"), str(out / "ndr-ql.png")),
+        write_json(out / "results.json", report.to_dict()),
+    ]
+    from ndrql.cli.common import prepare_output
+
+    tpath = prepare_output(out / "table.md")
+    tpath.write_text(head + "\n\n" + "\n".join(table) + "\n", encoding="utf-8")
+    written.insert(2, tpath)
+    print(f"wrote {', '.join(str(p) for p in written)}")
+    return 0

@@ -1,4 +1,4 @@
-"""``ndrql plan``: Q-learning on the 50x50 planning grid with the paper's priors, many seeds."""
+"""``ndrql plan``: plan a path on a map with the pretrained NDR model and Q-learning (a thin wrapper of :func:`ndrql.api.solve`)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,18 @@ import dataclasses
 from typing import Any
 
 EXAMPLES = """examples:
-  ndrql plan --sample ../shared/data/path-planning-dataset:seen:0 --method IQL --seeds 10 --json out.json
-  ndrql plan map.png --start 25,179 --goal 167,5 --method QL --png out/ql.png
-  ndrql plan --sample ../shared/data/path-planning-dataset:seen:0 --compare QL,D-Q,IQL,O-QL --seeds 10
-  ndrql plan --sample DATA:seen:0 --method NDR-QL --prior-from preds.npz   # region, guideline arrays
+  ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
+  ndrql plan --sample ../shared/data/path-planning-dataset:seen:0            # start and goal from the sample
+  ndrql plan office.yaml --start 120,80 --goal 30,200                        # ROS map_server map
+  ndrql plan arena.map --scen arena.map.scen --index 3                       # MovingAI map + scenario 3
+  ndrql plan map.png --start 25,179 --goal 167,5 --compare QL,IQL,NDR-QL --seeds 10 --png out/cmp.png
+  ndrql plan map.png --start 25,179 --goal 167,5 --method N-Q --prior-from preds.npz
 
-methods: QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL (N-C, N-Q, NDR-QL need the NDR predictions).
-Seeds S, S+1, ..., S+N-1 (--seed S --seeds N); the same seed gives the same run on any machine
-load and any number of workers.
+methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL; N-C, N-Q and NDR-QL use the
+NDR model (shipped weights, or --weights FILE, or $NDRQL_WEIGHTS; --prior-from FILE.npz gives the
+predictions instead). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
+seed gives the same run on any machine load and any number of workers. Time per stage: load (model
+weights), predict, priors, learn; start-up (torch import, loading the compiled kernel) is per process.
 """
 
 #: Config fields that become flags (``alpha`` -> ``--alpha``), from the frozen dataclasses.
@@ -43,25 +47,33 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     p = subparsers.add_parser(
         "plan",
-        help="Q-learning path planning with the paper's priors (QL, IQL, O-QL, NDR-QL, ...)",
-        description="Tabular Q-learning on the planning grid (SPEC sections 2-4): runs one method, or "
-        "several with --compare, on the same seeds, reports convergence steps, the converged greedy "
-        "path and its ratio to the A* optimum. Start and goal map to planning cells as for `astar`.",
+        help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
+        description="Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a "
+        "dataset sample): the NDR model predicts region and guideline, the method's priors (paper Eqs. 2-7) "
+        "guide tabular Q-learning on the planning grid (SPEC sections 1-4) until the greedy path is stable. "
+        "Prints convergence episode and steps, the greedy path length against the A* optimum, the NDR-QI "
+        "threshold and the time of each stage. Start and goal map to planning cells as for `astar`.",
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_problem_arguments(p)
-    p.add_argument("--method", default="QL", metavar="NAME", help="planning method (default: QL)")
+    p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
+    p.add_argument("--index", type=int, default=None, metavar="K", help="scenario number in --scen (0-based)")
+    p.add_argument("--method", default="NDR-QL", metavar="NAME", help="planning method (default: NDR-QL)")
     p.add_argument("--compare", metavar="A,B,...", help="run these methods on the same seeds and print a table")
     p.add_argument("--seeds", type=int, default=1, metavar="N", help="number of runs (seeds S..S+N-1; default: 1)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
+    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ndr_default.pt)")
     p.add_argument("--prior-from", metavar="FILE.npz",
-                   help="NDR predictions: arrays 'region' and 'guideline' at the map's resolution, values in [0, 1]")
+                   help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]")
     p.add_argument("--size", type=int, default=50, metavar="N", help="planning grid side (default: 50, paper)")
-    p.add_argument("--json", metavar="FILE", help="write grid, start, goal and every run as JSON ('-' for stdout)")
+    p.add_argument("--max-pixels", type=int, default=4096 * 4096, metavar="N",
+                   help="refuse maps with more pixels than this (default: 4096 x 4096)")
+    p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-' for stdout)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
-    p.add_argument("--png", metavar="FILE", help="write a picture of the map and the first run's path per method")
+    p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
+                   "(one panel per method with --compare)")
     _add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
     _add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
@@ -79,21 +91,6 @@ def _configs(args: argparse.Namespace):
         except ValueError as exc:
             raise NdrqlError(f"bad option: {exc}") from None
     return out[0], out[1]
-
-
-def _load_ndr(args: argparse.Namespace, grid_map: Any, problem: Any, shape: tuple[int, int]):
-    from ndrql.errors import NdrqlError
-    from ndrql.planning.methods import downscale_priors, load_prior_file, predict_priors
-
-    if args.prior_from:
-        region, guideline = load_prior_file(args.prior_from)
-    else:
-        region, guideline = predict_priors(grid_map.obstacles, problem.start, problem.goal)
-    for name, arr in (("region", region), ("guideline", guideline)):
-        if arr.shape != grid_map.shape:
-            raise NdrqlError(f"{name} in {args.prior_from} is {arr.shape[0]}x{arr.shape[1]} but the map is "
-                             f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
-    return downscale_priors(region, guideline, shape)
 
 
 def _fmt(v: Any, nd: int = 0) -> str:
@@ -124,119 +121,117 @@ def _table(methods: list[str], results: list[Any]) -> list[str]:
     return lines
 
 
-def run(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import map_info, resolve_problem, save_figure, warnings_to_stderr, write_json
+def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
+    if not args.scen:
+        if args.index is not None:
+            from ndrql.errors import NdrqlError
+
+            raise NdrqlError("--index needs --scen FILE")
+        return None, 0
+    path, idx = args.scen, 0
+    head, sep, tail = args.scen.rpartition(":")
+    if sep and tail.isdigit():
+        path, idx = head, int(tail)
+    return path, idx if args.index is None else args.index
+
+
+def _summary(report: Any) -> list[str]:
+    """The short summary printed by ``plan``: runs, A* optimum, NDR-QI threshold, time per stage."""
+    from ndrql.api import WORK_STAGES
+
+    lines = []
+    opt = report.astar_length
+    single = len(report.methods) == 1 and len(report.seeds) <= 3
+    if single:
+        for r in report.results:
+            if r.converged:
+                lines.append(f"{r.method} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
+                             f"{r.convergence_steps:,} steps; path {r.path_length} moves ({r.length_ratio:.3f} x A*)")
+            else:
+                tail = f"; last greedy path {r.path_length} moves" if r.path_length is not None else ""
+                lines.append(f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
+                             f"({r.total_steps:,} steps){tail}")
+    lines.append(f"A* optimum: {opt} moves; seeds {report.seeds[0]}..{report.seeds[-1]}; "
+                 f"max {report.config.max_episodes} episodes")
+    if not single:
+        lines += _table(list(report.methods), list(report.results))
+    for name, thd in report.thresholds.items():
+        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else 'none (mask 0 everywhere)'}")
+    not_conv = sum(not r.converged for r in report.results)
+    if not_conv:
+        lines.append(f"{not_conv} of {len(report.results)} runs did not converge (reported, not dropped)")
+    t = report.timings
+    stages = ", ".join(f"{s} {t[s]:.3f}" for s in WORK_STAGES)
+    lines.append(f"time (s): {stages}; work {report.work_time:.3f} "
+                 f"(+ map {t['map']:.3f}, start-up {t['startup']:.2f})")
+    return lines
+
+
+def _save(fig: Any, path: str) -> Any:
+    from ndrql.cli.common import prepare_output
     from ndrql.errors import NdrqlError
-    from ndrql.maps.grid import PlanningGrid
-    from ndrql.planning.methods import build_priors, get_method
-    from ndrql.planning.results import summarize
-    from ndrql.planning.runner import PlanJob, run_many
+    from ndrql.maps.writers import atomic_path
+
+    out = prepare_output(path)
+    with atomic_path(out) as tmp:
+        try:
+            fig.savefig(tmp, format=out.suffix.lstrip(".").lower() or "png")
+        except ValueError as exc:
+            raise NdrqlError(f"cannot save figure {out}: {exc}") from None
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from ndrql.api import PlanSettings, solve
+    from ndrql.cli.common import load_map_argument, parse_point, Problem, warnings_to_stderr, write_json
+    from ndrql.errors import NdrqlError
+    from ndrql.planning.methods import get_method, load_prior_file
 
     if args.seeds < 1:
         raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
-    if args.size < 1:
-        raise NdrqlError(f"--size must be positive, got {args.size}")
     if args.workers is not None and args.workers < 1:
         raise NdrqlError(f"--workers must be >= 1, got {args.workers}")
-    names = [n for n in (args.compare.split(",") if args.compare else [args.method]) if n.strip()]
-    methods = [get_method(n.strip()) for n in names]
-    if not methods:
+    if args.weights and args.prior_from:
+        raise NdrqlError("give either --weights or --prior-from, not both")
+    names = [n.strip() for n in (args.compare.split(",") if args.compare else [args.method]) if n.strip()]
+    if not names:
         raise NdrqlError("--compare needs at least one method name")
+    methods = [get_method(n).name for n in names]
     ql_cfg, prior_cfg = _configs(args)
-    problem = resolve_problem(args)
-    grid_map = problem.grid_map
+    settings = PlanSettings(size=args.size, max_map_pixels=args.max_pixels)
+    scen, index = _scenario(args)
+    loaded = load_map_argument(args)
+    if isinstance(loaded, Problem):  # a dataset sample: its points unless overridden
+        grid_map, info = loaded.grid_map, dict(loaded.info)
+        start = parse_point(args.start, "--start") if args.start else loaded.start
+        goal = parse_point(args.goal, "--goal") if args.goal else loaded.goal
+    else:
+        grid_map, info = loaded, {"source": loaded.source}
+        start = parse_point(args.start, "--start") if args.start else None
+        goal = parse_point(args.goal, "--goal") if args.goal else None
+        if scen is None and (start is None or goal is None):
+            missing = [f for f, v in (("--start", start), ("--goal", goal)) if v is None]
+            raise NdrqlError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels), or --scen FILE")
+    predictions = None
+    if args.prior_from and any(get_method(m).needs_ndr for m in methods):
+        predictions = load_prior_file(args.prior_from)
+        info["prior_from"] = args.prior_from
     with warnings_to_stderr():
-        pg = PlanningGrid.from_map(grid_map, problem.start, problem.goal, size=args.size)
-    region = guideline = None
-    if any(m.needs_ndr for m in methods):
-        region, guideline = _load_ndr(args, grid_map, problem, pg.shape)
+        report = solve(grid_map, start, goal, methods, [args.seed + i for i in range(args.seeds)],
+                       weights=args.weights, predictions=predictions, config=ql_cfg, prior_config=prior_cfg,
+                       settings=settings, scen=scen, scen_index=index, workers=args.workers,
+                       keep_records=args.records, info=info)
+    pg = report.grid
     print(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}); planning grid {pg.shape[0]}x{pg.shape[1]}, "
           f"start {pg.start}, goal {pg.goal}")
-    thresholds: dict[str, float | None] = {}
-    with warnings_to_stderr():  # NDR-QI's "no threshold connects" warning, once per method
-        for m in methods:
-            if m.n_qi:
-                thresholds[m.name] = build_priors(m, pg.blocked, pg.start, pg.goal, region, guideline, prior_cfg).threshold
-    seeds = list(range(args.seed, args.seed + args.seeds))
-    jobs = [PlanJob(pg.blocked, pg.start, pg.goal, m.name, s, ql_cfg, prior_cfg, region, guideline, args.records)
-            for m in methods for s in seeds]
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # already reported above
-        results = run_many(jobs, workers=args.workers)
-    opt = results[0].astar_length
-    print(f"A* optimum: {opt} moves; seeds {seeds[0]}..{seeds[-1]}; max {ql_cfg.max_episodes} episodes")
-    for name, thd in thresholds.items():
-        print(f"{name}: NDR-QI threshold {thd if thd is not None else 'none (mask 0 everywhere)'}")
-    if len(methods) == 1 and len(seeds) <= 3:
-        for r in results:
-            if r.converged:
-                print(f"{r.method} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
-                      f"{r.convergence_steps:,} steps; path {r.path_length} moves ({r.length_ratio:.3f} x A*); "
-                      f"{r.wall_time:.2f} s")
-            else:
-                print(f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes ({r.total_steps:,} steps)")
-    else:
-        print("\n".join(_table([m.name for m in methods], results)))
-    not_conv = sum(not r.converged for r in results)
-    if not_conv:
-        print(f"{not_conv} of {len(results)} runs did not converge (reported, not dropped)")
+    if report.weights:
+        print(f"model: {report.weights}")
+    print("\n".join(_summary(report)))
     if args.json:
-        out: dict[str, Any] = {
-            "map": map_info(grid_map),
-            **{k: v for k, v in problem.info.items() if k != "source"},
-            "planning_size": list(pg.shape),
-            "grid": pg.to_strings(),
-            "start": list(pg.start),
-            "goal": list(pg.goal),
-            "source_start": list(pg.source_start),
-            "source_goal": list(pg.source_goal),
-            "snapped": {"start": pg.snapped[0], "goal": pg.snapped[1]},
-            "astar_length": opt,
-            "methods": [m.name for m in methods],
-            "seeds": seeds,
-            "config": dataclasses.asdict(ql_cfg),
-            "prior_config": dataclasses.asdict(prior_cfg),
-            "prior_from": args.prior_from,
-            "summary": {
-                m.name: {
-                    "runs": sum(r.method == m.name for r in results),
-                    "not_converged": sum(r.method == m.name and not r.converged for r in results),
-                    "convergence_steps": summarize([r.convergence_steps for r in results if r.method == m.name and r.converged]),
-                    "length_ratio": summarize([r.length_ratio for r in results if r.method == m.name and r.converged]),
-                }
-                for m in methods
-            },
-            "runs": [r.to_dict(include_records=args.records) for r in results],
-        }
-        print(f"wrote {write_json(args.json, out)}")
+        print(f"wrote {write_json(args.json, report.to_dict(include_records=args.records))}")
     if args.png:
-        first = {m.name: next(r for r in results if r.method == m.name) for m in methods}
+        from ndrql.viz.plan import compare_figure, plan_figure
 
-        def draw(ax: Any) -> None:
-            from ndrql.maps.astar import astar4
-            from ndrql.maps.grid import cell_to_point
-            from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path
-
-            shape = grid_map.shape
-            plot_occupancy(ax, grid_map.obstacles, zorder=1)
-            plot_occupancy(ax, pg.blocked, color="tab:orange", alpha=0.3,
-                           extent=(-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5), zorder=2)
-            best = astar4(pg.blocked, pg.start, pg.goal).path
-            plot_path(ax, [cell_to_point(c, shape, pg.shape) for c in best], color="0.5", linewidth=1.0,
-                      label=f"A* ({len(best) - 1})")
-            colours = ["tab:red", "tab:green", "tab:purple", "tab:cyan", "tab:brown", "tab:pink", "tab:olive", "tab:blue"]
-            for i, (name, r) in enumerate(first.items()):
-                if r.path:
-                    tag = "" if r.converged else ", not converged"
-                    plot_path(ax, [cell_to_point(c, shape, pg.shape) for c in r.path], color=colours[i % len(colours)],
-                              label=f"{name} seed {r.seed} ({r.path_length}{tag})")
-            plot_endpoints(ax, pg.source_start, pg.source_goal)
-            ax.set_xlim(-0.5, shape[1] - 0.5)
-            ax.set_ylim(shape[0] - 0.5, -0.5)
-            ax.set_aspect("equal")
-            ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
-
-        print(f"wrote {save_figure(draw, args.png)}")
+        fig = plan_figure(report) if len(methods) == 1 else compare_figure(report)
+        print(f"wrote {_save(fig, args.png)}")
     return 0

@@ -32,6 +32,9 @@ own name so results tables match the paper and a fuller O-QL can replace it with
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -183,13 +186,68 @@ def downscale_priors(
     return out[0], out[1]
 
 
-def predict_priors(obstacles: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def load_predictor(weights: str | os.PathLike | None = None):
+    """The NDR model for ``weights`` (default: ``$NDRQL_WEIGHTS`` or the shipped file), loaded once per process.
+
+    Loaded models are cached by path, size and modification time, so a second call is free and a
+    replaced weights file is picked up. A missing or unreadable file raises
+    :class:`~ndrql.errors.CheckpointError` with what to do. Imports torch on first use only.
+    """
+    from pathlib import Path
+
+    from ndrql.model.predict import default_weights_path
+
+    path = Path(weights) if weights is not None else default_weights_path()
+    try:
+        st = path.stat()
+        key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    except OSError:
+        key = (str(path), -1, -1)  # Predictor.load gives the clear "missing model weights" error
+    return _cached_predictor(key)
+
+
+@functools.lru_cache(maxsize=2)
+def _cached_predictor(key: tuple[str, int, int]):
+    from ndrql.model.predict import Predictor
+
+    return Predictor.load(key[0])
+
+
+@contextlib.contextmanager
+def _torch_threads(n: int):
+    """Run torch ops on ``n`` threads inside the block (0 = leave as is), restoring the count after."""
+    import torch
+
+    before = torch.get_num_threads()
+    if n and n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if n and n != before:
+            torch.set_num_threads(before)
+
+
+def predict_priors(
+    obstacles: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    weights: str | os.PathLike | None = None,
+    threads: int = 1,
+) -> tuple[np.ndarray, np.ndarray | None]:
     """NDR region and guideline probabilities at the map's resolution, from the trained model.
 
-    The hook where ``ndrql.model`` plugs in; until it offers a predict API this raises
-    :class:`NdrqlError` telling the user to pass the predictions from a file.
+    ``start``/``goal`` are ``(row, col)`` map pixels; maps of any size are resized for the model and
+    the outputs mapped back (:mod:`ndrql.model.predict`). The model is loaded once per process
+    (:func:`load_predictor`). ``threads``: torch threads for the forward pass (default 1: one
+    201x201 map gains nothing from more, and a busy machine makes more threads much slower).
+    The guideline is ``None`` for a model trained without the guideline decoder.
     """
-    raise NdrqlError("no model weights yet; pass --prior-from FILE.npz (arrays 'region' and 'guideline')")
+    predictor = load_predictor(weights)
+    with _torch_threads(threads):
+        pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal))
+    guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
+    return np.asarray(pred.region, dtype=np.float64), guideline
 
 
 def load_prior_file(path: str) -> tuple[np.ndarray, np.ndarray]:

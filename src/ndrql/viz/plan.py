@@ -1,0 +1,185 @@
+"""Pictures of a plan: the map with the NDR region and guideline, the learned path and the A* path;
+a side-by-side comparison of methods; convergence steps per method.
+
+Plot functions draw on a given ``ax`` and return their artists; none calls ``show``. The figure
+builders (:func:`plan_figure`, :func:`compare_figure`) return an Agg ``Figure`` for the caller to save.
+Paths are planning-grid cells, drawn at their centres in map pixels.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ndrql.viz.maps import new_figure, plot_endpoints, plot_occupancy, plot_path
+
+#: One colour per method, stable across figures.
+METHOD_COLORS: dict[str, str] = {
+    "QL": "tab:gray", "O-QL": "tab:orange", "IQL": "tab:purple", "NDR-QL": "tab:red",
+    "D-C": "tab:brown", "N-C": "tab:pink", "D-Q": "tab:olive", "N-Q": "tab:cyan",
+}
+ASTAR_COLOR = "tab:blue"
+REGION_RGB = (0.15, 0.65, 0.25)
+GUIDELINE_RGB = (1.0, 0.55, 0.0)
+
+
+def method_color(name: str, i: int = 0) -> str:
+    """The colour of a method (a fallback cycle for names not in :data:`METHOD_COLORS`)."""
+    cycle = ("tab:green", "tab:pink", "tab:olive", "tab:cyan", "tab:brown")
+    return METHOD_COLORS.get(name, cycle[i % len(cycle)])
+
+
+def plot_probability(ax: Any, prob: np.ndarray, rgb: Sequence[float], *, max_alpha: float = 0.65, floor: float = 0.2,
+                     zorder: int = 1) -> Any:
+    """``prob`` (0..1, map pixels) as one colour whose opacity grows linearly from 0 at ``floor`` to
+    ``max_alpha`` at 1 (below ``floor``: transparent); returns the image."""
+    a = np.clip((np.asarray(prob, dtype=np.float64) - floor) / (1.0 - floor), 0.0, 1.0)
+    img = np.zeros(a.shape + (4,))
+    img[..., :3] = rgb
+    img[..., 3] = a * max_alpha
+    h, w = a.shape
+    return ax.imshow(img, interpolation="nearest", extent=(-0.5, w - 0.5, h - 0.5, -0.5), zorder=zorder)
+
+
+def plot_plan(
+    ax: Any,
+    obstacles: np.ndarray,
+    blocked: np.ndarray,
+    source_start: Sequence[int],
+    source_goal: Sequence[int],
+    *,
+    path: Sequence[Sequence[int]] | None = None,
+    astar_path: Sequence[Sequence[int]] | None = None,
+    region: np.ndarray | None = None,
+    guideline: np.ndarray | None = None,
+    label: str = "learned path",
+    color: str = "tab:red",
+    title: str | None = None,
+    legend: bool = True,
+) -> list[Any]:
+    """The map, the planning grid's blocked cells, region (green) and guideline (orange) probabilities,
+    the A* path (blue, dashed) and the learned path; returns every artist drawn.
+
+    ``obstacles``, ``region`` and ``guideline`` are at the map's resolution; ``blocked`` and both
+    paths on the planning grid (``(row, col)`` cells).
+    """
+    from matplotlib.patches import Patch
+
+    from ndrql.maps.grid import cell_to_point
+
+    obstacles = np.asarray(obstacles, dtype=bool)
+    blocked = np.asarray(blocked, dtype=bool)
+    h, w = obstacles.shape
+    extent = (-0.5, w - 0.5, h - 0.5, -0.5)
+    # predictions first, then the map on top of them so obstacles stay crisp
+    artists: list[Any] = [plot_occupancy(ax, obstacles, color="black", zorder=2)]
+    artists.append(plot_occupancy(ax, blocked, color="0.55", alpha=0.25, extent=extent, zorder=2))
+    keys = [Patch(color="black", label="obstacle"), Patch(color="0.55", alpha=0.25, label="blocked cell")]
+    if region is not None:
+        artists.append(plot_probability(ax, region, REGION_RGB, max_alpha=0.45))
+        keys.append(Patch(color=REGION_RGB, alpha=0.45, label="NDR region"))
+    if guideline is not None:
+        artists.append(plot_probability(ax, guideline, GUIDELINE_RGB, max_alpha=0.85))
+        keys.append(Patch(color=GUIDELINE_RGB, alpha=0.85, label="NDR guideline"))
+
+    def px(cells: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
+        return [cell_to_point(c, (h, w), blocked.shape) for c in cells]
+
+    if astar_path:
+        artists += plot_path(ax, px(astar_path), color=ASTAR_COLOR, linewidth=1.5,
+                             label=f"A* ({len(astar_path) - 1} moves)", zorder=3)
+        artists[-1].set_linestyle("--")
+    if path:
+        artists += plot_path(ax, px(path), color=color, linewidth=2.0, label=f"{label} ({len(path) - 1} moves)", zorder=4)
+    artists += plot_endpoints(ax, source_start, source_goal)
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    if title:
+        artists.append(ax.set_title(title, fontsize=9))
+    if legend:
+        handles, _ = ax.get_legend_handles_labels()
+        artists.append(ax.legend(handles=handles + keys, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=3,
+                                 fontsize=7, frameon=False))
+    return artists
+
+
+def plot_convergence(ax: Any, steps: Mapping[str, Sequence[int | None]], *, title: str | None = None) -> list[Any]:
+    """Convergence steps per method: one dot per seed, a bar at the mean; runs that did not converge
+    (``None``) are counted in the tick label. Returns the artists."""
+    artists: list[Any] = []
+    names = list(steps)
+    rng = np.random.default_rng(0)  # horizontal jitter only, fixed so figures are reproducible
+    for i, name in enumerate(names):
+        vals = np.asarray([v for v in steps[name] if v is not None], dtype=float)
+        c = method_color(name, i)
+        if vals.size:
+            artists.append(ax.bar(i, vals.mean(), width=0.6, color=c, alpha=0.35, zorder=1))
+            artists.append(ax.scatter(i + rng.uniform(-0.18, 0.18, vals.size), vals, s=14, color=c, zorder=2))
+    ax.set_xticks(range(len(names)))
+    labels = []
+    for name in names:
+        n_nc = sum(v is None for v in steps[name])
+        labels.append(f"{name}\n{n_nc} not conv." if n_nc else name)
+    ax.set_xticklabels(labels, fontsize=8)
+    ax.set_ylabel("convergence steps")
+    ax.ticklabel_format(axis="y", style="sci", scilimits=(0, 0))
+    ax.set_ylim(bottom=0)
+    ax.grid(axis="y", alpha=0.3)
+    if title:
+        artists.append(ax.set_title(title, fontsize=9))
+    return artists
+
+
+def _astar(report: Any) -> list[list[int]]:
+    from ndrql.maps.astar import astar4
+
+    return [list(c) for c in astar4(report.grid.blocked, report.grid.start, report.grid.goal).path]
+
+
+def _run_title(r: Any) -> str:
+    if r.converged:
+        return (f"{r.method} seed {r.seed}: converged, {r.convergence_steps:,} steps\n"
+                f"path {r.path_length} moves = {r.length_ratio:.2f} x A*")
+    return f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes"
+
+
+def plan_figure(report: Any, method: str | None = None, seed: int | None = None, dpi: int = 110) -> Any:
+    """One run of a :class:`~ndrql.api.PlanReport` over the map, with the NDR overlay if predicted."""
+    r = next(x for x in report.results if (method is None or x.method == method) and (seed is None or x.seed == seed))
+    fig = new_figure(figsize=(5.2, 5.9), dpi=dpi)
+    ax = fig.add_subplot(1, 1, 1)
+    plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
+              path=r.path, astar_path=_astar(report), region=report.region, guideline=report.guideline,
+              label=r.method, color=method_color(r.method), title=_run_title(r))
+    fig.tight_layout()
+    return fig
+
+
+def compare_figure(report: Any, dpi: int = 110) -> Any:
+    """Every method's first-seed path side by side (NDR overlay on the NDR methods' panels) and,
+    with several seeds, a last panel of convergence steps."""
+    from ndrql.planning.methods import get_method
+
+    methods = list(report.methods)
+    with_steps = len(report.seeds) > 1
+    n = len(methods) + int(with_steps)
+    fig = new_figure(figsize=(4.2 * n, 5.0), dpi=dpi)
+    best = _astar(report)
+    for i, name in enumerate(methods):
+        ax = fig.add_subplot(1, n, i + 1)
+        r = report.runs(name)[0]
+        ndr = get_method(name).needs_ndr
+        plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
+                  path=r.path, astar_path=best, region=report.region if ndr else None,
+                  guideline=report.guideline if ndr else None, label=name, color=method_color(name, i),
+                  title=_run_title(r))
+    if with_steps:
+        ax = fig.add_subplot(1, n, n)
+        plot_convergence(ax, {m: [r.convergence_steps for r in report.runs(m)] for m in methods},
+                         title=f"convergence steps, {len(report.seeds)} seeds")
+    fig.tight_layout()
+    return fig

@@ -150,10 +150,11 @@ class PredictionCache:
     def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
         """Region and guideline at the map's resolution (float32), from the cache or the model."""
         path = self.path(p)
+        inputs = hashlib.sha256(np.packbits(p.obstacles).tobytes() + repr((p.source_start, p.source_goal)).encode()).hexdigest()[:16]
         if path.is_file():
             try:
                 with np.load(path, allow_pickle=False) as d:
-                    if str(d["weights"]) == self.digest:
+                    if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs:
                         return d["region"].astype(np.float32), d["guideline"].astype(np.float32)
             except (OSError, ValueError, KeyError):
                 pass
@@ -167,7 +168,7 @@ class PredictionCache:
         self.dir.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
         np.savez_compressed(tmp, region=pred.region.astype(np.float16), guideline=pred.guideline.astype(np.float16),
-                            weights=np.array(self.digest))
+                            weights=np.array(self.digest), inputs=np.array(inputs))
         os.replace(tmp, path)
         self.computed += 1
         return pred.region.astype(np.float16).astype(np.float32), pred.guideline.astype(np.float16).astype(np.float32)

@@ -252,3 +252,54 @@ def test_ddp_two_processes_match_single_process_and_resume_in_one(synthetic, tmp
     assert sorted(p.name for p in run_dir.iterdir()) == ["best.pt", "last.pt", "metrics.csv"]
     rows = (run_dir / "metrics.csv").read_text().splitlines()
     assert len(rows) == 3 and rows[0].startswith("epoch,global_step")
+
+
+# --- the real console script ----------------------------------------------------------------------
+
+def _run_cli(cmd: list[str], env_cache: str, timeout: float = 300):
+    import subprocess
+
+    env = {**os.environ, "NDRQL_CACHE": env_cache, "OMP_NUM_THREADS": "1"}
+    for var in ("RANK", "WORLD_SIZE", "LOCAL_RANK"):
+        env.pop(var, None)
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--device", "tpu"], "unknown --device 'tpu'; valid: auto, cpu, cuda, mps"),
+    (["--amp-dtype", "fp8"], "unknown --amp-dtype 'fp8'; valid: auto, bf16, fp16"),
+])
+def test_cli_rejects_bad_device_flags_in_one_line(ndrql_exe, synthetic, tmp_path, flags, message):
+    r = _run_cli([*ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), *flags], os.environ["NDRQL_CACHE"])
+    assert r.returncode == 2, r.stderr
+    assert message in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message on a machine without CUDA")
+def test_cli_device_cuda_without_gpu_says_so(ndrql_exe, synthetic, tmp_path):
+    r = _run_cli([*ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), "--device", "cuda"], os.environ["NDRQL_CACHE"])
+    assert r.returncode == 2 and "no CUDA device is visible" in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.slow
+def test_torchrun_two_processes_via_the_cli(synthetic, tmp_path):
+    """``torchrun -m ndrql train`` as the docs show it: one run directory, rank 0's lines only."""
+    import json
+    import sys
+
+    torchrun = Path(sys.executable).with_name("torchrun")
+    if not torchrun.exists():
+        pytest.skip("torchrun is not installed beside this python")
+    run_dir = tmp_path / "run"
+    cmd = [str(torchrun), "--standalone", "--nproc-per-node", "2", "-m", "ndrql", "train", "--data", str(synthetic),
+           "--run-dir", str(run_dir), "--model", "ndr-stdc1-quarter", "--model-overrides", json.dumps(TINY),
+           "--device", "cpu", "--no-bf16", "--batch-size", "2", "--epochs", "1", "--val-fraction", "0.1", "--threads", "1", "--no-progress"]
+    r = _run_cli(cmd, os.environ["NDRQL_CACHE"])
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.count("run directory:") == 1
+    assert "DDP: 2 processes (gloo), 2 per process, global batch 4" in r.stdout
+    assert r.stdout.count("epoch 1: loss") == 1
+    assert sorted(p.name for p in run_dir.iterdir()) == ["best.pt", "last.pt", "metrics.csv"]
+    ck = load_checkpoint(run_dir / "last.pt")
+    assert ck["state"]["epoch"] == 1 and ck["state"]["global_step"] == 36 // 4 and ck["state"]["world_size"] == 2

@@ -4,6 +4,12 @@ Example::
 
     ndrql train --data ../shared/data/path-planning-dataset --run-dir ~/.cache/ndrql/runs/ndr --epochs 8
     ndrql train --run-dir ~/.cache/ndrql/runs/ndr --resume      # continue after an interruption
+    ndrql train --device cuda --model ndr-stdc1 --batch-size 32  # one GPU (auto picks CUDA when present)
+    torchrun --standalone --nproc-per-node 4 -m ndrql train --model ndr-stdc1 --batch-size 8 --run-dir runs/ddp
+
+Under torchrun --batch-size is per process: the global batch is batch-size x processes
+(--scale-lr multiplies --lr by the number of processes). Only rank 0 writes files and prints.
+A run resumes under any number of processes that keeps the global batch. See docs/training.md.
 """
 
 from __future__ import annotations
@@ -37,11 +43,18 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.training.config import TrainConfig
     from ndrql.training.loop import train
 
+    from ndrql.training.distributed import AMP_DTYPES, DEVICES, DeviceError, world_from_env
+
     cfg = dataclass_from_args(TrainConfig, args)
     if args.data is None and default_root() is not None:
         cfg = dataclass_from_args(TrainConfig, args, data=str(default_root()))
+    if cfg.device not in DEVICES:
+        raise DeviceError(f"unknown --device {cfg.device!r}; valid: {', '.join(DEVICES)}")
+    if cfg.amp_dtype not in AMP_DTYPES:
+        raise DeviceError(f"unknown --amp-dtype {cfg.amp_dtype!r}; valid: {', '.join(AMP_DTYPES)}")
     check_root(cfg.data)
     run_dir = args.run_dir or default_run_dir(cfg.model)
-    print(f"run directory: {run_dir}", flush=True)
+    if world_from_env().is_main:
+        print(f"run directory: {run_dir}", flush=True)
     train(cfg, run_dir, resume=args.resume, progress=not args.no_progress, log=lambda m: print(m, flush=True))
     return 0

@@ -26,6 +26,11 @@ import torch
 
 from ndrql.dataset.batches import epoch_order, make_batch, train_batches
 from ndrql.dataset.cache import SplitArrays
+from ndrql.errors import NdrqlError
+
+class DeviceError(NdrqlError, ValueError):
+    """A device, precision or torchrun setting this machine cannot honour (one line on the CLI)."""
+
 
 #: Devices ``--device`` accepts.
 DEVICES = ("auto", "cpu", "cuda", "mps")
@@ -59,7 +64,7 @@ def world_from_env(env: dict | None = None) -> World:
     rank = int(env.get("RANK", "0"))
     local_rank = int(env.get("LOCAL_RANK", str(rank)))
     if world_size < 1 or not 0 <= rank < world_size:
-        raise ValueError(f"inconsistent torchrun environment: RANK={rank} WORLD_SIZE={world_size}")
+        raise DeviceError(f"inconsistent torchrun environment: RANK={rank} WORLD_SIZE={world_size}")
     return World(rank=rank, local_rank=local_rank, world_size=world_size)
 
 
@@ -70,20 +75,20 @@ def resolve_device(name: str, world: World = World()) -> torch.device:
     (its autocast and DDP support are incomplete) and is single-process only.
     """
     if name not in DEVICES:
-        raise ValueError(f"unknown device {name!r}; valid: {', '.join(DEVICES)}")
+        raise DeviceError(f"unknown device {name!r}; valid: {', '.join(DEVICES)}")
     if name == "auto":
         name = "cuda" if torch.cuda.is_available() else "cpu"
     if name == "cuda":
         if not torch.cuda.is_available():
-            raise ValueError("--device cuda: no CUDA device is visible to torch (torch.cuda.is_available() is False); use --device cpu")
+            raise DeviceError("--device cuda: no CUDA device is visible to torch (torch.cuda.is_available() is False); use --device cpu")
         if world.local_rank >= torch.cuda.device_count():
-            raise ValueError(f"LOCAL_RANK {world.local_rank} but only {torch.cuda.device_count()} CUDA devices: lower --nproc-per-node")
+            raise DeviceError(f"LOCAL_RANK {world.local_rank} but only {torch.cuda.device_count()} CUDA devices: lower --nproc-per-node")
         return torch.device("cuda", world.local_rank)
     if name == "mps":
         if not (getattr(torch.backends, "mps", None) and torch.backends.mps.is_available()):
-            raise ValueError("--device mps: the MPS backend is not available in this torch build/machine; use --device cpu")
+            raise DeviceError("--device mps: the MPS backend is not available in this torch build/machine; use --device cpu")
         if world.distributed:
-            raise ValueError("DDP on MPS is not supported by torch; use --device cpu (gloo) for multi-process runs")
+            raise DeviceError("DDP on MPS is not supported by torch; use --device cpu (gloo) for multi-process runs")
         return torch.device("mps")
     return torch.device("cpu")
 
@@ -112,7 +117,7 @@ def precision_for(device: torch.device, mixed: bool = True, cuda_dtype: str = "a
     """Mixed precision per device: bf16 autocast on the CPU (measured faster there); on CUDA bf16 where
     the GPU supports it (``auto``) else fp16 with a GradScaler; fp32 on MPS and whenever ``mixed`` is off."""
     if cuda_dtype not in AMP_DTYPES:
-        raise ValueError(f"unknown --amp-dtype {cuda_dtype!r}; valid: {', '.join(AMP_DTYPES)}")
+        raise DeviceError(f"unknown --amp-dtype {cuda_dtype!r}; valid: {', '.join(AMP_DTYPES)}")
     if not mixed or device.type == "mps":
         return Precision(device.type, None)
     if device.type == "cuda":

@@ -1,0 +1,163 @@
+"""``ndrql plan`` with the pretrained model on every map format, run as the real console script.
+
+Each test writes its own map (PNG, ROS map_server YAML + PGM, MovingAI .map + .scen) or uses a
+dataset sample, plans with the default NDR-QL, and checks the summary, the JSON and the figure:
+the learned path joins start and goal without collisions and is no shorter than A*; the JSON has
+the Q-learning fields, the NDR-QI threshold and the time per stage.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from ndrql.maps.astar import astar4, path_is_valid
+
+
+def plan(exe, *args, env=None):
+    return subprocess.run([*exe, "plan", *map(str, args)], capture_output=True, text=True, timeout=600, env=env)
+
+
+def rooms(h: int, w: int) -> np.ndarray:
+    """A ``h x w`` map with a border and two walls with doors (any size and aspect ratio)."""
+    m = np.zeros((h, w), dtype=bool)
+    m[0, :] = m[-1, :] = m[:, 0] = m[:, -1] = True
+    t = max(2, min(h, w) // 25)  # wall thickness
+    r = h // 3
+    m[r:r + t, : int(w * 0.7)] = True  # wall from the left, door on the right
+    c = w // 2
+    m[r + t:, c:c + t] = True  # wall down from the first one ...
+    m[int(h * 0.75):int(h * 0.75) + max(t, h // 10), c:c + t] = False  # ... with a door near the bottom
+    return m
+
+
+def check_plan_outputs(r, out_json, out_png, method="NDR-QL"):
+    """Summary lines, JSON fields and figure of a converged single-run plan; returns the JSON."""
+    assert r.returncode == 0, r.stderr
+    assert f"{method} seed 0: converged after" in r.stdout, r.stdout
+    assert "A* optimum:" in r.stdout and "NDR-QI threshold" in r.stdout
+    assert "time (s): load" in r.stdout and "predict" in r.stdout and "priors" in r.stdout and "learn" in r.stdout
+    data = json.loads(out_json.read_text())
+    blocked = np.array([[ch == "#" for ch in row] for row in data["grid"]])
+    start, goal = tuple(data["start"]), tuple(data["goal"])
+    assert data["astar_length"] == astar4(blocked, start, goal).moves
+    assert data["methods"] == [method] and data["seeds"] == [0]
+    run = data["runs"][0]
+    for key in ("converged", "convergence_episode", "convergence_steps", "episodes", "total_steps", "path",
+                "path_length", "astar_length", "length_ratio", "shortest_success_length", "longest_success_length",
+                "first_success_episode", "threshold"):
+        assert key in run
+    assert run["converged"] and run["convergence_steps"] > 0
+    path = [tuple(c) for c in run["path"]]
+    assert path[0] == start and path[-1] == goal and path_is_valid(blocked, path)
+    assert run["path_length"] == len(path) - 1 >= data["astar_length"]
+    assert run["length_ratio"] == pytest.approx(run["path_length"] / data["astar_length"])
+    assert data["ndr_qi_threshold"][method] == run["threshold"]
+    assert set(data["timings"]["wall"]) >= {"load", "predict", "priors", "learn"}
+    assert data["weights"]
+    assert out_png.stat().st_size > 5000
+    with Image.open(out_png) as im:
+        assert im.format == "PNG" and im.size[0] > 300
+    return data
+
+
+def test_plan_png_map(ndrql_exe, model_weights, tmp_path):
+    m = rooms(150, 230)  # not 201x201, not square: the model sees it resized and padded
+    path = tmp_path / "rooms.png"
+    Image.fromarray(np.where(m, 0, 255).astype(np.uint8)).save(path)
+    out, png = tmp_path / "o" / "plan.json", tmp_path / "o" / "plan.png"
+    r = plan(ndrql_exe, path, "--start", "20,20", "--goal", "130,210", "--json", out, "--png", png)
+    data = check_plan_outputs(r, out, png)
+    assert data["map"]["height"] == 150 and data["map"]["width"] == 230
+    assert data["source_start"] == [20, 20] and data["source_goal"] == [130, 210]
+
+
+def test_plan_ros_yaml_map(ndrql_exe, model_weights, tmp_path):
+    m = rooms(180, 180)
+    gray = np.where(m, 0, 254).astype(np.uint8)
+    gray[:, 170:] = 205  # unknown strip at the right: counts as obstacle
+    Image.fromarray(gray).save(tmp_path / "office.pgm")
+    (tmp_path / "office.yaml").write_text(
+        "image: office.pgm\nresolution: 0.05\norigin: [-4.5, -4.5, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n", encoding="utf-8")
+    out, png = tmp_path / "ros.json", tmp_path / "ros.png"
+    r = plan(ndrql_exe, tmp_path / "office.yaml", "--start", "15,15", "--goal", "165,150", "--json", out, "--png", png)
+    data = check_plan_outputs(r, out, png)
+    assert data["map"]["resolution"] == 0.05 and data["map"]["origin"] == [-4.5, -4.5, 0.0]
+
+
+def _movingai(tmp_path, m):
+    rows = ["".join("@" if b else "." for b in row) for row in m]
+    (tmp_path / "arena.map").write_text(
+        f"type octile\nheight {m.shape[0]}\nwidth {m.shape[1]}\nmap\n" + "\n".join(rows) + "\n", encoding="ascii")
+    # .scen: x = column, y = row; two scenarios, the second one is used
+    (tmp_path / "arena.map.scen").write_text(
+        "version 1\n"
+        f"0\tarena.map\t{m.shape[1]}\t{m.shape[0]}\t5\t5\t10\t10\t7.07106781\n"
+        f"0\tarena.map\t{m.shape[1]}\t{m.shape[0]}\t4\t4\t{m.shape[1] - 6}\t{m.shape[0] - 6}\t200.0\n", encoding="ascii")
+
+
+def test_plan_movingai_map_with_scenario(ndrql_exe, model_weights, tmp_path):
+    m = rooms(120, 100)
+    _movingai(tmp_path, m)
+    out, png = tmp_path / "mai.json", tmp_path / "mai.png"
+    r = plan(ndrql_exe, tmp_path / "arena.map", "--scen", tmp_path / "arena.map.scen", "--index", "1",
+             "--json", out, "--png", png)
+    data = check_plan_outputs(r, out, png)
+    assert data["source_start"] == [4, 4] and data["source_goal"] == [114, 94]  # (row, col) from (x, y)
+    assert data["scenario"] == {"file": str(tmp_path / "arena.map.scen"), "index": 1, "optimal_length": 200.0}
+    # FILE:K is the same as --index K (the form `ndrql astar` uses)
+    r2 = plan(ndrql_exe, tmp_path / "arena.map", "--scen", f"{tmp_path / 'arena.map.scen'}:1", "--method", "QL")
+    assert r2.returncode == 0, r2.stderr
+    assert "QL seed 0: converged" in r2.stdout and f"A* optimum: {data['astar_length']} moves" in r2.stdout
+
+
+@pytest.mark.data
+def test_plan_dataset_sample(ndrql_exe, model_weights, dataset_root, tmp_path):
+    out, png = tmp_path / "s.json", tmp_path / "s.png"
+    r = plan(ndrql_exe, "--sample", f"{dataset_root}:seen:0", "--json", out, "--png", png)
+    data = check_plan_outputs(r, out, png)
+    assert data["sample"]["split"] == "seen" and data["sample"]["index"] == 0
+    assert data["map"]["height"] == data["map"]["width"] == 201
+
+
+def test_compare_table_and_figure(ndrql_exe, model_weights, tmp_path):
+    m = rooms(201, 201)
+    np.save(tmp_path / "m.npy", m)
+    out, png = tmp_path / "c.json", tmp_path / "c.png"
+    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "20,20", "--goal", "180,180", "--compare", "QL,IQL,NDR-QL",
+             "--seeds", "3", "--json", out, "--png", png)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    for name in ("QL", "IQL", "NDR-QL"):
+        assert any(line.split()[:2] == [name, "3/3"] for line in lines), r.stdout
+    data = json.loads(out.read_text())
+    assert [x["method"] for x in data["runs"]] == ["QL"] * 3 + ["IQL"] * 3 + ["NDR-QL"] * 3
+    assert list(data["ndr_qi_threshold"]) == ["NDR-QL"]
+    with Image.open(png) as im:
+        assert im.size[0] > 3 * im.size[1]  # one panel per method plus the convergence panel
+
+
+def test_weights_option_and_prior_file_agree(ndrql_exe, model_weights, tmp_path):
+    """--weights FILE gives the same runs as the default weights, and as --prior-from the same predictions."""
+    from ndrql.planning.methods import predict_priors
+
+    m = rooms(100, 140)
+    np.save(tmp_path / "m.npy", m)
+    region, guideline = predict_priors(m, (10, 10), (90, 130), weights=model_weights)
+    np.savez(tmp_path / "pred.npz", region=region, guideline=guideline)
+    common = [tmp_path / "m.npy", "--start", "10,10", "--goal", "90,130", "--seeds", "2", "--workers", "1"]
+    outs = []
+    for extra in (["--weights", model_weights], ["--prior-from", tmp_path / "pred.npz"]):
+        out = tmp_path / f"{len(outs)}.json"
+        r = plan(ndrql_exe, *common, *extra, "--json", out)
+        assert r.returncode == 0, r.stderr
+        runs = json.loads(out.read_text())["runs"]
+        for x in runs:
+            x.pop("wall_time")
+        outs.append(runs)
+    assert outs[0] == outs[1]

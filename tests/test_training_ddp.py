@@ -142,6 +142,19 @@ def test_world_of_one_is_the_single_process_order(synthetic):
         assert all(torch.equal(u, v) for u, v in zip(x, y))
 
 
+@pytest.mark.parametrize("workers", [0, 1])
+def test_gpu_loader_yields_the_same_batches(synthetic, workers):
+    """The DataLoader path (workers, pinned memory on GPU) gives this rank the batches of the inline path."""
+    data = load_split(synthetic, "train", build=False, progress=False)
+    idx = np.arange(len(data))
+    world = D.World(rank=1, local_rank=1, world_size=2)
+    a = list(D.rank_batches(data, idx, 3, 5, 2, 1, True, "point", world=world))
+    b = list(D.loader_batches(data, idx, 3, 5, 2, 1, True, "point", world=world, workers=workers, pin=False))
+    assert [s for s, _ in a] == [s for s, _ in b] == list(range(1, len(idx) // 6))
+    for (_, x), (_, y) in zip(a, b):
+        assert all(torch.equal(u, v) for u, v in zip(x, y))
+
+
 def test_device_and_precision_choices():
     assert D.resolve_device("cpu") == torch.device("cpu")
     assert D.resolve_device("auto") == torch.device("cuda" if torch.cuda.is_available() else "cpu")

@@ -150,7 +150,8 @@ def _run_title(r: Any) -> str:
 def plan_figure(report: Any, method: str | None = None, seed: int | None = None, dpi: int = 110) -> Any:
     """One run of a :class:`~ndrql.api.PlanReport` over the map, with the NDR overlay if predicted."""
     r = next(x for x in report.results if (method is None or x.method == method) and (seed is None or x.seed == seed))
-    fig = new_figure(figsize=(5.2, 5.9), dpi=dpi)
+    h, w = report.grid_map.shape
+    fig = new_figure(figsize=(5.2, min(9.0, max(2.5, 5.2 * h / w)) + 1.3), dpi=dpi)  # room for title and legend
     ax = fig.add_subplot(1, 1, 1)
     plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
               path=r.path, astar_path=_astar(report), region=report.region, guideline=report.guideline,
@@ -167,7 +168,8 @@ def compare_figure(report: Any, dpi: int = 110) -> Any:
     methods = list(report.methods)
     with_steps = len(report.seeds) > 1
     n = len(methods) + int(with_steps)
-    fig = new_figure(figsize=(4.2 * n, 5.0), dpi=dpi)
+    h, w = report.grid_map.shape
+    fig = new_figure(figsize=(4.2 * n, min(7.0, max(2.0, 4.2 * h / w)) + 1.4), dpi=dpi)
     best = _astar(report)
     for i, name in enumerate(methods):
         ax = fig.add_subplot(1, n, i + 1)

@@ -73,6 +73,9 @@ def test_plan_png_map(ndrql_exe, model_weights, tmp_path):
     r = plan(ndrql_exe, path, "--start", "20,20", "--goal", "130,210", "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["map"]["height"] == 150 and data["map"]["width"] == 230
+    pix = data["runs"][0]["path_pixels"]  # cell centres in map pixels: 3 px high, 4.6 px wide cells
+    assert pix[0] == pytest.approx([(data["start"][0] + 0.5) * 3 - 0.5, (data["start"][1] + 0.5) * 4.6 - 0.5])
+    assert "path_world" not in data["runs"][0]  # a PNG has no resolution/origin
     assert data["source_start"] == [20, 20] and data["source_goal"] == [130, 210]
 
 
@@ -88,6 +91,12 @@ def test_plan_ros_yaml_map(ndrql_exe, model_weights, tmp_path):
     r = plan(ndrql_exe, tmp_path / "office.yaml", "--start", "15,15", "--goal", "165,150", "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["map"]["resolution"] == 0.05 and data["map"]["origin"] == [-4.5, -4.5, 0.0]
+    # world coordinates of the path (metres): first point = centre of the start cell (3.6 px on a side)
+    run = data["runs"][0]
+    (r0, c0), (x0, y0) = run["path_pixels"][0], run["path_world"][0]
+    assert x0 == pytest.approx(-4.5 + (c0 + 0.5) * 0.05) and y0 == pytest.approx(-4.5 + (180 - r0 - 0.5) * 0.05)
+    assert abs(r0 - 15) <= 3.6 and abs(c0 - 15) <= 3.6
+    assert len(run["path_world"]) == len(run["path"])
 
 
 def _movingai(tmp_path, m):

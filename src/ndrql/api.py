@@ -121,6 +121,16 @@ class PlanReport:
         """The results of one method, in seed order."""
         return [r for r in self.results if r.method == method]
 
+    def _run_dict(self, r: PlanResult, include_records: bool) -> dict[str, Any]:
+        out = r.to_dict(include_records=include_records)
+        if r.path:
+            px = cell_path_to_pixels(self, r.path)
+            out["path_pixels"] = [[round(a, 3), round(b, 3)] for a, b in px]
+            world = pixels_to_world(self.grid_map, px)
+            if world is not None:
+                out["path_world"] = [[round(x, 4), round(y, 4)] for x, y in world]
+        return out
+
     def to_dict(self, include_records: bool = False) -> dict[str, Any]:
         """The JSON form written by ``ndrql plan --json`` (plain types only)."""
         from ndrql.planning.results import summarize
@@ -163,7 +173,7 @@ class PlanReport:
                 }
                 for m in self.methods
             },
-            "runs": [r.to_dict(include_records=include_records) for r in self.results],
+            "runs": [self._run_dict(r, include_records) for r in self.results],
             "first": {"method": first.method, "seed": first.seed},
         }
 
@@ -393,11 +403,34 @@ def plan(
 
 
 def cell_path_to_pixels(report: PlanReport, path: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
-    """A planning-grid path as ``(row, col)`` map-pixel coordinates of the cell centres."""
+    """A planning-grid path as ``(row, col)`` map-pixel coordinates of the cell centres (pixel ``(r, c)``'s
+    centre is ``(r, c)``; fractional values fall between pixels)."""
     from ndrql.maps.grid import cell_to_point
 
     return [cell_to_point(c, report.grid_map.shape, report.grid.shape) for c in path]
 
 
+def pixels_to_world(grid_map: GridMap, points: Sequence[Sequence[float]]) -> list[tuple[float, float]] | None:
+    """ROS ``map_server`` world coordinates ``(x, y)`` in metres of ``(row, col)`` pixel points.
+
+    ``origin = (x0, y0, yaw)`` is the pose of the lower-left corner of the image (row ``H - 1`` is the
+    bottom), ``resolution`` metres per pixel. ``None`` for maps without resolution and origin.
+    """
+    import math
+
+    if grid_map.resolution is None or grid_map.origin is None:
+        return None
+    res = float(grid_map.resolution)
+    x0, y0 = grid_map.origin[0], grid_map.origin[1]
+    yaw = grid_map.origin[2] if len(grid_map.origin) > 2 else 0.0
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    h = grid_map.height
+    out = []
+    for r, c in points:
+        dx, dy = (c + 0.5) * res, (h - (r + 0.5)) * res
+        out.append((x0 + cy * dx - sy * dy, y0 + sy * dx + cy * dy))
+    return out
+
+
 __all__ = ["PlanReport", "PlanSettings", "STAGES", "WORK_STAGES", "plan", "solve", "read_map", "scenario_points",
-           "check_points", "cell_path_to_pixels"]
+           "check_points", "cell_path_to_pixels", "pixels_to_world"]

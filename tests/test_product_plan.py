@@ -170,3 +170,17 @@ def test_weights_option_and_prior_file_agree(ndrql_exe, model_weights, tmp_path)
             x.pop("wall_time")
         outs.append(runs)
     assert outs[0] == outs[1]
+
+
+def test_point_in_a_blocked_cell_moves_with_a_warning(ndrql_exe, tmp_path):
+    """A free pixel whose planning cell is mostly obstacle: moved to the nearest free cell (SPEC 1), one warning."""
+    m = np.zeros((100, 100), dtype=bool)
+    m[40:60, 40:60] = True
+    m[50, 50] = False  # a free pixel inside the block
+    np.save(tmp_path / "m.npy", m)
+    out = tmp_path / "w.json"
+    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "50,50", "--goal", "95,95", "--method", "QL", "--json", out)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.startswith("ndrql: warning: start (50, 50) falls in blocked planning cell (25, 25)")
+    data = json.loads(out.read_text())
+    assert data["snapped"] == {"start": True, "goal": False} and data["runs"][0]["converged"]

@@ -23,6 +23,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval_cmd",
     "predict_cmd",
     "reproduce_cmd",
+    "export_cmd",
 )
 
 

@@ -87,8 +87,8 @@ def build_split(root: str | Path, split: str, workers: int = 2, progress: bool =
     path = cache_path(root, split)
     if path.exists():
         return path
-    n = layout.SPLIT_SIZES[split]
-    n_maps = 4000 if split == "train" else n
+    n = layout.count_samples(root, split)
+    n_maps = min(n, 4000) if split == "train" else n
     root = str(root)
     with ProcessPoolExecutor(max_workers=workers) as pool:
         maps = list(

@@ -184,6 +184,14 @@ def load_waypoints(root: str | Path, split: str, index: int) -> np.ndarray:
     return wp
 
 
+def count_samples(root: str | Path, split: str) -> int:
+    """Samples present in a split (the full dataset has SPLIT_SIZES; test fixtures have fewer)."""
+    folder = Path(root) / SPLITS[normalize_split(split)] / POINTS_DIR
+    if not folder.is_dir():
+        raise DatasetError(f"dataset folder not found: {folder}")
+    return sum(1 for p in folder.iterdir() if p.suffix == ".txt" and p.stem.isdigit())
+
+
 def check_index(split: str, index: int) -> None:
     """Raise DatasetError when ``index`` is outside the split."""
     n = SPLIT_SIZES[split]

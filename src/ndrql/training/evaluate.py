@@ -68,3 +68,34 @@ def evaluate(model: torch.nn.Module, data: SplitArrays, indices: np.ndarray | No
         category=data.category[idx],
         images_per_s=len(idx) / max(infer_time, 1e-9),
     )
+
+
+def category_rows(result: EvalResult, names: tuple[str, ...]) -> list[dict[str, float | str | int]]:
+    """Mean F1 (percent) overall and per category."""
+    rows: list[dict[str, float | str | int]] = []
+    groups = [("all", np.ones(len(result.category), bool))] + [(n, result.category == i) for i, n in enumerate(names)]
+    for name, sel in groups:
+        if not sel.any():
+            continue
+        g = result.guideline_f1[sel]
+        rows.append({
+            "category": name,
+            "n": int(sel.sum()),
+            "region_f1": float(100 * result.region_f1[sel].mean()),
+            "guideline_f1": float(100 * np.nanmean(g)) if np.isfinite(g).any() else float("nan"),
+            "region_f1_original": float(100 * result.region_f1_original[sel].mean()),
+        })
+    return rows
+
+
+def markdown_table(rows: list[dict], split: str, original_labels: bool) -> str:
+    """Markdown table of :func:`category_rows` (with the original-label column for UNSEEN)."""
+    head = "| category | n | region F1 | guideline F1 |" + (" region F1 (original labels) |" if original_labels else "")
+    sep = "|---|---:|---:|---:|" + ("---:|" if original_labels else "")
+    lines = [f"**{split}**", "", head, sep]
+    for r in rows:
+        line = f"| {r['category']} | {r['n']} | {r['region_f1']:.2f} | {r['guideline_f1']:.2f} |"
+        if original_labels:
+            line += f" {r['region_f1_original']:.2f} |"
+        lines.append(line)
+    return "\n".join(lines) + "\n"

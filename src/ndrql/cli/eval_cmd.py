@@ -1,0 +1,78 @@
+"""``ndrql eval``: region and guideline F1 of a model on TEST/SEEN, TEST/UNSEEN or the validation split.
+
+F1 per SPEC section 5: threshold 0.5, pixel-wise per image, mean over the split, also per category.
+On UNSEEN the 300 NARROW PASSAGE region labels are broken upstream; the main column uses the labels
+regenerated from the guideline, and an extra column scores against the original (upstream) labels.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+EXAMPLES = """examples:
+  ndrql eval --split seen
+  ndrql eval --split unseen --weights ~/.cache/ndrql/runs/ndr-default/best.pt --markdown out/unseen.md
+  ndrql eval --split val --weights ~/.cache/ndrql/runs/ndr-default/best.pt
+"""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("eval", help="F1 of the NDR model on seen/unseen/val", description=__doc__, epilog=EXAMPLES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--split", choices=("seen", "unseen", "val"), default="seen", help="split to score (default: seen)")
+    p.add_argument("--weights", metavar="FILE", help="checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
+    p.add_argument("--data", metavar="DIR", help="dataset root (default: ../shared/data/path-planning-dataset when present)")
+    p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default: 32)")
+    p.add_argument("--limit", type=int, default=0, help="score only the first N samples (0 = all)")
+    p.add_argument("--threads", type=int, default=0, help="torch threads (0 = all cores)")
+    p.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
+    p.add_argument("--json", metavar="FILE", help="also write the numbers as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+    import torch
+
+    from ndrql.cli.common import write_json
+    from ndrql.dataset.cache import load_split
+    from ndrql.dataset.layout import CATEGORIES, check_root, default_root
+    from ndrql.dataset.splits import train_val_split
+    from ndrql.errors import DatasetError
+    from ndrql.model.predict import default_weights_path
+    from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+    from ndrql.training.evaluate import category_rows, evaluate, markdown_table
+
+    root = args.data or default_root()
+    if root is None:
+        raise DatasetError("no dataset found: pass --data DIR (the path-planning-dataset in its original layout)")
+    check_root(root)
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    weights = Path(args.weights) if args.weights else default_weights_path()
+    ck = load_checkpoint(weights)
+    model = model_from_checkpoint(ck).to(memory_format=torch.channels_last)
+    encoding = dict(ck["config"]).get("encoding", "point")
+    if args.split == "val":
+        tc = dict(ck.get("train_config", {}))
+        data = load_split(root, "train")
+        _, indices = train_val_split(data, load_split(root, "seen"), tc.get("val_fraction", 0.05), tc.get("seed", 0))
+        names = CATEGORIES["train"]
+    else:
+        data = load_split(root, args.split)
+        indices = np.arange(len(data))
+        names = CATEGORIES[args.split]
+    if args.limit:
+        indices = indices[:args.limit]
+    res = evaluate(model, data, indices, batch_size=args.batch_size, encoding=encoding, progress=True)
+    rows = category_rows(res, names)
+    table = markdown_table(rows, f"{args.split} ({len(indices)} samples, weights {weights.name})", args.split == "unseen")
+    print(table)
+    print(f"throughput: {res.images_per_s:.1f} images/s (batch {args.batch_size}, fp32, {torch.get_num_threads()} threads)")
+    if args.markdown:
+        Path(args.markdown).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.markdown).write_text(table)
+    if args.json:
+        write_json(args.json, {"split": args.split, "weights": str(weights), "rows": rows, "images_per_s": res.images_per_s})
+    return 0

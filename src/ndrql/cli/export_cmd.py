@@ -1,0 +1,39 @@
+"""``ndrql export-weights`` and ``ndrql export-onnx``: ship a trained model."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("export-weights", help="slim fp16 inference checkpoint from a training checkpoint",
+                       description="Write config, metrics and fp16 weights (no optimizer state) from a training checkpoint.")
+    p.add_argument("checkpoint", help="training checkpoint (e.g. ~/.cache/ndrql/runs/ndr-default/best.pt)")
+    p.add_argument("--out", required=True, help="output file (e.g. src/ndrql/data/ndr_default.pt)")
+    p.add_argument("--fp32", action="store_true", help="keep fp32 weights")
+    p.set_defaults(func=run_weights)
+
+    q = sub.add_parser("export-onnx", help="export the NDR model to ONNX (for ONNX Runtime inference)",
+                       description="Export a checkpoint to ONNX with a fixed 201x201 input (batch dimension dynamic).")
+    q.add_argument("--weights", help="checkpoint (default: the shipped model)")
+    q.add_argument("--out", required=True, help="output .onnx file")
+    q.add_argument("--size", type=int, default=201, help="input side (default: 201)")
+    q.set_defaults(func=run_onnx)
+
+
+def run_weights(args: argparse.Namespace) -> int:
+    from ndrql.training.checkpoint import export_weights
+
+    out = export_weights(args.checkpoint, args.out, half=not args.fp32)
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    return 0
+
+
+def run_onnx(args: argparse.Namespace) -> int:
+    from ndrql.model.export import export_onnx
+    from ndrql.model.predict import default_weights_path
+
+    out = export_onnx(Path(args.weights) if args.weights else default_weights_path(), args.out, args.size)
+    print(f"wrote {out}")
+    return 0

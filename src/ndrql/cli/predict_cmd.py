@@ -1,0 +1,65 @@
+"""``ndrql predict``: region and guideline of the optimal path, predicted by the NDR model."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+EXAMPLES = """examples:
+  ndrql predict --sample ../shared/data/path-planning-dataset:unseen:600 --out out/pred
+  ndrql predict map.png --start 20,30 --goal 180,170 --out out/pred --weights my_model.pt
+"""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from ndrql.cli.common import add_problem_arguments
+
+    p = sub.add_parser("predict", help="predict the path region and guideline with the NDR model",
+                       description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
+                       "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size).",
+                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_problem_arguments(p)
+    p.add_argument("--weights", metavar="FILE", help="model checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
+    p.add_argument("--out", metavar="DIR", default="out/predict", help="output folder (default: out/predict)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import time
+
+    import numpy as np
+
+    from ndrql.cli.common import resolve_problem, save_figure
+    from ndrql.maps.writers import atomic_path
+    from ndrql.model.predict import Predictor
+    from ndrql.viz.prediction import plot_probability_overlay
+
+    problem = resolve_problem(args)
+    obstacles = problem.grid_map.obstacles
+    t0 = time.perf_counter()
+    predictor = Predictor.load(args.weights)
+    t1 = time.perf_counter()
+    pred = predictor.predict(obstacles, problem.start, problem.goal)
+    t2 = time.perf_counter()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    npz = out / "prediction.npz"
+    arrays = {"region": pred.region.astype(np.float32), "start": np.array(problem.start), "goal": np.array(problem.goal),
+              "obstacles": obstacles}
+    if pred.guideline is not None:
+        arrays["guideline"] = pred.guideline.astype(np.float32)
+    with atomic_path(npz) as tmp:
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, **arrays)
+    written = [npz]
+    for name, prob, cmap in (("region", pred.region, "viridis"), ("guideline", pred.guideline, "magma")):
+        if prob is None:
+            continue
+        written.append(save_figure(lambda ax, prob=prob, name=name, cmap=cmap: plot_probability_overlay(
+            ax, obstacles, prob, cmap=cmap, start=problem.start, goal=problem.goal, title=f"NDR {name}"), out / f"{name}.png"))
+    print(f"load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "
+          f"region > 0.5: {int((pred.region >= 0.5).sum())} px" +
+          (f", guideline > 0.5: {int((pred.guideline >= 0.5).sum())} px" if pred.guideline is not None else ""))
+    for path in written:
+        print(f"wrote {path}")
+    return 0

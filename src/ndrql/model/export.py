@@ -1,0 +1,31 @@
+"""ONNX export of a checkpoint (ONNX Runtime is an optional, faster CPU inference path)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ndrql.errors import NdrqlError
+
+
+def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
+    """Export the model in ``weights`` to ONNX at ``size`` x ``size``, dynamic batch; atomic write."""
+    import torch
+
+    from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+
+    data = load_checkpoint(weights)
+    model = model_from_checkpoint(data).eval()
+    cin = int(dict(data["config"]).get("in_channels", 3))
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
+    dummy = torch.zeros(1, cin, size, size)
+    try:
+        torch.onnx.export(model, (dummy,), str(tmp), input_names=["x"], output_names=["region", "guideline"],
+                          dynamic_axes={"x": {0: "batch"}, "region": {0: "batch"}, "guideline": {0: "batch"}},
+                          opset_version=17, dynamo=False)
+    except ImportError as exc:
+        raise NdrqlError(f"ONNX export needs the 'onnx' package: pip install 'ndrql[onnx]' ({exc})") from None
+    os.replace(tmp, out)
+    return out

@@ -1,0 +1,40 @@
+"""Region and guideline overlays of an NDR prediction (paper Fig. 4 style)."""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from ndrql.viz.maps import plot_endpoints, plot_occupancy
+
+
+def plot_probability_overlay(ax: Any, obstacles: np.ndarray, prob: np.ndarray, *, cmap: str = "viridis",
+                             start: Sequence[float] | None = None, goal: Sequence[float] | None = None,
+                             title: str | None = None, alpha: float = 0.75) -> list[Any]:
+    """The map in grey with ``prob`` (0..1) drawn on top; returns the artists."""
+    artists = [plot_occupancy(ax, obstacles)]
+    masked = np.ma.masked_less(np.asarray(prob, float), 0.02)
+    artists.append(ax.imshow(masked, cmap=cmap, vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest"))
+    if start is not None and goal is not None:
+        artists += list(plot_endpoints(ax, start, goal))
+    if title:
+        ax.set_title(title)
+    ax.set_axis_off()
+    return artists
+
+
+def plot_label_comparison(ax: Any, obstacles: np.ndarray, pred: np.ndarray, label: np.ndarray, *,
+                          title: str | None = None) -> list[Any]:
+    """True positives green, false positives red, false negatives blue, over the map."""
+    rgb = np.ones(obstacles.shape + (3,))
+    rgb[obstacles] = 0.2
+    pred, label = np.asarray(pred, bool), np.asarray(label, bool)
+    rgb[pred & label] = (0.2, 0.7, 0.2)
+    rgb[pred & ~label] = (0.9, 0.2, 0.2)
+    rgb[~pred & label] = (0.2, 0.3, 0.9)
+    artists = [ax.imshow(rgb, interpolation="nearest")]
+    if title:
+        ax.set_title(title)
+    ax.set_axis_off()
+    return artists

@@ -123,3 +123,19 @@ def test_api_same_seed_same_run(model_weights, seed):
     c = ndrql.plan(grid, (5, 5), (95, 95), seed=seed + 7)
     assert a.same_run(b) and a.converged
     assert not a.same_run(c)
+
+
+def test_api_workers_do_not_change_results(model_weights):
+    """In-process runs (priors built once) and the process pool (priors rebuilt per job) make the same runs."""
+    import numpy as np
+
+    import ndrql
+
+    grid = np.zeros((120, 90), dtype=bool)
+    grid[60:64, 15:] = True
+    one = ndrql.solve(grid, (5, 5), (115, 85), ["IQL", "NDR-QL"], seeds=2, workers=1)
+    two = ndrql.solve(grid, (5, 5), (115, 85), ["IQL", "NDR-QL"], seeds=2, workers=2)
+    assert [r.method for r in one.results] == ["IQL", "IQL", "NDR-QL", "NDR-QL"]
+    assert all(a.same_run(b) for a, b in zip(one.results, two.results))
+    assert one.thresholds == two.thresholds and set(one.thresholds) == {"NDR-QL"}
+    assert one.region.shape == one.guideline.shape == (120, 90)

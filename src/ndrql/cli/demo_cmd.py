@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ndrql.api import solve
     from ndrql.cli.common import warnings_to_stderr, write_json
-    from ndrql.cli.plan_cmd import _save, _summary
+    from ndrql.cli.plan_cmd import _save, _short, _summary
     from ndrql.errors import NdrqlError
     from ndrql.maps.bundled import bundled_sample
     from ndrql.viz.plan import compare_figure, plan_figure
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     pg = report.grid
     print(f"demo map: {sample.description}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "
-          f"goal {pg.goal} (pixel {sample.goal}); model {report.weights}")
+          f"goal {pg.goal} (pixel {sample.goal}); model {_short(report.weights or '-')}")
     print("\n".join(_summary(report)))
     table = table_markdown(report)
     head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.description}); seeds 0..{args.seeds - 1}; "

@@ -167,6 +167,17 @@ def _summary(report: Any) -> list[str]:
     return lines
 
 
+def _short(path: str) -> str:
+    """``path`` relative to the working directory when it lies below it, else as given."""
+    import os
+
+    try:
+        rel = os.path.relpath(path)
+    except ValueError:  # another drive (Windows)
+        return path
+    return rel if not rel.startswith("..") else path
+
+
 def _save(fig: Any, path: str) -> Any:
     from ndrql.cli.common import prepare_output
     from ndrql.errors import NdrqlError
@@ -225,7 +236,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}); planning grid {pg.shape[0]}x{pg.shape[1]}, "
           f"start {pg.start}, goal {pg.goal}")
     if report.weights:
-        print(f"model: {report.weights}")
+        print(f"model: {_short(report.weights)}")
     print("\n".join(_summary(report)))
     if args.json:
         print(f"wrote {write_json(args.json, report.to_dict(include_records=args.records))}")

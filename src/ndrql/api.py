@@ -257,6 +257,29 @@ def check_map_size(grid_map: GridMap, settings: PlanSettings) -> None:
         )
 
 
+def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict[str, Any]:
+    """Where start and goal land in the model's 201x201 input (:func:`ndrql.model.predict.to_model_input`).
+
+    A map that is not 201x201 is resized and padded for the model; a point whose resized pixel is an
+    obstacle is moved to the nearest free pixel there. That is reported with a warning (the model
+    then sees the point somewhere else; planning still uses the exact point).
+    """
+    from ndrql.model.predict import MODEL_SIDE, point_on_grid, to_model_input
+
+    h, w = obstacles.shape
+    _, s_in, g_in, scale = to_model_input(obstacles, start, goal)
+    nh = max(1, round(h * scale))
+    moved = []
+    for name, p, q in (("start", start, s_in), ("goal", goal, g_in)):
+        want = p if scale == 1.0 and (h, w) == (MODEL_SIDE, MODEL_SIDE) else point_on_grid(p, nh / h, MODEL_SIDE)
+        moved.append(tuple(want) != tuple(q))
+        if moved[-1]:
+            warnings.warn(f"{name} {p[0]},{p[1]} falls on an obstacle of the model's {MODEL_SIDE}x{MODEL_SIDE} input "
+                          f"(the map resized by {scale:.3f}); the model sees it at {q[0]},{q[1]}", UserWarning, stacklevel=3)
+    return {"side": MODEL_SIDE, "scale": scale, "start": list(s_in), "goal": list(g_in),
+            "moved": {"start": moved[0], "goal": moved[1]}}
+
+
 # --------------------------------------------------------------------------------------------- API
 
 
@@ -338,6 +361,7 @@ def solve(
                 predictor = load_predictor(weights)
             used_weights = str(weights if weights is not None else default_weights_path())
             with clock.stage("predict"), _torch_threads(settings.threads):
+                info["model_input"] = model_input_points(grid_map.obstacles, start, goal)
                 pred = predictor.predict(grid_map.obstacles, start, goal)
                 region_map = np.asarray(pred.region, dtype=np.float64)
                 guideline_map = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)

@@ -70,7 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--size", type=int, default=50, metavar="N", help="planning grid side (default: 50, paper)")
     p.add_argument("--max-pixels", type=int, default=4096 * 4096, metavar="N",
                    help="refuse maps with more pixels than this (default: 4096 x 4096)")
-    p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-' for stdout)")
+    p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
                    "(one panel per method with --compare)")
@@ -193,6 +193,9 @@ def _save(fig: Any, path: str) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
+    import functools
+    import sys
+
     from ndrql.api import PlanSettings, solve
     from ndrql.cli.common import load_map_argument, parse_point, Problem, warnings_to_stderr, write_json
     from ndrql.errors import NdrqlError
@@ -233,16 +236,20 @@ def run(args: argparse.Namespace) -> int:
                        settings=settings, scen=scen, scen_index=index, workers=args.workers,
                        keep_records=args.records, info=info)
     pg = report.grid
-    print(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}); planning grid {pg.shape[0]}x{pg.shape[1]}, "
+    # with --json - the JSON owns stdout; the summary goes to stderr
+    echo = functools.partial(print, file=sys.stderr if args.json == "-" else sys.stdout)
+    echo(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}); planning grid {pg.shape[0]}x{pg.shape[1]}, "
           f"start {pg.start}, goal {pg.goal}")
     if report.weights:
-        print(f"model: {_short(report.weights)}")
-    print("\n".join(_summary(report)))
+        echo(f"model: {_short(report.weights)}")
+    echo("\n".join(_summary(report)))
     if args.json:
-        print(f"wrote {write_json(args.json, report.to_dict(include_records=args.records))}")
+        written = write_json(args.json, report.to_dict(include_records=args.records))
+        if args.json != "-":
+            echo(f"wrote {written}")
     if args.png:
         from ndrql.viz.plan import compare_figure, plan_figure
 
         fig = plan_figure(report) if len(methods) == 1 else compare_figure(report)
-        print(f"wrote {_save(fig, args.png)}")
+        echo(f"wrote {_save(fig, args.png)}")
     return 0

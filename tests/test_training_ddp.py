@@ -289,6 +289,13 @@ def test_cli_rejects_bad_device_flags_in_one_line(ndrql_exe, synthetic, tmp_path
     assert not (tmp_path / "run").exists()
 
 
+def test_sync_bn_needs_cuda(synthetic, tmp_path):
+    from ndrql.training.loop import run_training
+
+    with pytest.raises(D.DeviceError, match="--sync-bn needs CUDA"):
+        run_training(tiny_config(synthetic, sync_bn=True), tmp_path / "run", progress=False, log=lambda m: None)
+
+
 @pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message on a machine without CUDA")
 def test_cli_device_cuda_without_gpu_says_so(ndrql_exe, synthetic, tmp_path):
     r = _run_cli([*ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), "--device", "cuda"], os.environ["NDRQL_CACHE"])

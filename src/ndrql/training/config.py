@@ -43,6 +43,8 @@ class TrainConfig:
     """Autocast dtype on CUDA: auto (bf16 where supported, else fp16), bf16, or fp16 (with a GradScaler)."""
     loader_workers: int = 2
     """DataLoader worker processes building batches into pinned memory on GPU (the CPU path builds them inline)."""
+    sync_bn: bool = False
+    """BatchNorm statistics over the global batch under DDP (SyncBatchNorm; CUDA only). Off: per-process batch."""
     threads: int = 0
     """Torch intra-op threads (0 = all cores)."""
     checkpoint_minutes: float = 5.0

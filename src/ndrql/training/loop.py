@@ -209,6 +209,8 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
         model = build_model(model_cfg)
     model = model.to(device, memory_format=torch.channels_last)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    if cfg.sync_bn and device.type != "cuda":
+        raise D.DeviceError("--sync-bn needs CUDA (torch's SyncBatchNorm has no CPU/MPS kernel); drop it on this device")
     precision = D.precision_for(device, cfg.bf16, cfg.amp_dtype)
     scaler = torch.amp.GradScaler(device.type) if precision.scaler else None
     state = {"epoch": 0, "step": 0, "global_step": 0, "best_f1": -1.0, "train_seconds": 0.0}
@@ -246,6 +248,8 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
     if world.distributed:
         from torch.nn.parallel import DistributedDataParallel
 
+        if cfg.sync_bn:  # same parameter and buffer names, so checkpoints stay interchangeable
+            model = nn.SyncBatchNorm.convert_sync_batchnorm(model)
         net = DistributedDataParallel(model, device_ids=[device.index] if device.type == "cuda" else None)
         log(f"DDP: {world.world_size} processes ({'nccl' if device.type == 'cuda' else 'gloo'}), {cfg.batch_size} per process, "
             f"global batch {global_batch}, peak lr {peak:g}, {precision.describe()}")

@@ -104,3 +104,8 @@ def test_scenario_errors(ndrql_exe, tmp_path):
 
 def test_missing_points(ndrql_exe, walls):
     assert_one_line_error(run(ndrql_exe, "plan", walls, "--start", "0,0"), "--goal required with a map file")
+
+
+def test_bad_threads(ndrql_exe, walls):
+    assert_one_line_error(run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--threads", "0"),
+                          "--threads must be >= 1")

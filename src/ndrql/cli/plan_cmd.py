@@ -42,8 +42,9 @@ def _add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[st
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from ndrql.api import PlanSettings
     from ndrql.cli.common import add_problem_arguments
-    from ndrql.planning.config import PriorConfig, QLConfig
+    from ndrql.planning.config import PriorConfig, QLConfig, field_docs
 
     p = subparsers.add_parser(
         "plan",
@@ -67,9 +68,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ndr_default.pt)")
     p.add_argument("--prior-from", metavar="FILE.npz",
                    help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]")
-    p.add_argument("--size", type=int, default=50, metavar="N", help="planning grid side (default: 50, paper)")
-    p.add_argument("--max-pixels", type=int, default=4096 * 4096, metavar="N",
-                   help="refuse maps with more pixels than this (default: 4096 x 4096)")
+    settings = PlanSettings()
+    docs = field_docs(PlanSettings)
+    p.add_argument("--size", type=int, default=settings.size, metavar="N", help=f"{docs['size']} (default: {settings.size})")
+    p.add_argument("--max-pixels", type=int, default=settings.max_map_pixels, metavar="N",
+                   help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
+    p.add_argument("--threads", type=int, default=settings.threads, metavar="N",
+                   help=f"{docs['threads']} (default: {settings.threads})")
     p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
@@ -212,7 +217,9 @@ def run(args: argparse.Namespace) -> int:
         raise NdrqlError("--compare needs at least one method name")
     methods = [get_method(n).name for n in names]
     ql_cfg, prior_cfg = _configs(args)
-    settings = PlanSettings(size=args.size, max_map_pixels=args.max_pixels)
+    if args.threads < 1:
+        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
+    settings = PlanSettings(size=args.size, max_map_pixels=args.max_pixels, threads=args.threads)
     scen, index = _scenario(args)
     loaded = load_map_argument(args)
     if isinstance(loaded, Problem):  # a dataset sample: its points unless overridden

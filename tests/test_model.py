@@ -146,3 +146,24 @@ def test_shipped_weights_load_and_predict_sensibly():
     # the predicted region covers the endpoints and mostly avoids the block
     assert pred.region[10, 10] > 0.5 and pred.region[190, 190] > 0.5
     assert pred.region[obstacles].mean() < pred.region[~obstacles].mean()
+
+
+def test_onnx_export_matches_torch(tmp_path):
+    pytest.importorskip("onnx", reason="ONNX export needs the onnx extra: pip install 'ndrql[onnx]'")
+    ort = pytest.importorskip("onnxruntime", reason="needs onnxruntime: pip install 'ndrql[onnx]'")
+    from ndrql.model.export import export_onnx
+
+    model = build_model(TINY).eval()
+    path = save_checkpoint(tmp_path / "m.pt", {"config": TINY, "model": model.state_dict()})
+    onnx_path = export_onnx(path, tmp_path / "m.onnx", size=201)
+    x = torch.zeros(2, 3, 201, 201)
+    x[:, 0, 50:80, 20:180] = 1
+    x[:, 1, 5, 5] = 1
+    x[:, 2, 195, 195] = 1
+    with torch.no_grad():
+        r, g = model(x)
+    sess = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
+    ro, go = sess.run(None, {"x": x.numpy()})
+    assert ro.shape == (2, 1, 201, 201)
+    assert abs(torch.sigmoid(torch.from_numpy(ro)) - torch.sigmoid(r)).max() < 1e-3
+    assert abs(torch.sigmoid(torch.from_numpy(go)) - torch.sigmoid(g)).max() < 1e-3

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 from ndrql.errors import NdrqlError
@@ -22,9 +23,11 @@ def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
     tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
     dummy = torch.zeros(1, cin, size, size)
     try:
-        torch.onnx.export(model, (dummy,), str(tmp), input_names=["x"], output_names=["region", "guideline"],
-                          dynamic_axes={"x": {0: "batch"}, "region": {0: "batch"}, "guideline": {0: "batch"}},
-                          opset_version=17, dynamo=False)
+        with warnings.catch_warnings():  # shapes are fixed on purpose: the export is for size x size inputs
+            warnings.simplefilter("ignore", torch.jit.TracerWarning)
+            torch.onnx.export(model, (dummy,), str(tmp), input_names=["x"], output_names=["region", "guideline"],
+                              dynamic_axes={"x": {0: "batch"}, "region": {0: "batch"}, "guideline": {0: "batch"}},
+                              opset_version=17, dynamo=False)
     except ImportError as exc:
         raise NdrqlError(f"ONNX export needs the 'onnx' package: pip install 'ndrql[onnx]' ({exc})") from None
     os.replace(tmp, out)

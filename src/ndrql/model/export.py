@@ -25,6 +25,7 @@ def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
     try:
         with warnings.catch_warnings():  # shapes are fixed on purpose: the export is for size x size inputs
             warnings.simplefilter("ignore", torch.jit.TracerWarning)
+            warnings.simplefilter("ignore", DeprecationWarning)  # the TorchScript exporter handles this model; dynamo export does not need it
             torch.onnx.export(model, (dummy,), str(tmp), input_names=["x"], output_names=["region", "guideline"],
                               dynamic_axes={"x": {0: "batch"}, "region": {0: "batch"}, "guideline": {0: "batch"}},
                               opset_version=17, dynamo=False)

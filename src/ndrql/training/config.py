@@ -17,7 +17,7 @@ class TrainConfig:
     """Config fields overriding the preset (e.g. {'unet_base': 8})."""
     encoding: str = ""
     """Input encoding of start and goal (ndrql.dataset.encodings); empty = the preset's own (NDR: point, RGP: rgb)."""
-    epochs: int = 8
+    epochs: int = 7
     """Epochs of the cosine schedule."""
     batch_size: int = 16
     """Samples per optimisation step and process (global batch = batch_size x world size under DDP)."""

@@ -50,3 +50,21 @@ def model_weights() -> Path:
     if not path.is_file():
         pytest.skip(f"no NDR model weights at {path} (shipped as src/ndrql/data/ndr_default.pt, or set NDRQL_WEIGHTS)")
     return path
+
+
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory, monkeypatch_module):
+    """A 16-sample TRAIN / 4-sample TEST dataset in the original layout, with its own cache dir."""
+    from synthetic_dataset import make_tiny_dataset
+
+    root = make_tiny_dataset(tmp_path_factory.mktemp("tiny") / "ds", n_train=16, n_test=4)
+    monkeypatch_module.setenv("NDRQL_CACHE", str(tmp_path_factory.mktemp("cache")))
+    return root
+
+
+@pytest.fixture(scope="module")
+def monkeypatch_module():
+    """A module-scoped ``MonkeyPatch`` (pytest's own fixture is function-scoped)."""
+    mp = pytest.MonkeyPatch()
+    yield mp
+    mp.undo()

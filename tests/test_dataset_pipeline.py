@@ -10,21 +10,6 @@ from ndrql.dataset.batches import epoch_order, make_batch, sample_arrays, transf
 from ndrql.dataset.encodings import ENCODINGS, encode_input, get_encoding
 from ndrql.dataset.splits import map_hashes, train_val_split
 from ndrql.training.metrics import f1_per_image
-from synthetic_dataset import make_tiny_dataset
-
-
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    root = make_tiny_dataset(tmp_path_factory.mktemp("tiny") / "ds", n_train=12, n_test=4)
-    import os
-
-    old = os.environ.get("NDRQL_CACHE")
-    os.environ["NDRQL_CACHE"] = str(tmp_path_factory.mktemp("cache"))
-    yield root
-    if old is None:
-        os.environ.pop("NDRQL_CACHE")
-    else:
-        os.environ["NDRQL_CACHE"] = old
 
 
 def test_f1_matches_hand_computation():
@@ -67,12 +52,12 @@ def test_encodings_put_points_where_they_belong():
         get_encoding("fourier")
 
 
-def test_cache_round_trip_and_batches(tiny):
+def test_cache_round_trip_and_batches(tiny_dataset):
     from ndrql.dataset.layout import load_sample
 
-    data = cache_mod.load_split(tiny, "train", progress=False)
-    assert len(data) == 12
-    s = load_sample(tiny, "train", 5)
+    data = cache_mod.load_split(tiny_dataset, "train", progress=False)
+    assert len(data) == 16
+    s = load_sample(tiny_dataset, "train", 5)
     x, region, guide = sample_arrays(data, 5)
     assert np.array_equal(x[0] > 0, s.map)
     assert x[1, s.start[0], s.start[1]] == 1 and x[2, s.goal[0], s.goal[1]] == 1

@@ -12,23 +12,8 @@ from ndrql.errors import CheckpointError
 from ndrql.training.checkpoint import load_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.loop import train
-from synthetic_dataset import make_tiny_dataset
 
 TINY = {"width": 0.25}
-
-
-@pytest.fixture(scope="module")
-def tiny_env(tmp_path_factory):
-    import os
-
-    root = make_tiny_dataset(tmp_path_factory.mktemp("tiny") / "ds", n_train=16, n_test=4)
-    old = os.environ.get("NDRQL_CACHE")
-    os.environ["NDRQL_CACHE"] = str(tmp_path_factory.mktemp("cache"))
-    yield root
-    if old is None:
-        os.environ.pop("NDRQL_CACHE")
-    else:
-        os.environ["NDRQL_CACHE"] = old
 
 
 def config(root, **kw) -> TrainConfig:
@@ -38,13 +23,13 @@ def config(root, **kw) -> TrainConfig:
     return TrainConfig(**base)
 
 
-def test_resume_continues_exactly(tiny_env, tmp_path):
+def test_resume_continues_exactly(tiny_dataset, tmp_path):
     torch.manual_seed(0)
-    train(config(tiny_env), tmp_path / "straight", progress=False, log=lambda m: None)
+    train(config(tiny_dataset), tmp_path / "straight", progress=False, log=lambda m: None)
     torch.manual_seed(0)
-    state = train(config(tiny_env, max_steps=4), tmp_path / "split", progress=False, log=lambda m: None)
+    state = train(config(tiny_dataset, max_steps=4), tmp_path / "split", progress=False, log=lambda m: None)
     assert state["global_step"] == 4 and state["epoch"] == 1 and state["step"] == 1  # 3 steps per epoch
-    train(config(tiny_env), tmp_path / "split", resume=True, progress=False, log=lambda m: None)
+    train(config(tiny_dataset), tmp_path / "split", resume=True, progress=False, log=lambda m: None)
     a = load_checkpoint(tmp_path / "straight" / "last.pt")
     b = load_checkpoint(tmp_path / "split" / "last.pt")
     assert a["state"]["global_step"] == b["state"]["global_step"] == 6
@@ -55,25 +40,25 @@ def test_resume_continues_exactly(tiny_env, tmp_path):
     assert (tmp_path / "split" / "best.pt").exists()
 
 
-def test_refuses_to_overwrite_or_resume_another_model(tiny_env, tmp_path):
-    train(config(tiny_env, max_steps=1), tmp_path / "r", progress=False, log=lambda m: None)
+def test_refuses_to_overwrite_or_resume_another_model(tiny_dataset, tmp_path):
+    train(config(tiny_dataset, max_steps=1), tmp_path / "r", progress=False, log=lambda m: None)
     with pytest.raises(CheckpointError, match="pass --resume"):
-        train(config(tiny_env, max_steps=1), tmp_path / "r", progress=False, log=lambda m: None)
+        train(config(tiny_dataset, max_steps=1), tmp_path / "r", progress=False, log=lambda m: None)
     with pytest.raises(CheckpointError, match="same --model"):
-        train(config(tiny_env, model_overrides={"width": 0.5}, max_steps=1), tmp_path / "r", resume=True, progress=False, log=lambda m: None)
+        train(config(tiny_dataset, model_overrides={"width": 0.5}, max_steps=1), tmp_path / "r", resume=True, progress=False, log=lambda m: None)
 
 
-def test_eval_and_predict_cli_on_a_trained_checkpoint(tiny_env, tmp_path, ndrql_exe):
+def test_eval_and_predict_cli_on_a_trained_checkpoint(tiny_dataset, tmp_path, ndrql_exe):
     import os
 
-    train(config(tiny_env, epochs=1), tmp_path / "run", progress=False, log=lambda m: None)
+    train(config(tiny_dataset, epochs=1), tmp_path / "run", progress=False, log=lambda m: None)
     env = {**os.environ}
     weights = tmp_path / "run" / "best.pt"
-    out = subprocess.run([*ndrql_exe, "eval", "--split", "unseen", "--data", str(tiny_env), "--weights", str(weights),
+    out = subprocess.run([*ndrql_exe, "eval", "--split", "unseen", "--data", str(tiny_dataset), "--weights", str(weights),
                           "--json", str(tmp_path / "e.json")], capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
     assert "region F1 (original labels)" in out.stdout and "| all | 4 |" in out.stdout
-    out = subprocess.run([*ndrql_exe, "predict", "--sample", f"{tiny_env}:seen:1", "--weights", str(weights),
+    out = subprocess.run([*ndrql_exe, "predict", "--sample", f"{tiny_dataset}:seen:1", "--weights", str(weights),
                           "--out", str(tmp_path / "pred")], capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
     z = np.load(tmp_path / "pred" / "prediction.npz")
@@ -82,6 +67,6 @@ def test_eval_and_predict_cli_on_a_trained_checkpoint(tiny_env, tmp_path, ndrql_
     assert (tmp_path / "pred" / "region.png").stat().st_size > 1000
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"\x00" * 10)
-    out = subprocess.run([*ndrql_exe, "predict", "--sample", f"{tiny_env}:seen:1", "--weights", str(bad)],
+    out = subprocess.run([*ndrql_exe, "predict", "--sample", f"{tiny_dataset}:seen:1", "--weights", str(bad)],
                          capture_output=True, text=True, env=env)
     assert out.returncode == 2 and out.stderr.startswith("ndrql: error: cannot read checkpoint") and "Traceback" not in out.stderr

@@ -3,26 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import ast
 import dataclasses
-import inspect
 import json
 from typing import Any
 
-
-def field_docs(cls: type) -> dict[str, str]:
-    """Docstrings written under each dataclass field (the attribute-docstring convention)."""
-    try:
-        tree = ast.parse(inspect.getsource(cls))
-    except (OSError, TypeError):
-        return {}
-    docs: dict[str, str] = {}
-    body = tree.body[0].body  # type: ignore[attr-defined]
-    for node, nxt in zip(body, body[1:]):
-        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
-            if isinstance(nxt, ast.Expr) and isinstance(getattr(nxt, "value", None), ast.Constant) and isinstance(nxt.value.value, str):
-                docs[node.target.id] = nxt.value.value.strip()
-    return docs
+from ndrql.planning.config import field_docs
 
 
 def add_dataclass_options(parser: argparse.ArgumentParser, cls: type, skip: tuple[str, ...] = ()) -> None:
@@ -48,3 +33,30 @@ def dataclass_from_args(cls: type, args: argparse.Namespace, **extra: Any):
     kwargs = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if getattr(args, f.name, None) is not None}
     kwargs.update(extra)
     return cls(**kwargs)
+
+
+def add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str, ...]) -> None:
+    """Add ``--name`` (dest ``cfg_<name>``, numeric) for the chosen fields of a config dataclass."""
+    docs = field_docs(cls)
+    defaults = cls()
+    types = {f.name: f.type for f in dataclasses.fields(cls)}
+    for name in names:
+        default = getattr(defaults, name)
+        kind = int if "int" in str(types[name]) else float
+        shown = "4 x cells" if default is None else default
+        group.add_argument(f"--{name.replace('_', '-')}", dest=f"cfg_{name}", type=kind, default=None,
+                           metavar="V", help=f"{docs[name]} (default: {shown})")
+
+
+def configs_from_flags(args: argparse.Namespace, specs: tuple[tuple[type, tuple[str, ...]], ...]) -> list:
+    """Build each config class from its ``cfg_<name>`` flags; a bad value is one clear NdrqlError."""
+    from ndrql.errors import NdrqlError
+
+    out = []
+    for cls, names in specs:
+        kwargs = {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
+        try:
+            out.append(cls(**kwargs))
+        except ValueError as exc:
+            raise NdrqlError(f"bad option: {exc}") from None
+    return out

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from typing import Any
 
 EXAMPLES = """examples:
@@ -27,21 +26,8 @@ _QL_FLAGS = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window",
 _PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step")
 
 
-def _add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str, ...]) -> None:
-    from ndrql.planning.config import field_docs
-
-    docs = field_docs(cls)
-    defaults = cls()
-    types = {f.name: f.type for f in dataclasses.fields(cls)}
-    for name in names:
-        default = getattr(defaults, name)
-        kind = int if "int" in str(types[name]) else float
-        shown = "4 x cells" if default is None else default
-        group.add_argument(f"--{name.replace('_', '-')}", dest=f"cfg_{name}", type=kind, default=None,
-                           metavar="V", help=f"{docs[name]} (default: {shown})")
-
-
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from ndrql.cli.options import add_config_flags
     from ndrql.api import PlanSettings
     from ndrql.cli.common import add_problem_arguments
     from ndrql.planning.config import PriorConfig, QLConfig, field_docs
@@ -79,23 +65,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
                    "(one panel per method with --compare)")
-    _add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
-    _add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
+    add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
+    add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
 
 
 def _configs(args: argparse.Namespace):
-    from ndrql.errors import NdrqlError
+    from ndrql.cli.options import configs_from_flags
     from ndrql.planning.config import PriorConfig, QLConfig
 
-    out = []
-    for cls, names in ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)):
-        kwargs = {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
-        try:
-            out.append(cls(**kwargs))
-        except ValueError as exc:
-            raise NdrqlError(f"bad option: {exc}") from None
-    return out[0], out[1]
+    ql_cfg, prior_cfg = configs_from_flags(args, ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)))
+    return ql_cfg, prior_cfg
 
 
 def _fmt(v: Any, nd: int = 0) -> str:

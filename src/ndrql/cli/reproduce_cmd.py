@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import shlex
 import sys
 
@@ -29,20 +28,8 @@ _QL_FLAGS = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window")
 _PRIOR_FLAGS = ("r_max", "g_row", "g_col", "omega_crf", "omega_qi")
 
 
-def _add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str, ...]) -> None:
-    from ndrql.planning.config import field_docs
-
-    docs = field_docs(cls)
-    defaults = cls()
-    types = {f.name: f.type for f in dataclasses.fields(cls)}
-    for name in names:
-        default = getattr(defaults, name)
-        kind = int if "int" in str(types[name]) else float
-        group.add_argument(f"--{name.replace('_', '-')}", dest=f"cfg_{name}", type=kind, default=None, metavar="V",
-                           help=f"{docs[name]} (default: {'4 x cells' if default is None else default})")
-
-
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from ndrql.cli.options import add_config_flags
     from ndrql.planning.config import PriorConfig, QLConfig
 
     p = subparsers.add_parser(
@@ -71,8 +58,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--run", action="store_true", help="table4: train the variants now (default: print the commands)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4: evaluate on the first N samples per split")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    _add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
-    _add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
+    add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
+    add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
 
 
@@ -81,13 +68,9 @@ def _options(args: argparse.Namespace):
     from ndrql.experiments.planning_tables import SweepOptions
     from ndrql.planning.config import PriorConfig, QLConfig
 
-    cfgs = []
-    for cls, names in ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)):
-        kwargs = {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
-        try:
-            cfgs.append(cls(**kwargs))
-        except ValueError as exc:
-            raise NdrqlError(f"bad option: {exc}") from None
+    from ndrql.cli.options import configs_from_flags
+
+    cfgs = configs_from_flags(args, ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)))
     if args.seeds < 1:
         raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
     if args.workers < 1:

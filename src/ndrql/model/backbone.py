@@ -60,9 +60,14 @@ class STDCBackbone(nn.Module):
         self.stages = nn.ModuleList(stages)
 
     def forward(self, x: torch.Tensor) -> list[torch.Tensor]:
-        x = self.stem(x)
-        feats = []
-        for stage in self.stages:
-            x = stage(x)
-            feats.append(x)
-        return feats
+        return run_stages(self.stem, self.stages, x)
+
+
+def run_stages(stem: nn.Module, stages: nn.ModuleList, x: torch.Tensor) -> list[torch.Tensor]:
+    """Apply the stem, then each stage in turn; return every stage's output (shallow to deep)."""
+    x = stem(x)
+    feats = []
+    for stage in stages:
+        x = stage(x)
+        feats.append(x)
+    return feats

@@ -13,7 +13,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ndrql.model.backbone import scaled
+from ndrql.model.backbone import run_stages, scaled
 from ndrql.model.layers import ConvBNReLU
 from ndrql.model.ndr import pad_to_multiple
 
@@ -74,12 +74,7 @@ class ResNet18Encoder(nn.Module):
         self.out_channels = chans
 
     def forward(self, x: torch.Tensor) -> list[torch.Tensor]:
-        x = self.stem(x)
-        feats = []
-        for stage in self.stages:
-            x = stage(x)
-            feats.append(x)
-        return feats
+        return run_stages(self.stem, self.stages, x)
 
 
 class SkipDecoder(nn.Module):

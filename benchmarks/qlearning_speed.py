@@ -15,8 +15,6 @@ and do not count time the scheduler gives to other processes on a busy machine.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import statistics
 import sys
 import time
@@ -28,6 +26,7 @@ from ndrql.planning import rng, rules
 from ndrql.planning.config import QLConfig
 from ndrql.planning.methods import build_priors
 from ndrql.planning import reference
+from ndrql.experiments.report import machine, machine_line
 
 FLOOR_KERNEL = 40e6
 FLOOR_RATIO = 100.0
@@ -70,22 +69,6 @@ def kernel_run(blocked, start, goal, r_c, q0, seed, cfg: QLConfig):
     return q, int(out[1][:n].sum()), dt, out
 
 
-def machine() -> str:
-    cpu = platform.processor() or "?"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    import numba
-
-    load = os.getloadavg() if hasattr(os, "getloadavg") else ("?",)
-    return (f"{cpu}, {os.cpu_count()} logical cores, Python {platform.python_version()}, numpy {np.__version__}, "
-            f"numba {numba.__version__}; load average {load[0]:.2f} at start")
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--episodes", type=int, default=30, help="episodes of the same-run comparison (default 30)")
@@ -98,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     from ndrql.planning import kernel
 
     kernel.warm_up()
-    print(f"machine: {machine()}")
+    print(f"machine: {machine_line(machine())}")
     print(f"method {args.method}, alpha 0.1, epsilon 0.2, gamma 0.95, max_steps 4 x cells, W 20; one core\n")
     maps = [synthetic_map()]
     real = dataset_map(args.dataset)

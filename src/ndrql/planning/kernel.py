@@ -49,22 +49,7 @@ def seed_state(seed):
 @nb.njit(cache=True)
 def next_u64(st):
     """Next output of xoshiro256** (state updated in place)."""
-    s0 = st[0]
-    s1 = st[1]
-    s2 = st[2]
-    s3 = st[3]
-    result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
-    t = s1 << np.uint64(17)
-    s2 ^= s0
-    s3 ^= s1
-    s1 ^= s2
-    s0 ^= s3
-    s2 ^= t
-    s3 = _rotl(s3, 45)
-    st[0] = s0
-    st[1] = s1
-    st[2] = s2
-    st[3] = s3
+    result, st[0], st[1], st[2], st[3] = _xoshiro(st[0], st[1], st[2], st[3])
     return result
 
 

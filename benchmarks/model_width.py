@@ -4,7 +4,7 @@ For each preset (quarter, half = default, full STDC1) and precision: median wall
 optimisation step (forward, BCE + Dice on both outputs, backward, AdamW) on a real-looking batch of
 16 at 201x201, channels_last, and the ratio to the reference (half width, fp32).
 
-    python benchmarks/model_width.py [--threads 2] [--steps 5] [--batch 16]
+    python benchmarks/model_width.py [--threads 2] [--steps 5] [--batch 16] [--presets a,b] [--precisions fp32,bf16]
 """
 
 from __future__ import annotations
@@ -55,15 +55,19 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--steps", type=int, default=5)
     ap.add_argument("--batch", type=int, default=16)
+    ap.add_argument("--presets", default=",".join(PRESETS), help="comma-separated presets (ndrql.model.registry.PRESETS)")
+    ap.add_argument("--precisions", default="fp32,bf16", help="fp32, bf16 or both")
     args = ap.parse_args()
+    presets = [p for p in args.presets.split(",") if p]
+    precisions = [p == "bf16" for p in args.precisions.split(",") if p]
     torch.set_num_threads(args.threads)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, torch {torch.__version__}, "
           f"{args.threads} threads, batch {args.batch}, 201x201")
     ref, _ = step_time("ndr-stdc1-half", False, args.batch, args.steps)
     print("| preset | params (M) | precision | s/step | samples/s | time vs half fp32 | epoch (11,392 samples) min |")
     print("|---|---:|---|---:|---:|---:|---:|")
-    for name in PRESETS:
-        for bf16 in (False, True):
+    for name in presets:
+        for bf16 in precisions:
             t, params = (ref, None) if (name == "ndr-stdc1-half" and not bf16) else step_time(name, bf16, args.batch, args.steps)
             if params is None:
                 params = sum(p.numel() for p in build_model(preset(name)).parameters()) / 1e6

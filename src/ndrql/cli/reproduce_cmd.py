@@ -6,14 +6,15 @@ import argparse
 import shlex
 import sys
 
-TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "all")
+TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "all")
 
 EXAMPLES = """examples:
   ndrql reproduce table3                       # 8 fixed maps x QL, O-QL, IQL, NDR-QL x 10 seeds -> results/table3/
   ndrql reproduce table2 --seeds 10 --workers 2
   ndrql reproduce scale --per-category 50      # 200 SEEN + 200 UNSEEN samples, 10 seeds each
   ndrql reproduce table3 --executor ray        # same table, runs on a local Ray instance (pip install 'ndrql[ray]')
-  ndrql reproduce table4 --budget 3000         # prints/runs the training of every Table 4 variant
+  ndrql reproduce table4 --run --epochs 2      # trains every Table 4 variant (resumable), then evaluates them
+  ndrql reproduce sizing                       # validation F1 per training hour by width and precision
   ndrql reproduce dynamic
 
 Results go to results/<target>/ (markdown table, summary.json, PNG figures, one JSON per finished
@@ -53,9 +54,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--ray-address", metavar="ADDR", help="connect to this Ray cluster instead of starting a local one")
     p.add_argument("--per-category", type=int, default=50, metavar="N",
                    help="scale: samples per category and split (default: 50 -> 200 SEEN + 200 UNSEEN)")
-    p.add_argument("--budget", type=int, default=None, metavar="STEPS",
-                   help="table4: optimiser steps per variant (default: the TrainConfig default)")
-    p.add_argument("--run", action="store_true", help="table4: train the variants now (default: print the commands)")
+    p.add_argument("--epochs", type=int, default=2, metavar="N",
+                   help="table4: training budget per variant, a complete N-epoch cosine schedule (default: 2)")
+    p.add_argument("--run", action="store_true", help="table4: train the variants now, --workers at a time (default: evaluate "
+                   "the trained ones and print the command)")
+    p.add_argument("--runs", metavar="DIR", help="table4/sizing: root of the training run directories (default: "
+                   "$NDRQL_CACHE/runs; table4 uses DIR/table4/<variant>)")
+    p.add_argument("--rgp-weights", metavar="FILE", help="table1: RGP peer weights (default: $NDRQL_RGP_WEIGHTS or "
+                   "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4: evaluate on the first N samples per split")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
@@ -94,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     if args.per_category < 1 or args.per_category > 300:
         raise NdrqlError(f"--per-category must be in 1..300, got {args.per_category}")
     opts = _options(args)
-    targets = ["table1", "table3", "table2", "dynamic", "scale", "table4"] if args.target == "all" else [args.target]
+    targets = ["table1", "table3", "table2", "dynamic", "scale", "table4", "sizing"] if args.target == "all" else [args.target]
     log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
     for target in targets:
         out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
@@ -115,12 +121,16 @@ def run(args: argparse.Namespace) -> int:
         elif target == "table1":
             from ndrql.experiments.model_tables import table1
 
-            path = table1(out, data=args.data, weights=args.weights, limit=args.limit, progress=not args.no_progress,
-                          command=opts.command, log=log)
+            path = table1(out, data=args.data, weights=args.weights, rgp_weights=args.rgp_weights, limit=args.limit,
+                          progress=not args.no_progress, command=opts.command, log=log)
+        elif target == "sizing":
+            from ndrql.experiments.model_tables import sizing
+
+            path = sizing(out, runs=args.runs, command=opts.command, log=log)
         else:
             from ndrql.experiments.model_tables import table4
 
-            path = table4(out, data=args.data, budget=args.budget, run=args.run, limit=args.limit,
-                          progress=not args.no_progress, command=opts.command, log=log)
+            path = table4(out, data=args.data, epochs=args.epochs, run=args.run, runs=args.runs, workers=args.workers,
+                          limit=args.limit, progress=not args.no_progress, command=opts.command, log=log)
         print(f"{target}: wrote {path}")
     return 0

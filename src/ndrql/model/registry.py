@@ -26,7 +26,7 @@ ARCHITECTURES: dict[str, Callable[[dict], nn.Module]] = {"ndr": _build_ndr, "rgp
 PRESETS: dict[str, dict] = {
     "ndr-stdc1": {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 1.0},
     "ndr-stdc1-half": {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.5, "unet_base": 8},
-    "ndr-stdc1-quarter": {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.25},
+    "ndr-stdc1-quarter": {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.25, "unet_base": 8},
     "ndr-stdc2": {"arch": "ndr", "encoding": "point", "backbone": "stdc2", "width": 1.0},
     "ndr-stdc1-half-noguide": {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.5, "unet_base": 8, "guideline_decoder": False},
     "rgp": {"arch": "rgp", "encoding": "rgb", "width": 0.5},

@@ -48,3 +48,10 @@ def plot_training_curves(ax_steps: Any, ax_return: Any, records: dict[str, Any],
                                   label=label, color=color, smooth=smooth)
     ax_return.set_ylabel("return per episode")
     return artists
+
+
+def plot_validation_curve(ax: Any, hours: Sequence[float], f1: Sequence[float], *, label: str | None = None,
+                          color: str | None = None) -> list[Any]:
+    """NDR model learning curve: validation F1 (percent) at each epoch end against training hours."""
+    return list(ax.plot(np.asarray(hours, float), np.asarray(f1, float), marker="o", markersize=3, color=color,
+                        label=label, linewidth=1.0))

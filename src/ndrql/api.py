@@ -41,8 +41,9 @@ from ndrql.planning.results import PlanResult
 
 Point = tuple[int, int]
 
-#: Stages timed by :func:`solve`, in order. ``startup`` is per-process (torch import, numba kernel
-#: load from its disk cache); the others are the work done for one map.
+#: Stages timed by :func:`solve`, in order. ``startup`` is per-process (numba kernel load from its
+#: disk cache); ``load`` is the model's, once per process (with the torch import on the torch backend
+#: or when ONNX Runtime's export is not cached yet); the others are the work done for one map.
 STAGES: tuple[str, ...] = ("startup", "map", "load", "predict", "priors", "learn")
 #: The stages that make up the work for one map after start-up (the 0.5 s budget of issue 6).
 WORK_STAGES: tuple[str, ...] = ("load", "predict", "priors", "learn")
@@ -59,7 +60,9 @@ class PlanSettings:
     max_size: int = 256
     """Largest planning grid side accepted (the Q-table and episode caps grow with its square)."""
     threads: int = 1
-    """Torch threads for the model's forward pass (1: fastest for one map, and on a busy machine)."""
+    """Threads for the model's forward pass (1: about as fast as 2 for one map, and much faster on a busy machine)."""
+    backend: str = "auto"
+    """Model inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch."""
 
     def __post_init__(self) -> None:
         if self.size < 2:
@@ -68,6 +71,8 @@ class PlanSettings:
             raise NdrqlError(f"the planning grid size {self.size} is larger than the limit {self.max_size}")
         if self.max_map_pixels < 1:
             raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
+        if self.backend not in ("auto", "onnx", "torch"):
+            raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: auto, onnx, torch")
 
 
 @dataclass(frozen=True)
@@ -353,14 +358,13 @@ def solve(
                                      f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
         else:
             from ndrql.model.predict import default_weights_path
-            from ndrql.planning.methods import _torch_threads, load_predictor
+            from ndrql.planning.methods import load_predictor
 
-            with clock.stage("startup"):
-                import torch  # noqa: F401  (per-process cost, counted as start-up)
-            with clock.stage("load"), _torch_threads(settings.threads):
-                predictor = load_predictor(weights)
+            with clock.stage("load"):
+                predictor = load_predictor(weights, settings.threads, settings.backend)
+            info["backend"] = predictor.backend_name
             used_weights = str(weights if weights is not None else default_weights_path())
-            with clock.stage("predict"), _torch_threads(settings.threads):
+            with clock.stage("predict"):
                 info["model_input"] = model_input_points(grid_map.obstacles, start, goal)
                 pred = predictor.predict(grid_map.obstacles, start, goal)
                 region_map = np.asarray(pred.region, dtype=np.float64)

@@ -61,6 +61,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
     p.add_argument("--threads", type=int, default=settings.threads, metavar="N",
                    help=f"{docs['threads']} (default: {settings.threads})")
+    p.add_argument("--backend", choices=("auto", "onnx", "torch"), default=settings.backend,
+                   help=f"{docs['backend']} (default: {settings.backend})")
     p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
@@ -199,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     ql_cfg, prior_cfg = _configs(args)
     if args.threads < 1:
         raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
-    settings = PlanSettings(size=args.size, max_map_pixels=args.max_pixels, threads=args.threads)
+    settings = PlanSettings(size=args.size, max_map_pixels=args.max_pixels, threads=args.threads, backend=args.backend)
     scen, index = _scenario(args)
     loaded = load_map_argument(args)
     if isinstance(loaded, Problem):  # a dataset sample: its points unless overridden
@@ -228,7 +230,7 @@ def run(args: argparse.Namespace) -> int:
     echo(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}); planning grid {pg.shape[0]}x{pg.shape[1]}, "
           f"start {pg.start}, goal {pg.goal}")
     if report.weights:
-        echo(f"model: {_short(report.weights)}")
+        echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')})")
     echo("\n".join(_summary(report)))
     if args.json:
         written = write_json(args.json, report.to_dict(include_records=args.records))

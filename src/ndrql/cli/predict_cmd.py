@@ -21,6 +21,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_problem_arguments(p)
     p.add_argument("--weights", metavar="FILE", help="model checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
     p.add_argument("--out", metavar="DIR", default="out/predict", help="output folder (default: out/predict)")
+    p.add_argument("--backend", choices=("auto", "onnx", "torch"), default="auto",
+                   help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")
+    p.add_argument("--threads", type=int, default=1, metavar="N", help="threads for the forward pass (default: 1)")
     p.set_defaults(func=run)
 
 
@@ -37,7 +40,11 @@ def run(args: argparse.Namespace) -> int:
     problem = resolve_problem(args)
     obstacles = problem.grid_map.obstacles
     t0 = time.perf_counter()
-    predictor = Predictor.load(args.weights)
+    if args.threads < 1:
+        from ndrql.errors import NdrqlError
+
+        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
+    predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend)
     t1 = time.perf_counter()
     pred = predictor.predict(obstacles, problem.start, problem.goal)
     t2 = time.perf_counter()
@@ -57,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
             continue
         written.append(save_figure(lambda ax, prob=prob, name=name, cmap=cmap: plot_probability_overlay(
             ax, obstacles, prob, cmap=cmap, start=problem.start, goal=problem.goal, title=f"NDR {name}"), out / f"{name}.png"))
-    print(f"load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "
+    print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "
           f"region > 0.5: {int((pred.region >= 0.5).sum())} px" +
           (f", guideline > 0.5: {int((pred.guideline >= 0.5).sum())} px" if pred.guideline is not None else ""))
     for path in written:

@@ -161,7 +161,9 @@ class PredictionCache:
         if self._predictor is None:
             from ndrql.model.predict import Predictor
 
-            self._predictor = Predictor.load(self.weights, threads=self.threads)
+            # torch, not ONNX Runtime: the tables in docs/results.md were made with it, and the two
+            # backends differ by ~1e-4 in probability, which could move a run; same numbers on re-runs
+            self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
         pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
         if pred.guideline is None:
             raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")

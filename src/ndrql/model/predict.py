@@ -8,10 +8,12 @@ free pixel if the resize blocked them). Probabilities are mapped back to the map
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -96,40 +98,170 @@ def from_model_output(prob: np.ndarray, shape: tuple[int, int], scale: float) ->
     return prob[r[:, None], c[None, :]]
 
 
-class Predictor:
-    """A loaded NDR model: ``predict(obstacles, start, goal) -> Prediction`` at the map's size."""
+#: Inference backends: ``auto`` is ONNX Runtime when it (and ``onnx``, for the one-time export) is
+#: installed and the model has both outputs, else torch. Measured in docs/performance.md ("NDR model").
+BACKENDS = ("auto", "onnx", "torch")
 
-    def __init__(self, model, encoding: str = "point", threads: int = 0):
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return (1.0 / (1.0 + np.exp(-np.asarray(x, np.float64)))).astype(np.float32)
+
+
+def onnx_available() -> bool:
+    """True when ONNX Runtime and the ``onnx`` exporter package can be imported."""
+    import importlib.util
+
+    return all(importlib.util.find_spec(m) is not None for m in ("onnxruntime", "onnx"))
+
+
+@contextlib.contextmanager
+def torch_threads(n: int) -> Iterator[None]:
+    """Run torch ops on ``n`` threads inside the block (0 = leave as is), restoring the count after."""
+    import torch
+
+    before = torch.get_num_threads()
+    if n and n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if n and n != before:
+            torch.set_num_threads(before)
+
+
+class _TorchRunner:
+    """Eager torch forward: inference_mode, channels_last, fp32, on ``threads`` threads (restored after)."""
+
+    name = "torch"
+
+    def __init__(self, model, threads: int):
         import torch
 
-        if threads:
-            torch.set_num_threads(threads)
-        self.model = model.eval()
+        self.model = model.eval().to(memory_format=torch.channels_last)
+        self.threads = threads
+
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        import torch
+
+        with torch_threads(self.threads), torch.inference_mode():
+            t = torch.from_numpy(np.ascontiguousarray(x, np.float32)).contiguous(memory_format=torch.channels_last)
+            region, guide = self.model(t)
+        r = torch.sigmoid(region)[:, 0].numpy()
+        g = torch.sigmoid(guide)[:, 0].numpy() if guide is not None else None
+        return r, g
+
+
+class _OnnxRunner:
+    """ONNX Runtime session of the exported model (fixed 201x201 input, dynamic batch)."""
+
+    name = "onnx"
+
+    def __init__(self, onnx_path: Path, threads: int):
+        import onnxruntime as ort
+
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = max(0, threads)
+        opts.inter_op_num_threads = 1
+        self.session = ort.InferenceSession(str(onnx_path), sess_options=opts, providers=["CPUExecutionProvider"])
+
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        region, guide = self.session.run(None, {"x": np.ascontiguousarray(x, np.float32)})
+        return _sigmoid(region)[:, 0], _sigmoid(guide)[:, 0]
+
+
+def onnx_cache_path(weights: Path) -> Path:
+    """Where the ONNX export of ``weights`` is kept: ``$NDRQL_CACHE/onnx/<sha256 of the file>.onnx``."""
+    from ndrql.dataset.cache import cache_dir
+    from ndrql.experiments.problems import file_digest
+
+    return cache_dir() / "onnx" / f"{file_digest(weights)}.onnx"
+
+
+def _onnx_model(weights: Path) -> tuple[Path, dict] | None:
+    """The cached ONNX export of ``weights`` and its model config, exporting it on first use.
+
+    A cache hit needs neither torch nor the checkpoint (same bytes, same model); a miss validates the
+    checkpoint (clear CheckpointError) and exports it. ``None`` for models without a guideline output.
+    """
+    import json
+
+    from ndrql.experiments.sweep import write_json_atomic
+
+    onnx_path = onnx_cache_path(weights)
+    meta_path = onnx_path.with_suffix(".json")
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError):
+        meta = None  # no export yet, or a damaged one: export again
+    if isinstance(meta, dict) and "config" in meta and (onnx_path.is_file() or not meta.get("exported")):
+        return (onnx_path, meta["config"]) if meta.get("exported") else None
+    from ndrql.model.export import export_onnx
+    from ndrql.training.checkpoint import load_checkpoint
+
+    config = dict(load_checkpoint(weights)["config"])
+    exported = config.get("guideline_decoder", True)
+    if exported:
+        export_onnx(weights, onnx_path)
+    write_json_atomic(meta_path, {"config": config, "exported": exported, "weights": str(weights)})
+    return (onnx_path, config) if exported else None
+
+
+class Predictor:
+    """A loaded NDR model: ``predict(obstacles, start, goal) -> Prediction`` at the map's size.
+
+    The forward pass runs on torch or on ONNX Runtime (``backend``); both give the same probabilities
+    to about 1e-4 (tested). ``backend_name`` says which one runs.
+    """
+
+    def __init__(self, runner, encoding: str = "point"):
+        self._runner = runner
         self.encoding = encoding
 
-    @classmethod
-    def load(cls, path: str | Path | None = None, threads: int = 0) -> "Predictor":
-        """Load weights from ``path`` (default: :func:`default_weights_path`)."""
-        from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+    @property
+    def backend_name(self) -> str:
+        return self._runner.name
 
+    @property
+    def model(self):
+        """The torch module (torch backend only)."""
+        if not isinstance(self._runner, _TorchRunner):
+            raise AttributeError("this Predictor runs on ONNX Runtime; load it with backend='torch' for the torch module")
+        return self._runner.model
+
+    @classmethod
+    def from_model(cls, model, encoding: str = "point", threads: int = 0) -> "Predictor":
+        """Wrap an in-memory torch model (eager backend)."""
+        return cls(_TorchRunner(model, threads), encoding)
+
+    @classmethod
+    def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto") -> "Predictor":
+        """Load weights from ``path`` (default: :func:`default_weights_path`) on ``backend`` (:data:`BACKENDS`)."""
+        from ndrql.errors import NdrqlError
+
+        if backend not in BACKENDS:
+            raise NdrqlError(f"unknown inference backend {backend!r}; valid: {', '.join(BACKENDS)}")
         path = Path(path) if path is not None else default_weights_path()
         if not path.is_file():
             raise CheckpointError(
                 f"missing model weights: {path} (reinstall ndrql, set NDRQL_WEIGHTS, or pass --weights / --prior-from)"
             )
+        if backend == "onnx" and not onnx_available():
+            raise NdrqlError("backend 'onnx' needs onnxruntime and onnx: pip install onnxruntime onnx")
+        if backend != "torch" and onnx_available():
+            found = _onnx_model(path)
+            if found is not None:
+                onnx_path, config = found
+                return cls(_OnnxRunner(onnx_path, threads), encoding=config.get("encoding", "point"))
+            if backend == "onnx":
+                raise NdrqlError(f"{path} holds a model without a guideline output; the ONNX backend needs both outputs")
+        from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+
         data = load_checkpoint(path)
-        model = model_from_checkpoint(data)
-        return cls(model, encoding=dict(data["config"]).get("encoding", "point"), threads=threads)
+        return cls.from_model(model_from_checkpoint(data), dict(data["config"]).get("encoding", "point"), threads)
 
     def predict_batch(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Probabilities for an encoded batch (B, C, H, W) -> (B, H, W) arrays."""
-        import torch
-
-        with torch.inference_mode():
-            region, guide = self.model(torch.from_numpy(np.ascontiguousarray(x, np.float32)))
-        r = torch.sigmoid(region)[:, 0].numpy()
-        g = torch.sigmoid(guide)[:, 0].numpy() if guide is not None else None
-        return r, g
+        return self._runner(x)
 
     def predict(self, obstacles: np.ndarray, start: Point, goal: Point) -> Prediction:
         """Region and guideline probabilities for one map, at the map's own resolution."""
@@ -146,6 +278,7 @@ class Predictor:
         return Prediction(region=region, guideline=guide)
 
 
-def predict(obstacles: np.ndarray, start: Point, goal: Point, weights: str | Path | None = None) -> Prediction:
+def predict(obstacles: np.ndarray, start: Point, goal: Point, weights: str | Path | None = None,
+            backend: str = "auto") -> Prediction:
     """One-shot prediction with the shipped (or given) weights."""
-    return Predictor.load(weights).predict(obstacles, start, goal)
+    return Predictor.load(weights, backend=backend).predict(obstacles, start, goal)

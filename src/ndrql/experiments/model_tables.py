@@ -214,22 +214,43 @@ def variant_config(v: ModelVariant, data: str, epochs: int, threads: int, base=N
     return replace(base or TrainConfig(), data=data, model=v.model, encoding=v.encoding, epochs=epochs, threads=threads)
 
 
-def _train_one(cfg, run_dir: str) -> str:
-    """Process-pool entry point: train (or resume) one run quietly, its log beside its checkpoints."""
+def _train_one(cfg, run_dir: str, queue=None) -> str:
+    """Process-pool entry point: train (or resume) one run quietly, its log beside its checkpoints.
+
+    Every log line also goes to ``queue`` (when given) as ``(run_dir, line)`` for the parent's progress bar.
+    """
     from ndrql.training.loop import train
 
     run = Path(run_dir)
     run.mkdir(parents=True, exist_ok=True)
     with open(run / "train.log", "a") as fh:
-        train(cfg, run, resume=(run / "last.pt").is_file(), progress=False, log=lambda m: print(m, file=fh, flush=True))
+        def log(msg: str) -> None:
+            print(msg, file=fh, flush=True)
+            if queue is not None:
+                queue.put((run_dir, msg))
+
+        train(cfg, run, resume=(run / "last.pt").is_file(), progress=False, log=log)
     return run_dir
 
 
+def _steps_done(line: str) -> tuple[int, int, int] | None:
+    """``(epoch, step, steps per epoch)`` from a training log line ``epoch E step S/N ...``."""
+    import re
+
+    m = re.match(r"epoch (\d+) step (\d+)/(\d+)", line)
+    return (int(m[1]), int(m[2]), int(m[3])) if m else None
+
+
 def train_variants(variants: list[ModelVariant], runs: Path, data: str, epochs: int, workers: int,
-                   log: Callable[[str], None], base=None) -> None:
-    """Train the variants not finished yet, ``workers`` at a time (one process each, cores shared evenly)."""
+                   log: Callable[[str], None], base=None, progress: bool = True) -> None:
+    """Train the variants not finished yet, ``workers`` at a time (one process each, cores shared evenly),
+    with one progress bar over all their optimiser steps (ETA included)."""
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    import queue as queue_mod
+    import sys
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    from tqdm import tqdm
 
     threads = max(1, (os.cpu_count() or 1) // workers)
     todo = []
@@ -240,13 +261,38 @@ def train_variants(variants: list[ModelVariant], runs: Path, data: str, epochs: 
                              f"or another --runs directory (every variant needs the same budget)")
         if st is None or not st["finished"]:
             todo.append(v)
+    if not todo:
+        return
     log(f"table4: training {len(todo)} variant(s) for {epochs} epochs, {workers} at a time, {threads} thread(s) each "
         f"(logs: {runs}/<variant>/train.log)")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-        futures = {pool.submit(_train_one, variant_config(v, data, epochs, threads, base), str(runs / v.name)): v for v in todo}
-        for fut in as_completed(futures):
-            fut.result()
-            log(f"table4: {futures[fut].name} trained")
+    ctx = mp.get_context("spawn")
+    with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        q = manager.Queue()
+        futures = {pool.submit(_train_one, variant_config(v, data, epochs, threads, base), str(runs / v.name), q): v
+                   for v in todo}
+        done_steps: dict[str, int] = {}
+        bar = tqdm(total=None, desc="table4 training", unit="step", disable=not progress, file=sys.stderr)
+        pending = set(futures)
+        while pending:
+            finished, pending = wait(pending, timeout=2.0, return_when=FIRST_COMPLETED)
+            while True:
+                try:
+                    run_dir, line = q.get_nowait()
+                except queue_mod.Empty:
+                    break
+                pos = _steps_done(line)
+                if pos is None:
+                    continue
+                epoch, step, per_epoch = pos
+                if bar.total is None:
+                    bar.total = len(todo) * epochs * per_epoch
+                done_steps[run_dir] = (epoch - 1) * per_epoch + step
+                bar.n = sum(done_steps.values())
+                bar.refresh()
+            for fut in finished:
+                fut.result()
+                log(f"table4: {futures[fut].name} trained")
+        bar.close()
 
 
 def table4(out_dir: str | Path, data: str | None = None, epochs: int = 2, run: bool = False, runs: str | Path | None = None,
@@ -268,7 +314,7 @@ def table4(out_dir: str | Path, data: str | None = None, epochs: int = 2, run: b
     if epochs < 1:
         raise NdrqlError(f"table4 --epochs must be >= 1, got {epochs}")
     if run:
-        train_variants(list(TABLE4_VARIANTS), runs, str(root), epochs, workers, log, base)
+        train_variants(list(TABLE4_VARIANTS), runs, str(root), epochs, workers, log, base, progress)
     rows, todo, numbers = [], [], {}
     for v in TABLE4_VARIANTS:
         st = run_status(runs / v.name)

@@ -111,3 +111,14 @@ def test_cli_backend_flags(cache, model_weights, ndrql_exe, tmp_path):
     out = subprocess.run([*ndrql_exe, "predict", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "gpu"],
                          capture_output=True, text=True, env=env)
     assert out.returncode == 2 and "invalid choice: 'gpu'" in out.stderr
+
+
+def test_unwritable_cache_falls_back_to_torch_under_auto(tmp_path, monkeypatch, model_weights):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    monkeypatch.setenv("NDRQL_CACHE", str(blocker / "cache"))  # mkdir fails below a file
+    with pytest.warns(UserWarning, match="using torch"):
+        p = Predictor.load(model_weights, backend="auto")
+    assert p.backend_name == "torch"
+    with pytest.raises(NdrqlError, match="ONNX Runtime backend failed"):
+        Predictor.load(model_weights, backend="onnx")

@@ -248,12 +248,22 @@ class Predictor:
         if backend == "onnx" and not onnx_available():
             raise NdrqlError("backend 'onnx' needs onnxruntime and onnx: pip install onnxruntime onnx")
         if backend != "torch" and onnx_available():
-            found = _onnx_model(path)
-            if found is not None:
-                onnx_path, config = found
-                return cls(_OnnxRunner(onnx_path, threads), encoding=config.get("encoding", "point"))
-            if backend == "onnx":
-                raise NdrqlError(f"{path} holds a model without a guideline output; the ONNX backend needs both outputs")
+            try:
+                found = _onnx_model(path)
+                if found is not None:
+                    onnx_path, config = found
+                    return cls(_OnnxRunner(onnx_path, threads), encoding=config.get("encoding", "point"))
+            except CheckpointError:
+                raise
+            except Exception as exc:  # an unwritable cache, a failed export or session: torch still works
+                if backend == "onnx":
+                    raise NdrqlError(f"ONNX Runtime backend failed for {path}: {type(exc).__name__}: {exc}") from None
+                import warnings
+
+                warnings.warn(f"ONNX Runtime backend unavailable ({type(exc).__name__}: {exc}); using torch", stacklevel=2)
+            else:
+                if backend == "onnx":
+                    raise NdrqlError(f"{path} holds a model without a guideline output; the ONNX backend needs both outputs")
         from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
 
         data = load_checkpoint(path)

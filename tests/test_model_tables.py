@@ -20,6 +20,13 @@ def quiet(_msg: str) -> None:
     pass
 
 
+def assert_rectangular(markdown: str) -> None:
+    """Every row of every table in ``markdown`` has as many cells as its header."""
+    rows = [line for line in markdown.splitlines() if line.startswith("|")]
+    assert rows
+    assert len({line.count(" | ") for line in rows}) == 1, rows
+
+
 @pytest.fixture(scope="module")
 def table4_runs(tiny_dataset, tmp_path_factory):
     """Every Table 4 variant trained for one epoch on the tiny dataset, two at a time."""
@@ -47,6 +54,7 @@ def test_table4_trains_every_variant_with_one_budget_and_scores_it(table4_runs, 
     direct = mt.evaluate_weights(st["weights"], tiny_dataset, None, False)
     assert direct["unseen"]["region_f1"] == pytest.approx(numbers["point+GD"]["unseen"]["region_f1"])
     assert f"| point+GD | yes | {numbers['point+GD']['seen']['region_f1']:.2f} |" in text
+    assert_rectangular(text)
 
 
 def test_table4_rerun_evaluates_from_cache_without_training(table4_runs, tiny_dataset):
@@ -69,6 +77,7 @@ def test_table4_refuses_a_different_budget(table4_runs, tiny_dataset):
                   log=quiet, base=BASE)
     text = mt.table4(out / "other", data=str(tiny_dataset), epochs=3, runs=out / "runs", progress=False, log=quiet).read_text()
     assert "trained for 1 epochs, not 3" in text and "ndrql reproduce table4 --run --epochs 3" in text
+    assert_rectangular(text)
 
 
 def test_table4_shows_an_unfinished_run_without_scoring_it(tiny_dataset, tmp_path):
@@ -80,7 +89,8 @@ def test_table4_shows_an_unfinished_run_without_scoring_it(tiny_dataset, tmp_pat
     text = mt.table4(tmp_path / "res", data=str(tiny_dataset), epochs=2, runs=tmp_path / "runs", progress=False,
                      log=quiet).read_text()
     assert f"| {v.name} | no | training: epoch 1/2, step 1 |" in text
-    assert "| point+GD | yes | not trained |" in text
+    assert "| point+GD | yes | not trained (no checkpoint yet) |" in text
+    assert_rectangular(text)
     assert json.loads((tmp_path / "res" / "summary.json").read_text()) == {}
 
 
@@ -96,9 +106,11 @@ def test_table1_scores_ndr_and_rgp_with_their_budgets(tiny_dataset, tmp_path):
     text = path.read_text()
     assert "| RGP (ours) |" in text and "| NDR (paper, reference) | 93.02 | 61.22 | 71.96 | 37.31 |" in text
     assert "Missing" not in text
+    assert_rectangular(text)
     text = mt.table1(tmp_path / "res2", data=str(tiny_dataset), weights=str(tmp_path / "ndr" / "best.pt"),
                      rgp_weights=str(tmp_path / "nope.pt"), progress=False, log=quiet).read_text()
     assert "| RGP (ours) | needs weights |" in text and "ndrql train --model rgp" in text
+    assert_rectangular(text)
 
 
 def test_sizing_reads_learning_curves(table4_runs, tmp_path):
@@ -110,3 +122,4 @@ def test_sizing_reads_learning_curves(table4_runs, tmp_path):
     row = numbers["table4/point+GD"]["epochs"][-1]
     assert f"| {row['val_region_f1']:.2f} |" in text and "| quarter width (0.25), bf16 | not trained |" in text
     assert (tmp_path / "sizing" / "sizing.png").stat().st_size > 5000
+    assert_rectangular(text)

@@ -183,7 +183,7 @@ def table1(out_dir: str | Path, data: str | None = None, weights: str | None = N
     for name, path in (("NDR", ndr), ("RGP", rgp)):
         if not path.is_file():
             missing.append(name)
-            rows.append([f"{name} (ours)", "needs weights", "", "", "", "", "", "", "", str(path)])
+            rows.append([f"{name} (ours)", "needs weights"] + [""] * 7 + [str(path)])
             continue
         r = evaluate_weights(path, root, limit, progress, cache=out_dir / "evals")
         s = checkpoint_summary(path)
@@ -321,12 +321,12 @@ def table4(out_dir: str | Path, data: str | None = None, epochs: int = 2, run: b
         head = [v.name, "yes" if v.guideline_decoder else "no"]
         paper = " / ".join(_fmt(x) for x in v.paper)
         if st is None or not st["finished"]:
-            where = "not trained" if st is None else f"training: epoch {st['epoch'] + 1}/{st['epochs']}, step {st['step']}"
-            rows.append(head + [where, "", "", "", "", "", "", paper])
+            where = "not trained (no checkpoint yet)" if st is None else f"training: epoch {st['epoch'] + 1}/{st['epochs']}, step {st['step']}"
+            rows.append(head + [where] + [""] * 5 + [paper])
             todo.append(v.name)
             continue
         if st["epochs"] != epochs:
-            rows.append(head + [f"trained for {st['epochs']} epochs, not {epochs}", "", "", "", "", "", "", paper])
+            rows.append(head + [f"trained for {st['epochs']} epochs, not {epochs}"] + [""] * 5 + [paper])
             todo.append(v.name)
             continue
         r = evaluate_weights(st["weights"], root, limit, progress, cache=out_dir / "evals")

@@ -113,13 +113,15 @@ def test_table1_scores_ndr_and_rgp_with_their_budgets(tiny_dataset, tmp_path):
     assert_rectangular(text)
 
 
-def test_sizing_reads_learning_curves(table4_runs, tmp_path):
+def test_sizing_reads_learning_curves(table4_runs, tiny_dataset, tmp_path):
     out, _ = table4_runs
-    path = mt.sizing(tmp_path / "sizing", runs=out / "runs", log=quiet)
+    path = mt.sizing(tmp_path / "sizing", runs=out / "runs", data=str(tiny_dataset), progress=False, log=quiet)
     text = path.read_text()
     numbers = json.loads((tmp_path / "sizing" / "summary.json").read_text())
     assert list(numbers) == ["table4/point+GD"]  # the only sizing run that exists here
     row = numbers["table4/point+GD"]["epochs"][-1]
     assert f"| {row['val_region_f1']:.2f} |" in text and "| quarter width (0.25), bf16 | not trained |" in text
     assert (tmp_path / "sizing" / "sizing.png").stat().st_size > 5000
+    test = numbers["table4/point+GD"]["test"]
+    assert f"| {test['seen']['region_f1']:.2f} / {test['seen']['guideline_f1']:.2f} |" in text
     assert_rectangular(text)

@@ -62,7 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "$NDRQL_CACHE/runs; table4 uses DIR/table4/<variant>)")
     p.add_argument("--rgp-weights", metavar="FILE", help="table1: RGP peer weights (default: $NDRQL_RGP_WEIGHTS or "
                    "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
-    p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4: evaluate on the first N samples per split")
+    p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
@@ -126,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
         elif target == "sizing":
             from ndrql.experiments.model_tables import sizing
 
-            path = sizing(out, runs=args.runs, command=opts.command, log=log)
+            path = sizing(out, runs=args.runs, command=opts.command, data=args.data, limit=args.limit,
+                          progress=not args.no_progress, log=log)
         else:
             from ndrql.experiments.model_tables import table4
 

@@ -354,9 +354,10 @@ def read_metrics(run_dir: Path) -> list[dict[str, float]]:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
 
 
-def sizing(out_dir: str | Path, runs: str | Path | None = None, command: str = "",
-           log: Callable[[str], None] = print) -> Path:
-    """Validation F1 against training hours for the model sizes and precisions of :data:`SIZING_RUNS`."""
+def sizing(out_dir: str | Path, runs: str | Path | None = None, command: str = "", data: str | None = None,
+           limit: int | None = None, progress: bool = True, log: Callable[[str], None] = print) -> Path:
+    """Validation F1 against training hours for the model sizes and precisions of :data:`SIZING_RUNS`,
+    and each run's best checkpoint scored on TEST/SEEN and TEST/UNSEEN."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -365,24 +366,30 @@ def sizing(out_dir: str | Path, runs: str | Path | None = None, command: str = "
     from ndrql.experiments.report import save_figure
     from ndrql.viz.curves import plot_validation_curve
 
+    from ndrql.experiments.problems import resolve_root
+
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    root = resolve_root(data)
     runs = Path(runs) if runs else runs_root()
     rows, numbers = [], {}
     fig, (ax_r, ax_g) = plt.subplots(1, 2, figsize=(10, 3.8))
     for name, label in SIZING_RUNS:
         metrics, st = read_metrics(runs / name), run_status(runs / name)
         if not metrics or st is None:
-            rows.append([label, "not trained", "", "", "", "", "", f"`{name}`"])
+            rows.append([label, "not trained"] + [""] * 7 + [f"`{name}`"])
             continue
         params = checkpoint_summary(st["weights"])["params_m"]
         last = metrics[-1]
         sec_per_step = 3600 * last["train_hours"] / max(1.0, last["global_step"])
-        numbers[name] = {"label": label, "params_m": params, "s_per_step": sec_per_step, "epochs": metrics}
+        test = evaluate_weights(st["weights"], root, limit, progress, cache=out_dir / "evals")
+        numbers[name] = {"label": label, "params_m": params, "s_per_step": sec_per_step, "epochs": metrics, "test": test}
         for ax, key in ((ax_r, "val_region_f1"), (ax_g, "val_guideline_f1")):
             plot_validation_curve(ax, [m["train_hours"] for m in metrics], [m[key] for m in metrics], label=label)
         rows.append([label, _fmt(params), _fmt(sec_per_step), f"{int(last['epoch'])}/{st['epochs']}", _fmt(last["train_hours"]),
-                     _fmt(last["val_region_f1"]), _fmt(last["val_guideline_f1"]), f"`{name}`"])
+                     _fmt(last["val_region_f1"]), _fmt(last["val_guideline_f1"]),
+                     f"{_fmt(test['seen']['region_f1'])} / {_fmt(test['seen']['guideline_f1'])}",
+                     f"{_fmt(test['unseen']['region_f1'])} / {_fmt(test['unseen']['guideline_f1'])}", f"`{name}`"])
     ax_r.set(xlabel="training hours (one CPU thread)", ylabel="validation region F1 (%)")
     ax_g.set(xlabel="training hours (one CPU thread)", ylabel="validation guideline F1 (%)")
     ax_r.legend(fontsize=7)
@@ -394,5 +401,7 @@ def sizing(out_dir: str | Path, runs: str | Path | None = None, command: str = "
           "Each run: `ndrql train --threads 1` with the same data order, augmentation and schedule length "
           "(tools/train_comparisons.sh); every width with the same 8-channel guideline UNet, so only the backbone "
           "width changes. Validation: 462 samples of held-out TRAIN maps (no SEEN map). Figure: sizing.png.", "",
-          md_table(["run", "params (M)", "s/step", "epochs", "train h", "val R", "val G", "run dir"], rows)]
+          md_table(["run", "params (M)", "s/step", "epochs", "train h", "val R", "val G", "seen R / G", "unseen R / G",
+                    "run dir"], rows), "", "val: last epoch; seen/unseen: the run's best checkpoint on the full test "
+          "sets (unseen with the regenerated NARROW PASSAGE labels)."]
     return _write(out_dir, "sizing", md, numbers)

@@ -71,8 +71,10 @@ class PlanSettings:
             raise NdrqlError(f"the planning grid size {self.size} is larger than the limit {self.max_size}")
         if self.max_map_pixels < 1:
             raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
-        if self.backend not in ("auto", "onnx", "torch"):
-            raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: auto, onnx, torch")
+        from ndrql.model.predict import BACKENDS
+
+        if self.backend not in BACKENDS:
+            raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
 
 
 @dataclass(frozen=True)

@@ -54,6 +54,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ndr_default.pt)")
     p.add_argument("--prior-from", metavar="FILE.npz",
                    help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]")
+    from ndrql.model.predict import BACKENDS
+
     settings = PlanSettings()
     docs = field_docs(PlanSettings)
     p.add_argument("--size", type=int, default=settings.size, metavar="N", help=f"{docs['size']} (default: {settings.size})")
@@ -61,7 +63,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
     p.add_argument("--threads", type=int, default=settings.threads, metavar="N",
                    help=f"{docs['threads']} (default: {settings.threads})")
-    p.add_argument("--backend", choices=("auto", "onnx", "torch"), default=settings.backend,
+    p.add_argument("--backend", choices=BACKENDS, default=settings.backend,
                    help=f"{docs['backend']} (default: {settings.backend})")
     p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")

@@ -13,6 +13,7 @@ EXAMPLES = """examples:
 
 def register(sub: argparse._SubParsersAction) -> None:
     from ndrql.cli.common import add_problem_arguments
+    from ndrql.model.predict import BACKENDS
 
     p = sub.add_parser("predict", help="predict the path region and guideline with the NDR model",
                        description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
@@ -21,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_problem_arguments(p)
     p.add_argument("--weights", metavar="FILE", help="model checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
     p.add_argument("--out", metavar="DIR", default="out/predict", help="output folder (default: out/predict)")
-    p.add_argument("--backend", choices=("auto", "onnx", "torch"), default="auto",
+    p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="threads for the forward pass (default: 1)")
     p.set_defaults(func=run)

@@ -363,10 +363,9 @@ def sizing(out_dir: str | Path, runs: str | Path | None = None, command: str = "
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ndrql.experiments.problems import resolve_root
     from ndrql.experiments.report import save_figure
     from ndrql.viz.curves import plot_validation_curve
-
-    from ndrql.experiments.problems import resolve_root
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

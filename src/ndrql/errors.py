@@ -23,3 +23,7 @@ class CheckpointError(NdrqlError):
 
 class DatasetError(NdrqlError):
     """The dataset directory is missing or does not have the expected layout."""
+
+
+class OutputError(NdrqlError):
+    """An output file cannot be written: unwritable or missing folder, a directory in the way, disk full."""

@@ -1,0 +1,306 @@
+"""Output files, in one place: the atomic writer, JSON, NPZ, figures, folders and file digests.
+
+Every file ndrql writes (maps, JSON reports, figures, arrays, checkpoints, caches, ONNX exports)
+goes through :func:`atomic_write`, which behaves like a careful Unix tool:
+
+- a regular file is replaced atomically: the data goes to a temporary file in the target's folder,
+  is flushed to disk (``fsync``) and renamed over the target, so a reader sees the old file or the
+  whole new one, never a part. On Linux the temporary file is anonymous (``O_TMPFILE``) until it
+  is complete, so not even ``kill -9`` leaves a half-written file behind; elsewhere a named
+  temporary file is removed on any error, and ones left by killed processes are swept up by the
+  next write of the same file;
+- a symlink is followed: the file it points to is written and the link stays a link;
+- an existing FIFO, character device (``/dev/null``, a terminal) or other non-regular file is
+  written directly, never replaced; a directory or socket in the way is an error;
+- a new file gets ``0666 & ~umask`` permissions (like ``>`` in a shell), a replaced file keeps its
+  mode; missing parent folders are created;
+- every failure is one :class:`~ndrql.errors.OutputError` line and leaves no temporary file.
+
+Layering: this module sits at the bottom of the package. It imports the standard library and
+:mod:`ndrql.errors` only (numpy and matplotlib objects are only handled when passed in), so any
+layer may use it.
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import math
+import os
+import secrets
+import stat
+from pathlib import Path
+from typing import IO, Any, Callable, Mapping
+
+from ndrql.errors import OutputError
+
+__all__ = [
+    "OutputError",
+    "atomic_write",
+    "file_digest",
+    "make_folder",
+    "save_figure",
+    "save_npz",
+    "to_jsonable",
+    "write_bytes",
+    "write_json",
+    "write_text",
+]
+
+_TMP_SUFFIX = ".ndrql-tmp"
+"""Suffix of named temporary files (used where anonymous ones are not available)."""
+
+_MODES = ("wb", "w")
+
+
+def _shown(path: str | os.PathLike) -> str:
+    """``path`` for an error message: as given, or quoted when it holds control characters."""
+    text = os.fspath(path)
+    return text if text.isprintable() else repr(text)
+
+
+def _error(path: str | os.PathLike, exc: OSError) -> OutputError:
+    return OutputError(f"cannot write {_shown(path)}: {exc.strerror or type(exc).__name__}")
+
+
+def make_folder(path: str | os.PathLike) -> Path:
+    """Create the folder ``path`` and its parents if missing; :class:`OutputError` if impossible."""
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputError(f"cannot create folder {_shown(folder)}: a file is in the way") from None
+    except OSError as exc:
+        raise OutputError(f"cannot create folder {_shown(folder)}: {exc.strerror or exc}") from None
+    return folder
+
+
+_AT_FDCWD = -100
+_AT_SYMLINK_FOLLOW = 0x400
+
+
+def _linkat() -> Any:
+    """libc's ``linkat`` (``os.link`` does not follow the ``/proc/self/fd`` link on Linux), or ``None``."""
+    try:
+        import ctypes
+
+        fn = ctypes.CDLL(None, use_errno=True).linkat
+    except (ImportError, OSError, AttributeError):
+        return None
+    fn.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_int)
+    return fn
+
+
+def _anonymous_supported() -> bool:
+    """Anonymous temporary files: Linux ``O_TMPFILE``, named later through ``/proc/self/fd``."""
+    return hasattr(os, "O_TMPFILE") and os.path.isdir("/proc/self/fd") and _linkat() is not None
+
+
+def _temp_name(folder: Path, name: str) -> Path:
+    return folder / f".{name[:180]}.{os.getpid()}.{secrets.token_hex(4)}{_TMP_SUFFIX}"
+
+
+def _open_temp(folder: Path, name: str) -> tuple[int, Path | None]:
+    """A writable descriptor for the new contents and its name (``None`` while anonymous)."""
+    flags = os.O_WRONLY | getattr(os, "O_CLOEXEC", 0)
+    if _anonymous_supported():
+        try:
+            return os.open(folder, flags | os.O_TMPFILE, 0o666), None
+        except OSError as exc:  # the filesystem has no O_TMPFILE: use a named file
+            if exc.errno not in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL):
+                raise
+    while True:
+        tmp = _temp_name(folder, name)
+        try:
+            return os.open(tmp, flags | os.O_CREAT | os.O_EXCL, 0o666), tmp
+        except FileExistsError:
+            continue
+
+
+def _link_anonymous(fd: int, folder: Path, name: str) -> Path:
+    """Give the anonymous file ``fd`` a temporary name in ``folder`` (to rename it over the target)."""
+    import ctypes
+
+    linkat = _linkat()
+    source = f"/proc/self/fd/{fd}".encode()
+    while True:
+        tmp = _temp_name(folder, name)
+        if linkat(_AT_FDCWD, source, _AT_FDCWD, os.fsencode(tmp), _AT_SYMLINK_FOLLOW) == 0:
+            return tmp
+        code = ctypes.get_errno()
+        if code != errno.EEXIST:
+            raise OSError(code, os.strerror(code), str(tmp))
+
+
+def _sweep_stale(folder: Path, name: str) -> None:
+    """Remove temporary files of ``name`` left by processes that no longer run (``kill -9``)."""
+    prefix = f".{name[:180]}."
+    try:
+        entries = [e for e in os.listdir(folder) if e.startswith(prefix) and e.endswith(_TMP_SUFFIX)]
+    except OSError:
+        return
+    for entry in entries:
+        try:
+            pid = int(entry[len(prefix):].split(".")[0])
+            if pid == os.getpid():
+                continue
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            try:
+                os.unlink(folder / entry)
+            except OSError:
+                pass
+        except (ValueError, PermissionError, OverflowError):
+            continue
+
+
+def _fsync_folder(folder: Path) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _open_kwargs(mode: str) -> dict[str, Any]:
+    return {} if "b" in mode else {"encoding": "utf-8", "newline": ""}
+
+
+def _write_direct(given: Path, target: Path, write_fn: Callable[[IO], Any], mode: str) -> None:
+    """Write into an existing non-regular file (FIFO, device) without replacing it."""
+    try:
+        with open(target, mode, **_open_kwargs(mode)) as fh:
+            write_fn(fh)
+    except OSError as exc:
+        raise _error(given, exc) from None
+
+
+def _replace(given: Path, target: Path, write_fn: Callable[[IO], Any], mode: str, keep_mode: int | None) -> None:
+    """Write a new file beside ``target`` and rename it over ``target``; no debris on any failure."""
+    folder, name = target.parent, target.name
+    fd, tmp = -1, None
+    try:
+        fd, tmp = _open_temp(folder, name)
+        with os.fdopen(fd, mode, closefd=False, **_open_kwargs(mode)) as fh:
+            write_fn(fh)
+            fh.flush()
+        if keep_mode is not None:
+            os.fchmod(fd, keep_mode)
+        os.fsync(fd)
+        if tmp is None:
+            tmp = _link_anonymous(fd, folder, name)
+        else:
+            _sweep_stale(folder, name)
+        os.replace(tmp, target)
+        tmp = None
+    except BaseException as exc:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+        if isinstance(exc, OSError):
+            raise _error(given, exc) from None
+        raise
+    finally:
+        if fd >= 0:
+            os.close(fd)
+    _fsync_folder(folder)
+
+
+def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode: str = "wb") -> Path:
+    """Write a file by calling ``write_fn(fh)`` on an open file object; return ``path`` as given.
+
+    ``mode`` is ``"wb"`` (bytes) or ``"w"`` (UTF-8 text). Regular files are replaced atomically,
+    symlinks followed, FIFOs and devices written directly, new files created with the umask's
+    permissions, parent folders created (module docstring). An ``OSError`` becomes one
+    :class:`OutputError` line; any other exception from ``write_fn`` propagates unchanged. Either
+    way no temporary file is left behind and the old contents stay in place.
+    """
+    if mode not in _MODES:
+        raise ValueError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
+    given = Path(path)
+    target = Path(os.path.realpath(given))
+    try:
+        st: os.stat_result | None = os.stat(target)
+    except (FileNotFoundError, NotADirectoryError):  # a missing folder or a file in the way: make_folder says
+        st = None
+    except OSError as exc:
+        raise _error(given, exc) from None
+    if st is not None:
+        if stat.S_ISDIR(st.st_mode):
+            raise OutputError(f"cannot write {_shown(given)}: it is a folder")
+        if stat.S_ISSOCK(st.st_mode):
+            raise OutputError(f"cannot write {_shown(given)}: it is a socket")
+        if not stat.S_ISREG(st.st_mode):
+            _write_direct(given, target, write_fn, mode)
+            return given
+    make_folder(target.parent)
+    _replace(given, target, write_fn, mode, stat.S_IMODE(st.st_mode) if st is not None else None)
+    return given
+
+
+def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` (:func:`atomic_write`)."""
+    return atomic_write(path, lambda fh: fh.write(data))
+
+
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` as UTF-8 (:func:`atomic_write`)."""
+    return atomic_write(path, lambda fh: fh.write(text), mode="w")
+
+
+def to_jsonable(obj: Any) -> Any:
+    """``obj`` with numpy arrays and scalars, tuples and paths turned into JSON types; NaN and inf -> ``None``."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    if hasattr(obj, "tolist") and hasattr(obj, "dtype"):  # numpy array or scalar
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2) -> Path:
+    """Write ``obj`` as strict JSON (:func:`to_jsonable`), indented or compact (``indent=None``)."""
+    separators = (",", ":") if indent is None else None
+    text = json.dumps(to_jsonable(obj), indent=indent, separators=separators, allow_nan=False) + "\n"
+    return write_text(path, text)
+
+
+def save_npz(path: str | os.PathLike, arrays: Mapping[str, Any] | None = None, *, compressed: bool = True,
+             **named: Any) -> Path:
+    """Write arrays (a mapping and/or keywords) as an ``.npz`` archive, zip-compressed by default."""
+    import numpy as np
+
+    contents = {**(arrays or {}), **named}
+    save = np.savez_compressed if compressed else np.savez
+    return atomic_write(path, lambda fh: save(fh, **contents))
+
+
+def save_figure(fig: Any, path: str | os.PathLike, **savefig_kw: Any) -> Path:
+    """Save a matplotlib figure in the format of ``path``'s extension (PNG when there is none)."""
+    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    supported = fig.canvas.get_supported_filetypes()
+    if fmt not in supported:
+        raise OutputError(f"cannot save a figure as {fmt!r}; use one of {', '.join(sorted(supported))}")
+    return atomic_write(path, lambda fh: fig.savefig(fh, format=fmt, **savefig_kw))
+
+
+def file_digest(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes, as 64 hex digits (read in 1 MB chunks)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()

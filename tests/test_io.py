@@ -1,0 +1,274 @@
+"""The one output writer (ndrql.io): atomic replace, symlinks, FIFOs, umask, no debris, clear errors."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import stat
+import threading
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ndrql import io as nio
+from ndrql.errors import NdrqlError, OutputError
+
+
+def _listing(folder: Path) -> list[str]:
+    return sorted(os.listdir(folder))
+
+
+def test_write_bytes_and_text_round_trip(tmp_path):
+    assert nio.write_bytes(tmp_path / "a.bin", b"\x00\x01") == tmp_path / "a.bin"
+    assert (tmp_path / "a.bin").read_bytes() == b"\x00\x01"
+    nio.write_text(tmp_path / "b.txt", "h\u00e9\n")
+    assert (tmp_path / "b.txt").read_bytes() == "h\u00e9\n".encode()
+    assert _listing(tmp_path) == ["a.bin", "b.txt"]
+
+
+def test_replaces_atomically_with_a_new_inode(tmp_path):
+    target = tmp_path / "out.json"
+    target.write_text("old")
+    old_inode = target.stat().st_ino
+    held = open(target)  # a reader that opened the old file keeps seeing the old contents
+    nio.write_json(target, {"x": 1})
+    assert held.read() == "old"
+    held.close()
+    assert json.loads(target.read_text()) == {"x": 1}
+    assert target.stat().st_ino != old_inode
+    assert _listing(tmp_path) == ["out.json"]
+
+
+def test_write_json_converts_numpy_paths_and_non_finite(tmp_path):
+    obj = {"a": np.arange(3), "b": np.float32(0.5), "c": (1, 2), "d": Path("x/y"), "e": float("nan"),
+           "f": np.int64(7), 3: [float("inf")]}
+    nio.write_json(tmp_path / "o.json", obj)
+    assert json.loads((tmp_path / "o.json").read_text()) == {
+        "a": [0, 1, 2], "b": 0.5, "c": [1, 2], "d": "x/y", "e": None, "f": 7, "3": [None]}
+    nio.write_json(tmp_path / "c.json", {"k": [1, 2]}, indent=None)
+    assert (tmp_path / "c.json").read_text() == '{"k":[1,2]}\n'
+
+
+def test_symlink_is_followed_and_stays_a_link(tmp_path):
+    real = tmp_path / "real.txt"
+    real.write_text("old")
+    link = tmp_path / "link.txt"
+    link.symlink_to(real)
+    nio.write_text(link, "new")
+    assert link.is_symlink() and os.readlink(link) == str(real)
+    assert real.read_text() == "new"
+    # a dangling link names the file to create
+    dangling = tmp_path / "dangling.txt"
+    dangling.symlink_to(tmp_path / "made.txt")
+    nio.write_text(dangling, "made")
+    assert dangling.is_symlink() and (tmp_path / "made.txt").read_text() == "made"
+    assert _listing(tmp_path) == ["dangling.txt", "link.txt", "made.txt", "real.txt"]
+
+
+def test_fifo_is_written_directly_not_replaced(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    nio.write_json(fifo, {"through": "the pipe"})
+    reader.join(timeout=30)
+    assert not reader.is_alive()
+    assert json.loads(got[0]) == {"through": "the pipe"}
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert _listing(tmp_path) == ["pipe"]
+
+
+def test_symlink_to_a_fifo_writes_the_fifo(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    link = tmp_path / "out.npz"
+    link.symlink_to(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    nio.save_npz(link, a=np.arange(4))
+    reader.join(timeout=30)
+    assert not reader.is_alive()
+    assert got[0][:2] == b"PK"  # a zip archive came through the pipe
+    assert link.is_symlink() and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+
+
+def test_character_device_is_not_replaced(tmp_path):
+    """A /dev/null-like node made in tmp_path (needs root); the system's /dev/null is never touched."""
+    node = tmp_path / "null"
+    try:
+        os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+    except (PermissionError, OSError):
+        pytest.skip("cannot create a character device here (needs root)")
+    before = os.lstat(node)
+    nio.write_text(node, "discarded\n")
+    link = tmp_path / "out.json"
+    link.symlink_to(node)
+    nio.write_json(link, {"also": "discarded"})
+    after = os.lstat(node)
+    assert stat.S_ISCHR(after.st_mode) and after.st_ino == before.st_ino and after.st_rdev == before.st_rdev
+    assert link.is_symlink() and _listing(tmp_path) == ["null", "out.json"]
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
+def test_new_file_honours_the_umask(tmp_path, umask):
+    old = os.umask(umask)
+    try:
+        nio.write_bytes(tmp_path / "f", b"x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "f").stat().st_mode) == 0o666 & ~umask
+
+
+def test_replaced_file_keeps_its_mode(tmp_path):
+    target = tmp_path / "f"
+    target.write_bytes(b"old")
+    target.chmod(0o640)
+    nio.write_bytes(target, b"new")
+    assert stat.S_IMODE(target.stat().st_mode) == 0o640 and target.read_bytes() == b"new"
+
+
+def test_failing_write_leaves_old_contents_and_no_debris(tmp_path):
+    target = tmp_path / "keep.txt"
+    target.write_text("old")
+
+    def boom(fh):
+        fh.write(b"partial")
+        raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        nio.atomic_write(target, boom)
+    assert target.read_text() == "old"
+    with pytest.raises(RuntimeError):
+        nio.atomic_write(tmp_path / "new.txt", boom)
+    assert _listing(tmp_path) == ["keep.txt"]
+
+
+def test_os_error_inside_the_write_is_one_output_error(tmp_path):
+    def enospc(fh):
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OutputError, match=r"^cannot write .*new\.bin: No space left on device$"):
+        nio.atomic_write(tmp_path / "new.bin", enospc)
+    assert _listing(tmp_path) == []
+
+
+def test_named_temporary_fallback_leaves_no_debris_and_sweeps_stale(tmp_path, monkeypatch):
+    monkeypatch.setattr(nio, "_anonymous_supported", lambda: False)
+    # debris of a killed writer (a pid that cannot be running) and of a live one (ours: kept)
+    stale = tmp_path / f".out.bin.{2**22 + 12345}.deadbeef{nio._TMP_SUFFIX}"
+    stale.write_bytes(b"junk")
+    nio.write_bytes(tmp_path / "out.bin", b"data")
+    assert _listing(tmp_path) == ["out.bin"]
+
+    def boom(fh):
+        raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError):
+        nio.atomic_write(tmp_path / "out.bin", boom)
+    assert _listing(tmp_path) == ["out.bin"] and (tmp_path / "out.bin").read_bytes() == b"data"
+
+
+def test_parent_folders_are_created(tmp_path):
+    nio.write_text(tmp_path / "a" / "b" / "c.txt", "x")
+    assert (tmp_path / "a" / "b" / "c.txt").read_text() == "x"
+
+
+@contextmanager
+def _unprivileged():
+    """Permission checks as an ordinary user: root drops its effective uid to nobody for the block."""
+    if os.geteuid() != 0:
+        yield
+        return
+    os.seteuid(65534)
+    try:
+        yield
+    finally:
+        os.seteuid(0)
+
+
+def test_read_only_folder_is_one_line():
+    base = Path(tempfile.mkdtemp(prefix="ndrql-ro-"))
+    try:
+        base.chmod(0o755)
+        folder = base / "ro"
+        folder.mkdir()
+        folder.chmod(0o555)
+        with _unprivileged():
+            with pytest.raises(OutputError) as err:
+                nio.write_json(folder / "x.json", {})
+            with pytest.raises(OutputError, match="Permission denied"):
+                nio.write_text(folder / "sub" / "x.txt", "x")
+        assert str(err.value) == f"cannot write {folder / 'x.json'}: Permission denied"
+        assert _listing(folder) == []
+    finally:
+        shutil.rmtree(base)
+
+
+def test_folder_in_the_way_and_file_in_the_way(tmp_path):
+    (tmp_path / "d").mkdir()
+    with pytest.raises(OutputError, match="it is a folder"):
+        nio.write_text(tmp_path / "d", "x")
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(OutputError, match="a file is in the way"):
+        nio.write_text(tmp_path / "f" / "x.txt", "x")
+    with pytest.raises(OutputError, match="a file is in the way"):
+        nio.make_folder(tmp_path / "f")
+    assert issubclass(OutputError, NdrqlError)
+    assert _listing(tmp_path) == ["d", "f"] and _listing(tmp_path / "d") == []
+
+
+def test_error_message_stays_one_line(tmp_path):
+    (tmp_path / "a\nb").mkdir()
+    with pytest.raises(OutputError) as err:
+        nio.write_text(tmp_path / "a\nb", "x")
+    assert "\n" not in str(err.value)
+
+
+def test_save_npz_and_digest(tmp_path):
+    nio.save_npz(tmp_path / "a.npz", {"x": np.arange(5)}, y=np.ones(2, np.float32))
+    with np.load(tmp_path / "a.npz") as z:
+        assert sorted(z.files) == ["x", "y"] and z["x"].tolist() == [0, 1, 2, 3, 4]
+    nio.write_bytes(tmp_path / "abc", b"abc")
+    assert nio.file_digest(tmp_path / "abc") == "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+
+
+def test_save_figure_by_extension(tmp_path):
+    from ndrql.viz.maps import new_figure
+
+    fig = new_figure(figsize=(1, 1), dpi=20)
+    nio.save_figure(fig, tmp_path / "f.png")
+    assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(OutputError, match="cannot save a figure as 'nope'"):
+        nio.save_figure(fig, tmp_path / "f.nope")
+    assert _listing(tmp_path) == ["f.png"]
+
+
+def test_bad_mode_is_a_value_error(tmp_path):
+    with pytest.raises(ValueError, match="mode"):
+        nio.atomic_write(tmp_path / "x", lambda fh: None, mode="a")
+
+
+def test_kill_9_during_a_write_leaves_no_debris(tmp_path):
+    import signal
+    import subprocess
+    import sys
+
+    target = tmp_path / "last.pt"
+    target.write_bytes(b"old")
+    code = ("import sys, time\nfrom ndrql import io\n"
+            "def slow(fh):\n    fh.write(b'x' * 1000)\n    fh.flush()\n    print('writing', flush=True)\n    time.sleep(60)\n"
+            f"io.atomic_write({str(target)!r}, slow)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "writing"
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    assert _listing(tmp_path) == ["last.pt"] and target.read_bytes() == b"old"

@@ -95,14 +95,24 @@ class GridMap:
 
 # ---------------------------------------------------------------------------------------------
 # Area averaging
+#
+# Output cell ``i`` of an axis of ``n_in`` pixels resized to ``n_out`` cells covers the input interval
+# ``[i * n_in / n_out, (i + 1) * n_in / n_out)``. Scaled by ``n_out`` this is ``[i * n_in, (i + 1) * n_in)``
+# and pixel ``j`` is ``[j * n_out, (j + 1) * n_out)``: overlaps are integers in units of ``1 / n_out`` pixel,
+# so sums of integer inputs are exact. The resize is separable (rows, then columns) and each pass costs
+# O(input + output): when shrinking, a pixel overlaps at most two cells; when growing, a cell at most
+# two pixels.
+
+#: Largest dense product (multiply-adds) for which :func:`area_downscale` keeps the dense matrix form on
+#: float inputs: its BLAS summation order is what the paper-reproduction numbers were computed with
+#: (201 -> 50 is 2.5 M), so those stay bit-identical; larger inputs take the O(pixels) separable form.
+DENSE_AREA_MAX_MACS = 1 << 23
 
 
 def _overlap_matrix(n_in: int, n_out: int) -> np.ndarray:
     """Integer overlaps, in units of ``1 / n_out`` input pixels, of input pixel ``j`` with output cell ``i``.
 
-    Output cell ``i`` covers input interval ``[i * n_in / n_out, (i + 1) * n_in / n_out)``; scaled by
-    ``n_out`` this is ``[i * n_in, (i + 1) * n_in)`` and pixel ``j`` is ``[j * n_out, (j + 1) * n_out)``.
-    Every row sums to ``n_in``. Exact for any sizes, shrinking or growing.
+    Dense ``(n_out, n_in)``: only for small sizes (see :data:`DENSE_AREA_MAX_MACS`). Every row sums to ``n_in``.
     """
     i = np.arange(n_out, dtype=np.int64)[:, None]
     j = np.arange(n_in, dtype=np.int64)[None, :]
@@ -111,35 +121,87 @@ def _overlap_matrix(n_in: int, n_out: int) -> np.ndarray:
     return np.maximum(hi - lo, 0)
 
 
+def _overlap_sums(x: np.ndarray, n_out: int, axis: int, acc: type) -> np.ndarray:
+    """``sum_j overlap(i, j) * x[.., j, ..]`` along ``axis`` (units of ``1 / n_out`` px), in dtype ``acc``.
+
+    Equal to the dense product with :func:`_overlap_matrix` (exactly, for integer inputs) at O(x.size + output)
+    time and memory.
+    """
+    n_in = x.shape[axis]
+    i = np.arange(n_out, dtype=np.int64)
+    shape = [1] * x.ndim
+    shape[axis] = -1
+
+    def weights(w: np.ndarray) -> np.ndarray:
+        return w.astype(acc).reshape(shape)
+
+    if n_in >= n_out:  # shrink: pixel j lies in cell (j * n_out) // n_in, the last pixel of a cell may straddle
+        starts = -((-i * n_in) // n_out)  # first pixel starting inside cell i (every cell has one)
+        out = np.add.reduceat(x, starts, axis=axis, dtype=acc) * acc(n_out)
+        last = np.append(starts[1:], n_in) - 1
+        spill = (last + 1) * n_out - (i + 1) * n_in  # part of the last pixel that lies in cell i + 1
+        sel = np.nonzero(spill[:-1] > 0)[0]
+        if sel.size:
+            d = np.take(x, last[sel], axis=axis).astype(acc) * weights(spill[sel])
+            idx = [slice(None)] * x.ndim
+            idx[axis] = sel
+            out[tuple(idx)] -= d
+            idx[axis] = sel + 1
+            out[tuple(idx)] += d
+        return out
+    # grow: cell i starts in pixel b and may reach into pixel b + 1
+    b = (i * n_in) // n_out
+    first = np.minimum((b + 1) * n_out, (i + 1) * n_in) - i * n_in
+    out = np.take(x, b, axis=axis).astype(acc) * weights(first)
+    rest = n_in - first
+    sel = np.nonzero(rest > 0)[0]
+    if sel.size:
+        idx = [slice(None)] * x.ndim
+        idx[axis] = sel
+        out[tuple(idx)] += np.take(x, b[sel] + 1, axis=axis).astype(acc) * weights(rest[sel])
+    return out
+
+
+def area_sums(values: np.ndarray, shape: tuple[int, int], acc: type = np.int64) -> np.ndarray:
+    """Area-weighted sums of ``values`` over the cells of a ``shape`` resize, in units of
+    ``1 / (shape[0] * shape[1])`` pixel (divide by the input's pixel count for the mean). Exact for
+    integer or boolean inputs with ``acc=np.int64``; O(pixels) time and memory."""
+    rows = _overlap_sums(np.asarray(values), int(shape[0]), 0, acc)
+    return _overlap_sums(rows, int(shape[1]), 1, acc)
+
+
 def area_downscale(values: np.ndarray, shape: tuple[int, int] = (PLANNING_SIZE, PLANNING_SIZE)) -> np.ndarray:
     """Resize a 2-D array to ``shape`` by exact area averaging (each output = mean over its area).
 
     Used for the planning grid and for model outputs (SPEC section 1). Works for any input size and
-    aspect ratio, including non-integer ratios such as 201 -> 50.
+    aspect ratio, including non-integer ratios such as 201 -> 50, in O(pixels) time and memory (small
+    inputs use the dense matrix form, see :data:`DENSE_AREA_MAX_MACS`; both agree to rounding).
     """
     arr = np.asarray(values, dtype=np.float64)
     if arr.ndim != 2:
         raise ValueError(f"area_downscale needs a 2-D array, got shape {arr.shape}")
     h_in, w_in = arr.shape
-    h_out, w_out = shape
-    rows = _overlap_matrix(h_in, h_out).astype(np.float64)
-    cols = _overlap_matrix(w_in, w_out).astype(np.float64)
-    return (rows @ arr @ cols.T) / float(h_in * w_in)
+    h_out, w_out = int(shape[0]), int(shape[1])
+    if h_out * h_in * w_in + h_out * w_in * w_out <= DENSE_AREA_MAX_MACS:
+        rows = _overlap_matrix(h_in, h_out).astype(np.float64)
+        cols = _overlap_matrix(w_in, w_out).astype(np.float64)
+        return (rows @ arr @ cols.T) / float(h_in * w_in)
+    return area_sums(arr, (h_out, w_out), np.float64) / float(h_in * w_in)
 
 
 def planning_grid(obstacles: np.ndarray | GridMap, size: int | tuple[int, int] = PLANNING_SIZE) -> np.ndarray:
     """Blocked cells of the planning grid: area-average the obstacles, blocked where the mean >= 0.5.
 
-    Computed in exact integer arithmetic, so a cell that is exactly half obstacle is blocked.
+    Computed in exact integer arithmetic, so a cell that is exactly half obstacle is blocked; O(pixels).
     """
     arr = obstacles.obstacles if isinstance(obstacles, GridMap) else np.asarray(obstacles)
     if arr.ndim != 2 or arr.size == 0:
         raise ValueError(f"planning_grid needs a non-empty 2-D array, got shape {arr.shape}")
     h_out, w_out = (size, size) if isinstance(size, int) else size
     h_in, w_in = arr.shape
-    rows = _overlap_matrix(h_in, h_out)
-    cols = _overlap_matrix(w_in, w_out)
-    area = rows @ arr.astype(np.int64) @ cols.T  # obstacle area, in units of 1/(h_out*w_out) px
+    # obstacle area in units of 1/(h_out*w_out) px; it is at most h_in * w_in, so int32 is exact below 2**30 px
+    acc = np.int32 if h_in * w_in < 1 << 30 else np.int64
+    area = area_sums((arr != 0).view(np.uint8), (h_out, w_out), acc).astype(np.int64)
     return 2 * area >= h_in * w_in
 
 

@@ -272,3 +272,32 @@ def test_kill_9_during_a_write_leaves_no_debris(tmp_path):
     finally:
         proc.kill()
     assert _listing(tmp_path) == ["last.pt"] and target.read_bytes() == b"old"
+
+
+def test_atomic_path_for_writers_that_want_a_file_name(tmp_path):
+    target = tmp_path / "m.npy"
+    target.write_bytes(b"old")
+    target.chmod(0o644)
+    with nio.atomic_path(target) as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".npy" and tmp.name.startswith(".m.npy.")
+        np.save(tmp, np.arange(3))
+    assert np.load(target).tolist() == [0, 1, 2] and stat.S_IMODE(target.stat().st_mode) == 0o644
+    with pytest.raises(RuntimeError):
+        with nio.atomic_path(target) as tmp:
+            tmp.write_bytes(b"partial")
+            raise RuntimeError("boom")
+    assert np.load(target).tolist() == [0, 1, 2]
+    assert _listing(tmp_path) == ["m.npy"]
+    # a FIFO target receives the bytes, and stays a FIFO
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    with nio.atomic_path(fifo) as tmp:
+        tmp.write_bytes(b"through")
+    reader.join(timeout=30)
+    assert got == [b"through"] and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    with pytest.raises(OutputError, match="it is a folder"):
+        with nio.atomic_path(tmp_path):
+            pass

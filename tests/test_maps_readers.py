@@ -77,8 +77,9 @@ def test_writers_are_atomic_on_failure(tmp_path):
     with pytest.raises(ValueError):
         write_npy(np.zeros((2, 2, 2)), target)  # not a map: the old file survives untouched
     np.testing.assert_array_equal(np.load(target), PATTERN)
-    with pytest.raises(MapFormatError, match="does not exist"):
-        write_png(GridMap(PATTERN), tmp_path / "nodir" / "m.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.npy"]  # no temporary file left
+    write_png(GridMap(PATTERN), tmp_path / "nodir" / "m.png")  # missing folders are created
+    assert (tmp_path / "nodir" / "m.png").is_file()
 
 
 def test_npy_reader_rules(tmp_path):

@@ -30,13 +30,15 @@ import math
 import os
 import secrets
 import stat
+from contextlib import contextmanager
 from pathlib import Path
-from typing import IO, Any, Callable, Mapping
+from typing import IO, Any, Callable, Iterator, Mapping
 
 from ndrql.errors import OutputError
 
 __all__ = [
     "OutputError",
+    "atomic_path",
     "atomic_write",
     "file_digest",
     "make_folder",
@@ -98,7 +100,8 @@ def _anonymous_supported() -> bool:
 
 
 def _temp_name(folder: Path, name: str) -> Path:
-    return folder / f".{name[:180]}.{os.getpid()}.{secrets.token_hex(4)}{_TMP_SUFFIX}"
+    """``.NAME.PID.RANDOM.ndrql-tmp.EXT``: hidden, traceable to its writer, same extension as the target."""
+    return folder / f".{name[:180]}.{os.getpid()}.{secrets.token_hex(4)}{_TMP_SUFFIX}{Path(name).suffix[:16]}"
 
 
 def _open_temp(folder: Path, name: str) -> tuple[int, Path | None]:
@@ -137,7 +140,7 @@ def _sweep_stale(folder: Path, name: str) -> None:
     """Remove temporary files of ``name`` left by processes that no longer run (``kill -9``)."""
     prefix = f".{name[:180]}."
     try:
-        entries = [e for e in os.listdir(folder) if e.startswith(prefix) and e.endswith(_TMP_SUFFIX)]
+        entries = [e for e in os.listdir(folder) if e.startswith(prefix) and _TMP_SUFFIX in e]
     except OSError:
         return
     for entry in entries:
@@ -226,6 +229,20 @@ def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode
     if mode not in _MODES:
         raise ValueError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
     given = Path(path)
+    target, st = _inspect(given)
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        _write_direct(given, target, write_fn, mode)
+        return given
+    make_folder(target.parent)
+    _replace(given, target, write_fn, mode, stat.S_IMODE(st.st_mode) if st is not None else None)
+    return given
+
+
+def _inspect(given: Path) -> tuple[Path, os.stat_result | None]:
+    """The file ``given`` names (symlinks followed) and its status (``None`` if it does not exist yet).
+
+    A folder or socket in the way is an :class:`OutputError`.
+    """
     target = Path(os.path.realpath(given))
     try:
         st: os.stat_result | None = os.stat(target)
@@ -233,17 +250,67 @@ def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode
         st = None
     except OSError as exc:
         raise _error(given, exc) from None
-    if st is not None:
-        if stat.S_ISDIR(st.st_mode):
-            raise OutputError(f"cannot write {_shown(given)}: it is a folder")
-        if stat.S_ISSOCK(st.st_mode):
-            raise OutputError(f"cannot write {_shown(given)}: it is a socket")
-        if not stat.S_ISREG(st.st_mode):
-            _write_direct(given, target, write_fn, mode)
-            return given
-    make_folder(target.parent)
-    _replace(given, target, write_fn, mode, stat.S_IMODE(st.st_mode) if st is not None else None)
-    return given
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise OutputError(f"cannot write {_shown(given)}: it is a folder")
+    if st is not None and stat.S_ISSOCK(st.st_mode):
+        raise OutputError(f"cannot write {_shown(given)}: it is a socket")
+    return target, st
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary file name to write to (for libraries that only write to file names).
+
+    The same rules as :func:`atomic_write`: on success the temporary file replaces the target (or,
+    for a FIFO or device, is copied into it); on any error it is removed and the target left as it
+    was. The temporary name ends with the target's extension.
+    """
+    import shutil
+    import tempfile
+
+    given = Path(path)
+    target, st = _inspect(given)
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        with tempfile.TemporaryDirectory(prefix="ndrql-") as scratch:
+            tmp = Path(scratch) / f"out{target.suffix[:16]}"
+            yield tmp
+
+            def copy(fh: IO) -> None:
+                with open(tmp, "rb") as src:
+                    shutil.copyfileobj(src, fh)
+
+            _write_direct(given, target, copy, "wb")
+        return
+    folder = make_folder(target.parent)
+    _sweep_stale(folder, target.name)
+    tmp = None
+    try:
+        while tmp is None:
+            candidate = _temp_name(folder, target.name)
+            try:
+                os.close(os.open(candidate, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+                tmp = candidate
+            except FileExistsError:
+                continue
+        yield tmp
+        if st is not None:
+            os.chmod(tmp, stat.S_IMODE(st.st_mode))
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, target)
+        tmp = None
+    except OSError as exc:
+        raise _error(given, exc) from None
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+    _fsync_folder(folder)
 
 
 def write_bytes(path: str | os.PathLike, data: bytes) -> Path:

@@ -1,41 +1,21 @@
-"""Map writers: PNG (black = obstacle, white = free) and ``.npy`` (bool), written atomically.
+"""Map writers: PNG (black = obstacle, white = free) and ``.npy`` (bool).
 
-Each writer writes to a temporary file in the target's directory and renames it over the target
-(``os.replace``), so a reader never sees a half-written map.
+Both go through the project's one output writer (:mod:`ndrql.io`): atomic replace, symlinks
+followed, FIFOs and devices written directly, the umask's permissions, parent folders created.
+``atomic_path`` is re-exported from there for existing callers.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
 from ndrql.errors import MapFormatError
+from ndrql.io import atomic_path, atomic_write
 from ndrql.maps.grid import GridMap
 
-
-@contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success it replaces ``path``, on error it is removed."""
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise MapFormatError(f"cannot write {path}: directory {parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+__all__ = ["atomic_path", "save_map", "write_npy", "write_png"]
 
 
 def _obstacles(grid_map: GridMap | np.ndarray) -> np.ndarray:
@@ -50,19 +30,13 @@ def write_png(grid_map: GridMap | np.ndarray, path: str | Path) -> Path:
     from PIL import Image
 
     img = Image.fromarray(np.where(_obstacles(grid_map), 0, 255).astype(np.uint8), mode="L")
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            img.save(fh, format="PNG", optimize=True)
-    return Path(path)
+    return atomic_write(path, lambda fh: img.save(fh, format="PNG", optimize=True))
 
 
 def write_npy(grid_map: GridMap | np.ndarray, path: str | Path) -> Path:
     """Write a map as a boolean ``.npy`` array (``True`` = obstacle)."""
     arr = _obstacles(grid_map)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            np.save(fh, arr, allow_pickle=False)
-    return Path(path)
+    return atomic_write(path, lambda fh: np.save(fh, arr, allow_pickle=False))
 
 
 def save_map(grid_map: GridMap | np.ndarray, path: str | Path) -> Path:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import warnings
 from contextlib import contextmanager
@@ -149,65 +148,27 @@ def map_info(grid_map: GridMap) -> dict[str, Any]:
     return info
 
 
-def _jsonable(obj: Any) -> Any:
-    import numpy as np
-
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
-        return _jsonable(obj.item())
-    if isinstance(obj, Path):
-        return str(obj)
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
 def write_json(path: str | Path, data: Any) -> Path:
-    """Write ``data`` as indented JSON, atomically (``-`` writes to stdout); parent folders are created."""
-    text = json.dumps(_jsonable(data), indent=2) + "\n"
+    """Write ``data`` as indented JSON through :func:`ndrql.io.write_json` (``-`` writes to stdout)."""
+    from ndrql.io import to_jsonable
+    from ndrql.io import write_json as io_write_json
+
     if str(path) == "-":
-        sys.stdout.write(text)
+        sys.stdout.write(json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n")
         return Path("-")
-    from ndrql.maps.writers import atomic_path
-
-    path = prepare_output(path)
-    with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
-    return path
-
-
-def prepare_output(path: str | Path) -> Path:
-    """Create the parent folders of an output file; a clear error if that is impossible."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise NdrqlError(f"cannot create output folder {path.parent}: {exc.strerror or exc}") from None
-    return path
+    return io_write_json(path, data)
 
 
 def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 120) -> Path:
-    """Create an Agg figure, call ``draw(ax)``, save it atomically to ``path`` (format from the extension)."""
-    from ndrql.maps.writers import atomic_path
+    """Create an Agg figure, call ``draw(ax)``, save it through :func:`ndrql.io.save_figure` (format from the extension)."""
+    from ndrql.io import save_figure as io_save_figure
     from ndrql.viz.maps import new_figure
 
-    path = prepare_output(path)
-    fmt = path.suffix.lstrip(".").lower() or "png"
     fig = new_figure(figsize=figsize, dpi=dpi)
     ax = fig.add_subplot(1, 1, 1)
     draw(ax)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        try:
-            fig.savefig(tmp, format=fmt)
-        except ValueError as exc:
-            raise NdrqlError(f"cannot save figure {path}: {exc}") from None
-    return path
+    return io_save_figure(fig, path)
 
 
 @contextmanager

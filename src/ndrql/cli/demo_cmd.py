@@ -81,10 +81,8 @@ def run(args: argparse.Namespace) -> int:
         _save(plan_figure(report, method="NDR-QL"), str(out / "ndr-ql.png")),
         write_json(out / "results.json", report.to_dict()),
     ]
-    from ndrql.cli.common import prepare_output
+    from ndrql.io import write_text
 
-    tpath = prepare_output(out / "table.md")
-    tpath.write_text(head + "\n\n" + "\n".join(table) + "\n", encoding="utf-8")
-    written.insert(2, tpath)
+    written.insert(2, write_text(out / "table.md", head + "\n\n" + "\n".join(table) + "\n"))
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0

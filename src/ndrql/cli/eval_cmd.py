@@ -71,8 +71,9 @@ def run(args: argparse.Namespace) -> int:
     print(table)
     print(f"throughput: {res.images_per_s:.1f} images/s (batch {args.batch_size}, fp32, {torch.get_num_threads()} threads)")
     if args.markdown:
-        Path(args.markdown).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.markdown).write_text(table)
+        from ndrql.io import write_text
+
+        write_text(args.markdown, table)
     if args.json:
         write_json(args.json, {"split": args.split, "weights": str(weights), "rows": rows, "images_per_s": res.images_per_s})
     return 0

@@ -67,10 +67,10 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_convert(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import load_map_argument, prepare_output
+    from ndrql.cli.common import load_map_argument
     from ndrql.maps.writers import save_map
 
     grid_map = load_map_argument(args)
-    out = save_map(grid_map, prepare_output(args.output))
+    out = save_map(grid_map, args.output)
     print(f"wrote {out} ({grid_map.height}x{grid_map.width})")
     return 0

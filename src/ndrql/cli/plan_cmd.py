@@ -168,17 +168,9 @@ def _short(path: str) -> str:
 
 
 def _save(fig: Any, path: str) -> Any:
-    from ndrql.cli.common import prepare_output
-    from ndrql.errors import NdrqlError
-    from ndrql.maps.writers import atomic_path
+    from ndrql.io import save_figure
 
-    out = prepare_output(path)
-    with atomic_path(out) as tmp:
-        try:
-            fig.savefig(tmp, format=out.suffix.lstrip(".").lower() or "png")
-        except ValueError as exc:
-            raise NdrqlError(f"cannot save figure {out}: {exc}") from None
-    return out
+    return save_figure(fig, path)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 EXAMPLES = """examples:
   ndrql predict --sample ../shared/data/path-planning-dataset:unseen:600 --out out/pred
@@ -34,31 +33,27 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ndrql.cli.common import resolve_problem, save_figure
-    from ndrql.maps.writers import atomic_path
+    from ndrql.errors import NdrqlError
+    from ndrql.io import make_folder, save_npz
     from ndrql.model.predict import Predictor
     from ndrql.viz.prediction import plot_probability_overlay
 
+    if args.threads < 1:
+        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
     problem = resolve_problem(args)
+    out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
     obstacles = problem.grid_map.obstacles
     t0 = time.perf_counter()
-    if args.threads < 1:
-        from ndrql.errors import NdrqlError
-
-        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
     predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend)
     t1 = time.perf_counter()
     pred = predictor.predict(obstacles, problem.start, problem.goal)
     t2 = time.perf_counter()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     npz = out / "prediction.npz"
     arrays = {"region": pred.region.astype(np.float32), "start": np.array(problem.start), "goal": np.array(problem.goal),
               "obstacles": obstacles}
     if pred.guideline is not None:
         arrays["guideline"] = pred.guideline.astype(np.float32)
-    with atomic_path(npz) as tmp:
-        with open(tmp, "wb") as f:
-            np.savez_compressed(f, **arrays)
+    save_npz(npz, arrays)
     written = [npz]
     for name, prob, cmap in (("region", pred.region, "viridis"), ("guideline", pred.guideline, "magma")):
         if prob is None:

@@ -204,3 +204,67 @@ def test_known_disconnected_sample_raises_no_path_error(dataset_root):
     with pytest.raises(NoPathError, match="not 4-connected"):
         PlanningGrid.from_map(sample.map, sample.start, sample.goal)
     assert bfs_distances(sample.map, sample.start)[sample.goal] > 0  # but the full-resolution map connects them
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_shortest_path8_equals_python_astar8_on_random_maps(seed):
+    # The compiled search pops the same nodes in the same order as the pure-Python reference: same
+    # path, bit-identical cost, same expansions (which is why astar8 may delegate to it).
+    from ndrql.maps.astar import _astar8_python, shortest_path8
+
+    rng = np.random.default_rng(500 + seed)
+    h, w = (int(v) for v in rng.integers(4, 48, 2))
+    blocked = rng.random((h, w)) < rng.uniform(0.0, 0.45)
+    free = np.argwhere(~blocked)
+    if len(free) < 2:
+        return
+    s, g = (tuple(int(v) for v in free[i]) for i in rng.choice(len(free), 2, replace=False))
+    for cutting in (False, True):
+        try:
+            ref = _astar8_python(blocked, s, g, corner_cutting=cutting)
+        except NoPathError:
+            with pytest.raises(NoPathError):
+                astar8(blocked, s, g, corner_cutting=cutting)
+            if not cutting:
+                with pytest.raises(NoPathError):
+                    shortest_path8(blocked, s, g)
+            continue
+        got = astar8(blocked, s, g, corner_cutting=cutting)
+        assert got == ref  # path, cost and expanded all equal
+        if not cutting:
+            assert shortest_path8(blocked, s, g) == ref
+            assert path_is_valid(blocked, got.path, diagonal=True)
+
+
+def test_shortest_path8_known_answers_and_errors():
+    from ndrql.maps.astar import shortest_path8
+
+    blocked = np.zeros((3, 5), dtype=bool)
+    blocked[1, :4] = True  # wall with a gap at the right end (the wall.map scenario above)
+    res = shortest_path8(blocked, (0, 0), (2, 0))
+    assert res.cost == pytest.approx(10.0) and res.path[0] == (0, 0) and res.path[-1] == (2, 0)
+    assert path_is_valid(blocked, res.path, diagonal=True)
+    assert shortest_path8(blocked, (0, 2), (0, 2)).path == [(0, 2)]
+    blocked[1, 4] = True
+    with pytest.raises(NoPathError):
+        shortest_path8(blocked, (0, 0), (2, 0))
+    with pytest.raises(PointError, match="off"):
+        shortest_path8(blocked, (0, 0), (3, 0))
+    with pytest.raises(PointError, match="obstacle"):
+        shortest_path8(blocked, (1, 1), (0, 0))
+
+
+def test_shortest_path8_large_open_map():
+    # 2000x2000 (4 million cells) runs in a fraction of a second; no timing asserted, only the answer.
+    from ndrql.maps.astar import shortest_path8
+
+    blocked = np.zeros((2000, 2000), dtype=bool)
+    res = shortest_path8(blocked, (0, 0), (1999, 1000))
+    assert res.cost == pytest.approx(octile((0, 0), (1999, 1000)))
+    assert res.path[0] == (0, 0) and res.path[-1] == (1999, 1000) and res.moves == 1999
+    blocked[1000, :1999] = True  # a wall with a one-cell gap at the right edge
+    res = shortest_path8(blocked, (0, 0), (1999, 0))
+    # No corner cutting: the gap cell (1000, 1999) is entered from above and left downwards, straight.
+    assert (999, 1999) in res.path and (1000, 1999) in res.path and (1001, 1999) in res.path
+    assert res.cost == pytest.approx(octile((0, 0), (999, 1999)) + 2 + octile((1001, 1999), (1999, 0)))
+    assert path_is_valid(blocked, res.path, diagonal=True)

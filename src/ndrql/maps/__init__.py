@@ -4,7 +4,7 @@ Coordinates are ``(row, col)`` everywhere inside ndrql; file formats that use ``
 converted once, in their reader.
 """
 
-from ndrql.maps.astar import AStarResult, astar4, astar8, octile, path_is_valid
+from ndrql.maps.astar import AStarResult, astar4, astar8, octile, path_is_valid, shortest_path8
 from ndrql.maps.grid import (
     MOVES4,
     PLANNING_SIZE,
@@ -41,6 +41,7 @@ __all__ = [
     "area_downscale",
     "astar4",
     "astar8",
+    "shortest_path8",
     "bfs_distances",
     "cell_to_point",
     "check_connected",

@@ -301,3 +301,9 @@ def test_atomic_path_for_writers_that_want_a_file_name(tmp_path):
     with pytest.raises(OutputError, match="it is a folder"):
         with nio.atomic_path(tmp_path):
             pass
+
+
+def test_non_strict_json_round_trips_nan(tmp_path):
+    nio.write_json(tmp_path / "n.json", {"x": float("nan"), "y": [float("inf"), 1.5]}, indent=None, strict=False)
+    back = json.loads((tmp_path / "n.json").read_text())
+    assert np.isnan(back["x"]) and back["y"] == [float("inf"), 1.5]

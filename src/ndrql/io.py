@@ -323,26 +323,33 @@ def write_text(path: str | os.PathLike, text: str) -> Path:
     return atomic_write(path, lambda fh: fh.write(text), mode="w")
 
 
-def to_jsonable(obj: Any) -> Any:
-    """``obj`` with numpy arrays and scalars, tuples and paths turned into JSON types; NaN and inf -> ``None``."""
+def to_jsonable(obj: Any, *, strict: bool = True) -> Any:
+    """``obj`` with numpy arrays and scalars, tuples and paths turned into JSON types.
+
+    ``strict``: NaN and infinities become ``None`` (standard JSON); otherwise they are kept (Python's
+    ``NaN``/``Infinity`` extension, which :mod:`json` reads back exactly).
+    """
     if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
+        return {str(k): to_jsonable(v, strict=strict) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
+        return [to_jsonable(v, strict=strict) for v in obj]
     if isinstance(obj, os.PathLike):
         return os.fspath(obj)
     if hasattr(obj, "tolist") and hasattr(obj, "dtype"):  # numpy array or scalar
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, float) and not math.isfinite(obj):
+        return to_jsonable(obj.tolist(), strict=strict)
+    if strict and isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
 
 
-def write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2) -> Path:
-    """Write ``obj`` as strict JSON (:func:`to_jsonable`), indented or compact (``indent=None``)."""
+def write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2, strict: bool = True) -> Path:
+    """Write ``obj`` as JSON (:func:`to_jsonable`), indented or compact (``indent=None``).
+
+    ``strict=False`` keeps NaN and infinities so that the file reads back to the same numbers.
+    """
     separators = (",", ":") if indent is None else None
-    text = json.dumps(to_jsonable(obj), indent=indent, separators=separators, allow_nan=False) + "\n"
-    return write_text(path, text)
+    text = json.dumps(to_jsonable(obj, strict=strict), indent=indent, separators=separators, allow_nan=not strict)
+    return write_text(path, text + "\n")
 
 
 def save_npz(path: str | os.PathLike, arrays: Mapping[str, Any] | None = None, *, compressed: bool = True,

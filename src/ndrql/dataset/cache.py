@@ -3,19 +3,28 @@
 One ``.npz`` per split under ``$NDRQL_CACHE`` (default ``~/.cache/ndrql``), with bit-packed masks:
 maps (per map file), start/goal, guideline and region per sample, category ids, and for UNSEEN the
 original (upstream, broken for 900..1199) region labels resized to 201 px for the paper-comparable F1.
+
+Each cache file has its SHA-256 beside it (``<split>.npz.sha256``); a file that does not match it or
+does not load (a truncated write, a full disk) is decoded again once, with a warning. The decode
+workers die with the process that started them (:mod:`ndrql.workers`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+import warnings
+import zipfile
+import zlib
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
 from ndrql.dataset import layout
+from ndrql.errors import DatasetError
+from ndrql.io import file_digest, save_npz, write_text
+from ndrql.workers import process_pool
 
 CACHE_VERSION = 1
 
@@ -90,7 +99,7 @@ def build_split(root: str | Path, split: str, workers: int = 2, progress: bool =
     n = layout.count_samples(root, split)
     n_maps = min(n, 4000) if split == "train" else n
     root = str(root)
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    with process_pool(workers) as pool:
         maps = list(
             tqdm(pool.map(_decode_map, [(root, split, i) for i in range(n_maps)], chunksize=64),
                  total=n_maps, desc=f"decode {split} maps", disable=not progress)
@@ -108,20 +117,58 @@ def build_split(root: str | Path, split: str, workers: int = 2, progress: bool =
         "region_original": np.stack([r[3] for r in rows]),
         "category": np.array([layout.CATEGORIES[split].index(layout.category(split, i)) for i in range(n)], np.int8),
     }
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".tmp{os.getpid()}.npz")
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
+    save_npz(path, arrays, compressed=False)
+    write_text(digest_path(path), file_digest(path) + "\n")
     return path
 
 
+def digest_path(path: Path) -> Path:
+    """The file holding the SHA-256 of the cache file ``path``."""
+    return path.with_name(path.name + ".sha256")
+
+
+def _read(path: Path, split: str) -> SplitArrays | str:
+    """The cached split, or why the file at ``path`` cannot be used (damaged or incomplete)."""
+    try:
+        recorded = digest_path(path).read_text().strip()
+    except FileNotFoundError:
+        recorded = None  # a cache written without a digest: trusted when it loads
+    except OSError as exc:
+        return f"unreadable digest ({exc.strerror})"
+    if recorded is not None and file_digest(path) != recorded:
+        return "its SHA-256 does not match"
+    expected = {f.name for f in fields(SplitArrays)} - {"split"}
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if set(z.files) != expected:
+                return "unexpected contents"
+            return SplitArrays(split=split, **{k: z[k] for k in z.files})
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        return f"{type(exc).__name__}"
+
+
 def load_split(root: str | Path, split: str, build: bool = True, progress: bool = True) -> SplitArrays:
-    """Load a split from the cache, building the cache first when needed."""
+    """Load a split from the cache, building the cache first when needed.
+
+    A damaged cache file is decoded again once, with a warning (:class:`DatasetError` if that is not
+    allowed, ``build=False``, or does not help).
+    """
     split = layout.normalize_split(split)
     path = cache_path(root, split)
     if not path.exists():
         if not build:
             raise FileNotFoundError(path)
         build_split(root, split, progress=progress)
-    with np.load(path) as z:
-        return SplitArrays(split=split, **{k: z[k] for k in z.files})
+    got = _read(path, split)
+    if isinstance(got, SplitArrays):
+        return got
+    if not build:
+        raise DatasetError(f"the dataset cache {path} is damaged ({got}); delete it to decode the split again")
+    warnings.warn(f"the dataset cache {path} is damaged ({got}); decoding the {split} split again", stacklevel=2)
+    for stale in (path, digest_path(path)):
+        stale.unlink(missing_ok=True)
+    build_split(root, split, progress=progress)
+    got = _read(path, split)
+    if isinstance(got, SplitArrays):
+        return got
+    raise DatasetError(f"the dataset cache {path} is damaged again after decoding ({got})")

@@ -14,7 +14,6 @@ whatever the executor; the numbers are steps to (re-)converge (SPEC 3).
 
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -28,6 +27,7 @@ from ndrql.experiments.planning_tables import SweepOptions, Variant, registry_va
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, resolve_root, table3_maps
 from ndrql.experiments.report import machine, machine_line, md_table, save_figure
 from ndrql.experiments.sweep import Task, fingerprint, run_sweep
+from ndrql.io import write_json, write_text
 from ndrql.planning.config import PriorConfig, QLConfig
 
 DYNAMIC_VERSION = 1
@@ -216,9 +216,8 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     md.append(f"![{f1.stem}]({f1.name})\n\nTop: scenario (a), bottom: scenario (b); region (green) and "
               "guideline (red) predicted on each stage's map, the warm-started NDR-QL path (seed "
               f"{opts.seed0}) in white.")
-    path = out_dir / "dynamic.md"
-    path.write_text("\n".join(md) + "\n")
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=1))
+    path = write_text(out_dir / "dynamic.md", "\n".join(md) + "\n")
+    write_json(out_dir / "summary.json", summary, indent=1, strict=False)
     log(f"dynamic: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path
 

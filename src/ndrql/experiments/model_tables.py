@@ -106,10 +106,9 @@ def checkpoint_summary(path: Path) -> dict[str, Any]:
 def evaluate_weights(path: str | Path, root: Path, limit: int | None, progress: bool,
                      cache: Path | None = None) -> dict[str, dict[str, float]]:
     """Mean F1 (percent) on seen and unseen for a checkpoint, cached in ``cache`` by file digest."""
-    from ndrql.experiments.problems import file_digest
-    from ndrql.experiments.sweep import write_json_atomic
+    from ndrql.io import file_digest, write_json
 
-    key = f"{file_digest(path)}-{limit or 'all'}"
+    key = f"{file_digest(path)[:16]}-{limit or 'all'}"
     cached = cache / f"{key}.json" if cache is not None else None
     if cached is not None and cached.is_file():
         try:
@@ -133,7 +132,7 @@ def evaluate_weights(path: str | Path, root: Path, limit: int | None, progress: 
         idx = np.arange(min(len(data), limit)) if limit else None
         out[split] = evaluate(model, data, indices=idx, encoding=encoding, progress=progress).summary()
     if cached is not None:
-        write_json_atomic(cached, out)
+        write_json(cached, out, indent=None, strict=False)
     return out
 
 
@@ -143,13 +142,10 @@ def _f1_cells(r: dict[str, dict[str, float]]) -> list[str]:
 
 
 def _write(out_dir: Path, name: str, lines: list[str], numbers: dict) -> Path:
-    from ndrql.experiments.sweep import write_json_atomic
-    from ndrql.maps.writers import atomic_path
+    from ndrql.io import write_json, write_text
 
-    path = out_dir / f"{name}.md"
-    with atomic_path(path) as tmp:
-        tmp.write_text("\n".join(lines) + "\n")
-    write_json_atomic(out_dir / "summary.json", numbers)
+    path = write_text(out_dir / f"{name}.md", "\n".join(lines) + "\n")
+    write_json(out_dir / "summary.json", numbers, indent=None, strict=False)
     return path
 
 
@@ -245,12 +241,13 @@ def train_variants(variants: list[ModelVariant], runs: Path, data: str, epochs: 
                    log: Callable[[str], None], base=None, progress: bool = True) -> None:
     """Train the variants not finished yet, ``workers`` at a time (one process each, cores shared evenly),
     with one progress bar over all their optimiser steps (ETA included)."""
-    import multiprocessing as mp
     import queue as queue_mod
     import sys
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     from tqdm import tqdm
+
+    from ndrql.workers import process_pool, start_manager
 
     threads = max(1, (os.cpu_count() or 1) // workers)
     todo = []
@@ -265,8 +262,8 @@ def train_variants(variants: list[ModelVariant], runs: Path, data: str, epochs: 
         return
     log(f"table4: training {len(todo)} variant(s) for {epochs} epochs, {workers} at a time, {threads} thread(s) each "
         f"(logs: {runs}/<variant>/train.log)")
-    ctx = mp.get_context("spawn")
-    with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    # spawn: each training process starts clean; it and the queue's manager die with this process
+    with start_manager("spawn") as manager, process_pool(workers, start_method="spawn") as pool:
         q = manager.Queue()
         futures = {pool.submit(_train_one, variant_config(v, data, epochs, threads, base), str(runs / v.name), q): v
                    for v in todo}

@@ -10,7 +10,6 @@ path; the improvement over QL is computed as the paper does (:func:`stats.relati
 from __future__ import annotations
 
 import hashlib
-import json
 import warnings
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -22,6 +21,7 @@ from ndrql.experiments import stats
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, load_problems, resolve_root, table3_maps
 from ndrql.experiments.report import machine, machine_line, md_table, save_figure
 from ndrql.experiments.sweep import Task, fingerprint, run_sweep
+from ndrql.io import write_json, write_text
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors
 
@@ -426,14 +426,13 @@ def fixed_map_table(target: str, variants: Sequence[Variant], n_maps: int, opts:
         figs.append(save_figure(fig, out_dir / f"curves_{lab}.png"))
     md.append("\n## Figures\n")
     md += [f"![{f.stem}]({f.name})" for f in figs]
-    path = out_dir / f"{target}.md"
-    path.write_text("\n".join(md) + "\n")
+    path = write_text(out_dir / f"{target}.md", "\n".join(md) + "\n")
     summary = {"target": target, "machine": info, "options": {"seeds": opts.seed_list, "ql": asdict(opts.ql),
                                                              "priors": asdict(opts.priors)},
                "weights": predictions.describe() if predictions else None, "skipped": skipped,
                "maps": [{"label": lab, "key": p.key, "category": p.category, "astar": p.astar} for lab, p in zip(labels, problems)],
                "cells": {f"{k[0]}|{k[1]}": v for k, v in cells.items()}}
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=1))
+    write_json(out_dir / "summary.json", summary, indent=1, strict=False)
     log(f"{target}: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path
 
@@ -540,11 +539,10 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
             _scale_distributions(problems, names, results, out_dir)]
     md.append("\n## Figures\n")
     md += [f"![{f.stem}]({f.name})" for f in figs]
-    path = out_dir / "scale.md"
-    path.write_text("\n".join(md) + "\n")
-    (out_dir / "summary.json").write_text(json.dumps({"machine": info, "skipped": skipped, "groups": agg,
-                                                      "weights": predictions.describe() if predictions else None},
-                                                     indent=1, default=float))
+    path = write_text(out_dir / "scale.md", "\n".join(md) + "\n")
+    write_json(out_dir / "summary.json", {"machine": info, "skipped": skipped, "groups": agg,
+                                          "weights": predictions.describe() if predictions else None},
+               indent=1, strict=False)
     log(f"scale: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path
 

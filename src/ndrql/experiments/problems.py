@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import zipfile
 import warnings
 from dataclasses import dataclass
 from importlib import resources
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ndrql.errors import DatasetError, NdrqlError, NoPathError
+from ndrql.io import file_digest, save_npz
 
 
 @dataclass(frozen=True)
@@ -115,14 +117,6 @@ def resolve_root(root: str | Path | None) -> Path:
     return root
 
 
-def file_digest(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()[:16]
-
-
 class PredictionCache:
     """NDR predictions per sample, made once and kept on disk (module docstring)."""
 
@@ -136,7 +130,7 @@ class PredictionCache:
                 f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "
                 "(set NDRQL_WEIGHTS or pass --weights FILE)"
             )
-        self.digest = file_digest(self.weights)
+        self.digest = file_digest(self.weights)[:16]
         self.threads = threads
         self._predictor: Any = None
         self.computed = 0
@@ -156,8 +150,8 @@ class PredictionCache:
                 with np.load(path, allow_pickle=False) as d:
                     if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs:
                         return d["region"].astype(np.float32), d["guideline"].astype(np.float32)
-            except (OSError, ValueError, KeyError):
-                pass
+            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+                pass  # a damaged cache entry is predicted again
         if self._predictor is None:
             from ndrql.model.predict import Predictor
 
@@ -167,11 +161,8 @@ class PredictionCache:
         pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
         if pred.guideline is None:
             raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")
-        self.dir.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-        np.savez_compressed(tmp, region=pred.region.astype(np.float16), guideline=pred.guideline.astype(np.float16),
-                            weights=np.array(self.digest), inputs=np.array(inputs))
-        os.replace(tmp, path)
+        save_npz(path, region=pred.region.astype(np.float16), guideline=pred.guideline.astype(np.float16),
+                 weights=np.array(self.digest), inputs=np.array(inputs))
         self.computed += 1
         return pred.region.astype(np.float16).astype(np.float32), pred.guideline.astype(np.float16).astype(np.float32)
 

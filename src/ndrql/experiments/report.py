@@ -58,10 +58,7 @@ def md_table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: Sequen
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> Path:
-    """Write ``fig`` to ``path`` atomically (PNG) and return the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
-    os.replace(tmp, path)
-    return path
+    """Write ``fig`` to ``path`` (format from the extension, tight bounding box) and return the path."""
+    from ndrql.io import save_figure as io_save_figure
+
+    return io_save_figure(fig, path, dpi=dpi, bbox_inches="tight")

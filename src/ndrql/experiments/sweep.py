@@ -3,12 +3,12 @@
 A :class:`Task` is a top-level (picklable) function, its arguments, a unique ``key`` and a
 ``fingerprint`` of everything that determines its result. :func:`run_sweep` first reads the task
 files already in ``out_dir`` and reuses every one whose fingerprint matches; it runs the others on
-an executor and writes each result the moment it arrives (temporary file + ``os.replace``), so a
+an executor and writes each result the moment it arrives (:func:`ndrql.io.write_json`), so a
 sweep killed at any point resumes without redoing finished work. Results come back keyed by task,
 so whatever ran them, and in whatever order they finished, the tables built from them are the same.
 
 Executors: ``serial`` (this process), ``process`` (a local process pool, forked where possible so
-workers inherit compiled kernels; the default) and ``ray`` (``pip install ndrql[ray]``; a local Ray
+workers inherit compiled kernels, whose workers die with their parent (:mod:`ndrql.workers`); the default) and ``ray`` (``pip install ndrql[ray]``; a local Ray
 instance, or an existing cluster given by ``ray_address``).
 """
 
@@ -16,17 +16,18 @@ from __future__ import annotations
 
 import hashlib
 import json
-import multiprocessing
 import os
 import socket
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from ndrql.errors import NdrqlError
+from ndrql.io import make_folder, write_json
+from ndrql.workers import process_pool
 
 #: Valid executor names for :func:`run_sweep`.
 EXECUTORS = ("process", "serial", "ray")
@@ -73,18 +74,6 @@ def _check_key(key: str) -> None:
 
 def task_path(out_dir: str | Path, key: str) -> Path:
     return Path(out_dir) / f"{key}.json"
-
-
-def write_json_atomic(path: str | Path, payload: Any) -> None:
-    """Write JSON to ``path`` so that readers see the old file or the whole new one, never a part."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w") as fh:
-        json.dump(payload, fh, separators=(",", ":"))
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 def read_task(out_dir: str | Path, task: Task) -> dict | None:
@@ -135,8 +124,7 @@ def run_sweep(
         if t.key in seen:
             raise ValueError(f"duplicate task key {t.key!r}")
         seen.add(t.key)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_folder(out_dir)
     report = SweepReport(results={})
     todo: list[Task] = []
     for t in tasks:
@@ -150,8 +138,10 @@ def run_sweep(
 
     def done(task: Task, result: Any, meta: dict) -> None:
         meta["finished_at"] = time.time()
-        write_json_atomic(task_path(out_dir, task.key),
-                          {"key": task.key, "fingerprint": task.fingerprint, "result": result, "meta": meta})
+        # strict=False: a NaN in a result reads back as NaN, so a resumed sweep gives the same tables
+        write_json(task_path(out_dir, task.key),
+                   {"key": task.key, "fingerprint": task.fingerprint, "result": result, "meta": meta},
+                   indent=None, strict=False)
         report.results[task.key] = result
         report.computed.append(task.key)
         bar.update(1)
@@ -175,9 +165,7 @@ def run_sweep(
 
 
 def _run_process(todo: list[Task], workers: int, done: Callable[[Task, Any, dict], None]) -> None:
-    methods = multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx) as pool:
+    with process_pool(min(workers, len(todo)), start_method="fork") as pool:
         pending = {pool.submit(_call, t.fn, t.args): t for t in todo}
         try:
             while pending:

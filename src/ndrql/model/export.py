@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import warnings
 from pathlib import Path
 
@@ -10,20 +9,19 @@ from ndrql.errors import NdrqlError
 
 
 def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
-    """Export the model in ``weights`` to ONNX at ``size`` x ``size``, dynamic batch; atomic write."""
+    """Export the model in ``weights`` to ONNX at ``size`` x ``size``, dynamic batch (written by :mod:`ndrql.io`)."""
     import torch
 
+    from ndrql.io import atomic_path
     from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
 
     data = load_checkpoint(weights)
     model = model_from_checkpoint(data).eval()
     cin = int(dict(data["config"]).get("in_channels", 3))
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp{os.getpid()}")
     dummy = torch.zeros(1, cin, size, size)
     try:
-        with warnings.catch_warnings():  # shapes are fixed on purpose: the export is for size x size inputs
+        with atomic_path(out) as tmp, warnings.catch_warnings():  # shapes are fixed on purpose: the export is for size x size inputs
             warnings.simplefilter("ignore", torch.jit.TracerWarning)
             warnings.simplefilter("ignore", DeprecationWarning)  # the TorchScript exporter handles this model; dynamo export does not need it
             torch.onnx.export(model, (dummy,), str(tmp), input_names=["x"], output_names=["region", "guideline"],
@@ -31,5 +29,4 @@ def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
                               opset_version=17, dynamo=False)
     except ImportError as exc:
         raise NdrqlError(f"ONNX export needs the 'onnx' package: pip install 'ndrql[onnx]' ({exc})") from None
-    os.replace(tmp, out)
     return out

@@ -13,7 +13,7 @@ import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -173,38 +173,67 @@ class _OnnxRunner:
 def onnx_cache_path(weights: Path) -> Path:
     """Where the ONNX export of ``weights`` is kept: ``$NDRQL_CACHE/onnx/<sha256 of the file>.onnx``."""
     from ndrql.dataset.cache import cache_dir
-    from ndrql.experiments.problems import file_digest
+    from ndrql.io import file_digest
 
-    return cache_dir() / "onnx" / f"{file_digest(weights)}.onnx"
+    return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}.onnx"
 
 
-def _onnx_model(weights: Path) -> tuple[Path, dict] | None:
+def _onnx_model(weights: Path, rebuild: bool = False) -> tuple[Path, dict] | None:
     """The cached ONNX export of ``weights`` and its model config, exporting it on first use.
 
-    A cache hit needs neither torch nor the checkpoint (same bytes, same model); a miss validates the
-    checkpoint (clear CheckpointError) and exports it. ``None`` for models without a guideline output.
+    A cache hit needs neither torch nor the checkpoint (same bytes, same model); the export is checked
+    against the SHA-256 recorded beside it, and a damaged or truncated one is exported again once,
+    with a warning (as is any export when ``rebuild``). A miss validates the checkpoint (clear
+    CheckpointError) and exports it. ``None`` for models without a guideline output.
     """
     import json
+    import warnings
 
-    from ndrql.experiments.sweep import write_json_atomic
+    from ndrql.io import file_digest, write_json
 
     onnx_path = onnx_cache_path(weights)
     meta_path = onnx_path.with_suffix(".json")
     try:
         meta = json.loads(meta_path.read_text())
     except (OSError, ValueError):
-        meta = None  # no export yet, or a damaged one: export again
-    if isinstance(meta, dict) and "config" in meta and (onnx_path.is_file() or not meta.get("exported")):
-        return (onnx_path, meta["config"]) if meta.get("exported") else None
+        meta = None  # no export yet, or a damaged record: export again
+    if isinstance(meta, dict) and isinstance(meta.get("config"), dict) and not rebuild:
+        if not meta.get("exported"):
+            return None
+        recorded = meta.get("onnx_sha256")
+        if recorded and onnx_path.is_file() and file_digest(onnx_path) == recorded:
+            return onnx_path, meta["config"]
+        if recorded:
+            warnings.warn(f"the cached ONNX export {onnx_path} is damaged; exporting it again", stacklevel=3)
     from ndrql.model.export import export_onnx
     from ndrql.training.checkpoint import load_checkpoint
 
     config = dict(load_checkpoint(weights)["config"])
     exported = config.get("guideline_decoder", True)
+    record = {"config": config, "exported": exported, "weights": str(weights)}
     if exported:
         export_onnx(weights, onnx_path)
-    write_json_atomic(meta_path, {"config": config, "exported": exported, "weights": str(weights)})
+        record["onnx_sha256"] = file_digest(onnx_path)
+    write_json(meta_path, record)
     return (onnx_path, config) if exported else None
+
+
+def _onnx_runner(weights: Path, threads: int) -> tuple[Any, str] | None:
+    """An ONNX Runtime runner for ``weights`` and its encoding; a cached export that ONNX Runtime cannot
+    load is exported again once (with a warning). ``None`` for models without a guideline output."""
+    import warnings
+
+    found = _onnx_model(weights)
+    if found is None:
+        return None
+    try:
+        return _OnnxRunner(found[0], threads), found[1].get("encoding", "point")
+    except Exception as exc:  # noqa: BLE001 - onnxruntime raises its own exception types
+        warnings.warn(f"the cached ONNX export {found[0]} does not load ({type(exc).__name__}); exporting it again",
+                      stacklevel=3)
+    found = _onnx_model(weights, rebuild=True)
+    assert found is not None
+    return _OnnxRunner(found[0], threads), found[1].get("encoding", "point")
 
 
 class Predictor:
@@ -250,10 +279,9 @@ class Predictor:
             raise NdrqlError("backend 'onnx' needs onnxruntime and onnx: pip install onnxruntime onnx")
         if backend != "torch" and onnx_available():
             try:
-                found = _onnx_model(path)
+                found = _onnx_runner(path, threads)
                 if found is not None:
-                    onnx_path, config = found
-                    return cls(_OnnxRunner(onnx_path, threads), encoding=config.get("encoding", "point"))
+                    return cls(found[0], encoding=found[1])
             except CheckpointError:
                 raise
             except Exception as exc:  # an unwritable cache, a failed export or session: torch still works

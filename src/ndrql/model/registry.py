@@ -1,11 +1,19 @@
-"""Model registry: build a network from its config dict, with an error listing valid names."""
+"""Model registry: build a network from its config dict, with an error listing valid names.
+
+A config comes from a preset, the command line or a checkpoint file (which anyone can craft), so
+:func:`check_config` checks every field's type and range (:data:`LIMITS`) before a network is
+built: a bad config is one ``ValueError`` line, never a traceback or a multi-gigabyte allocation.
+"""
 
 from __future__ import annotations
 
-from typing import Callable
+import math
+from dataclasses import fields
+from typing import Any, Callable
 
 from torch import nn
 
+from ndrql.model.backbone import STDC_DEPTHS
 from ndrql.model.ndr import NDRConfig, NDRNet
 
 
@@ -33,12 +41,89 @@ PRESETS: dict[str, dict] = {
 }
 
 
-def build_model(config: dict) -> nn.Module:
-    """Instantiate the architecture named by ``config['arch']``."""
+#: Allowed range of each numeric config field (inclusive); the presets use width 0.25..1.0.
+LIMITS: dict[str, tuple[float, float]] = {
+    "width": (0.0625, 2.0),
+    "in_channels": (1, 16),
+    "context_channels": (1, 1024),
+    "fusion_channels": (1, 1024),
+    "unet_base": (1, 256),
+    "decoder_channels": (1, 512),
+}
+
+#: Allowed values of the named config fields.
+CHOICES: dict[str, tuple[str, ...]] = {"backbone": tuple(STDC_DEPTHS)}
+
+
+def _config_class(arch: str) -> Any:
+    if arch == "rgp":
+        from ndrql.model.rgp import RGPConfig
+
+        return RGPConfig
+    return NDRConfig
+
+
+def _short(value: Any) -> str:
+    """A value for an error message, at most 60 characters (configs may come from crafted files)."""
+    text = repr(value) if isinstance(value, (str, int, float, bool, type(None))) else type(value).__name__
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _check_field(name: str, value: Any, default: Any) -> None:
+    if isinstance(default, bool):
+        ok = isinstance(value, bool)
+    elif isinstance(default, int):
+        ok = isinstance(value, int) and not isinstance(value, bool)
+    elif isinstance(default, float):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    elif isinstance(default, str):
+        ok = isinstance(value, str)
+    elif isinstance(default, tuple):
+        ok = (isinstance(value, (list, tuple)) and len(value) == len(default)
+              and all(isinstance(v, int) and not isinstance(v, bool) for v in value))
+    else:
+        ok = True
+    if not ok:
+        raise ValueError(f"model config field {name!r} must be like {default!r}, got {_short(value)}")
+    lo_hi = LIMITS.get(name)
+    if lo_hi is not None:
+        for v in value if isinstance(value, (list, tuple)) else (value,):
+            if not lo_hi[0] <= v <= lo_hi[1]:
+                raise ValueError(f"model config field {name!r} must be in {lo_hi[0]}..{lo_hi[1]}, got {_short(v)}")
+    if name in CHOICES and value not in CHOICES[name]:
+        raise ValueError(f"unknown {name} {_short(value)} in the model config; valid: {', '.join(CHOICES[name])}")
+    if name == "encoding":
+        from ndrql.dataset.encodings import ENCODINGS
+
+        if value not in ENCODINGS:
+            raise ValueError(f"unknown encoding {_short(value)}; valid: {', '.join(ENCODINGS)}")
+
+
+def check_config(config: Any) -> dict:
+    """``config`` as a dict after checking the architecture and every field's type and range.
+
+    ``ValueError`` (one line) for anything else: not a mapping, an unknown architecture or field, a
+    value of the wrong type or outside :data:`LIMITS`.
+    """
+    if not isinstance(config, dict):
+        raise ValueError(f"a model config is a mapping of fields, got {type(config).__name__}")
     arch = config.get("arch", "ndr")
-    if arch not in ARCHITECTURES:
-        raise ValueError(f"unknown architecture {arch!r}; valid: {', '.join(ARCHITECTURES)}")
-    return ARCHITECTURES[arch](config)
+    if not isinstance(arch, str) or arch not in ARCHITECTURES:
+        raise ValueError(f"unknown architecture {_short(arch)}; valid: {', '.join(ARCHITECTURES)}")
+    cls = _config_class(arch)
+    defaults = {f.name: f.default for f in fields(cls)}
+    unknown = [k for k in config if k not in defaults]
+    if unknown:
+        raise ValueError(f"unknown config fields for {arch}: {', '.join(_short(k) for k in unknown[:5])}")
+    for name, value in config.items():
+        _check_field(name, value, defaults[name])
+    return dict(config)
+
+
+def build_model(config: dict) -> nn.Module:
+    """Instantiate the architecture named by ``config['arch']`` (checked by :func:`check_config` first)."""
+    config = check_config(config)
+    return ARCHITECTURES[config.get("arch", "ndr")](config)
 
 
 def preset(name: str, **overrides) -> dict:

@@ -8,10 +8,9 @@ inputs and seed, so results are identical whether runs go one by one, in threads
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -203,9 +202,9 @@ def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "pr
         raise ValueError(f"unknown backend {backend!r}; valid: process, thread")
     n_chunks = min(len(jobs), workers * 4)
     chunks = [jobs[i::n_chunks] for i in range(n_chunks)]
-    methods = multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-    with ProcessPoolExecutor(max_workers=min(workers, n_chunks), mp_context=ctx) as pool:
+    from ndrql.workers import process_pool
+
+    with process_pool(min(workers, n_chunks), start_method="fork") as pool:  # workers die with this process
         parts = list(pool.map(_run_chunk, chunks))
     out: list[PlanResult | None] = [None] * len(jobs)
     for i, part in enumerate(parts):

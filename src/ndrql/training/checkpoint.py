@@ -1,11 +1,12 @@
 """Self-describing checkpoints: format tag, package version, model config and metrics beside the weights.
 
-Written atomically (temporary file + ``os.replace``) and read with ``torch.load(weights_only=True)``.
+Written through the project's one writer (:mod:`ndrql.io`: atomic, no debris even after ``kill -9``)
+and read with ``torch.load(weights_only=True)``; the model config is checked against the registry's
+limits (:func:`ndrql.model.registry.check_config`) when the file is read, before any network is built.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
@@ -20,14 +21,11 @@ FORMAT_VERSION = 1
 
 
 def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> Path:
-    """Write ``payload`` plus the format header to ``path`` atomically."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Write ``payload`` plus the format header to ``path`` (:func:`ndrql.io.atomic_write`)."""
+    from ndrql.io import atomic_write
+
     data = {"format": FORMAT, "format_version": FORMAT_VERSION, "ndrql_version": __version__, **payload}
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    torch.save(data, tmp)
-    os.replace(tmp, path)
-    return path
+    return atomic_write(path, lambda fh: torch.save(data, fh))
 
 
 def load_checkpoint(path: str | Path) -> dict[str, Any]:
@@ -48,6 +46,18 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
         )
     if "config" not in data or "model" not in data:
         raise CheckpointError(f"{path} lacks the model config or weights")
+    from ndrql.model.registry import check_config
+
+    try:
+        check_config(data["config"])
+    except ValueError as exc:
+        raise CheckpointError(f"{path}: {exc}") from None
+    model = data["model"]
+    if not isinstance(model, dict) or not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in model.items()):
+        raise CheckpointError(f"{path}: the weights are not a mapping of names to tensors")
+    for key in ("train_config", "state", "metrics"):
+        if not isinstance(data.get(key, {}), dict):
+            raise CheckpointError(f"{path}: {key!r} is not a mapping")
     return data
 
 

@@ -3,7 +3,7 @@
 Every anomaly of the upstream files is handled here, once: x is the row; TRAIN sample ``i`` uses
 map ``i % 4000``; UNSEEN 900..1199 have 256x256 maps (resized like the generator did, cv2-style
 bilinear then ``> 127``), reversed waypoints, and broken region labels that are regenerated from the
-guideline by the generator's 30x30 dilation.
+guideline by the generator's 30x30 dilation (:func:`ndrql.synth.labels.dilate_region`).
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ndrql.errors import DatasetError
+from ndrql.synth.labels import dilate_region  # the label definition's one home (re-exported here)
 
 #: Split name on the CLI -> folder inside the dataset root.
 SPLITS: dict[str, str] = {"train": "TRAIN", "seen": "TEST/SEEN", "unseen": "TEST/UNSEEN"}
@@ -138,14 +139,6 @@ def resize_bilinear_cv2(img: np.ndarray, height: int, width: int) -> np.ndarray:
     top, bottom = rows[y0], rows[y1]
     out = (((wy0[:, None] * (top >> 4)) >> 16) + ((wy1[:, None] * (bottom >> 4)) >> 16) + 2) >> 2
     return np.clip(out, 0, 255).astype(np.uint8)
-
-
-def dilate_region(guideline: np.ndarray) -> np.ndarray:
-    """The generator's region label: ``cv2.dilate(p2, ones((30, 30)))``, 15 px before, 14 after."""
-    from scipy.ndimage import maximum_filter
-
-    # scipy centres an even 30-wide window at offset 15, so it spans [i-15, i+14] like cv2.dilate.
-    return maximum_filter(guideline.astype(np.uint8), size=30, mode="constant", cval=0) > 0
 
 
 def load_map(root: str | Path, split: str, index: int) -> np.ndarray:

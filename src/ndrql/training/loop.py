@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import csv
 import math
-import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -53,18 +52,21 @@ def peak_lr(cfg: TrainConfig, world_size: int) -> float:
 
 
 def write_metrics_row(path: Path, row: dict) -> None:
-    """Append one row to the metrics CSV (header written once); rewrite atomically."""
+    """Append one row to the metrics CSV (header written once); rewrite it through :func:`ndrql.io.atomic_write`."""
+    from ndrql.io import atomic_write
+
     rows = []
     if path.exists():
         with path.open() as f:
             rows = list(csv.DictReader(f))
     rows = [r for r in rows if int(r["epoch"]) != row["epoch"]] + [{k: str(v) for k, v in row.items()}]
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as f:
+
+    def write(f) -> None:
         w = csv.DictWriter(f, fieldnames=list(row))
         w.writeheader()
         w.writerows(rows)
-    os.replace(tmp, path)
+
+    atomic_write(path, write, mode="w")
 
 
 def train_step(net: nn.Module, opt: torch.optim.Optimizer, batch: tuple[torch.Tensor, torch.Tensor, torch.Tensor], lr: float,

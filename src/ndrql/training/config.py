@@ -2,7 +2,40 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+
+#: Seeds are non-negative and below 2**63 (numpy, torch and the planning kernel all take them).
+SEED_LIMIT = 2**63
+
+#: (field, lowest, highest) of the numeric training fields; ``None`` = unbounded on that side.
+_RANGES: tuple[tuple[str, float | None, float | None], ...] = (
+    ("epochs", 1, 100_000), ("batch_size", 1, 65_536), ("warmup_steps", 0, None), ("seed", 0, SEED_LIMIT - 1),
+    ("loader_workers", 0, 256), ("threads", 0, 4096), ("max_steps", 0, None),
+)
+
+
+def check_train_config(cfg: "TrainConfig") -> None:
+    """``ValueError`` (one line naming the flag) for a value no run can use: a batch of 0, no epochs,
+    a validation fraction outside (0, 1), a negative or non-finite rate."""
+    def bad(name: str, rule: str, value: object) -> ValueError:
+        return ValueError(f"--{name.replace('_', '-')} must be {rule}, got {str(value)[:40]}")
+
+    for name, lo, hi in _RANGES:
+        value = getattr(cfg, name)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise bad(name, "an integer", value)
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            rule = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+            raise bad(name, rule, value)
+    for name, positive in (("lr", True), ("weight_decay", False), ("checkpoint_minutes", True)):
+        value = getattr(cfg, name)
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0 or (positive and value == 0):
+            raise bad(name, "a finite number > 0" if positive else "a finite number >= 0", value)
+    if not (isinstance(cfg.val_fraction, (int, float)) and 0 < cfg.val_fraction < 1):
+        raise bad("val_fraction", "between 0 and 1 (exclusive)", cfg.val_fraction)
+    if not isinstance(cfg.model_overrides, dict):
+        raise bad("model_overrides", "a JSON object", cfg.model_overrides)
 
 
 @dataclass(frozen=True)
@@ -51,6 +84,9 @@ class TrainConfig:
     """Minutes between mid-epoch checkpoints."""
     max_steps: int = 0
     """Stop after this many optimisation steps in this invocation (0 = no limit; for tests)."""
+
+    def __post_init__(self) -> None:
+        check_train_config(self)
 
     def model_config(self) -> dict:
         """Model config dict: preset + overrides + the input encoding."""

@@ -184,8 +184,12 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
     if not main:
         log = lambda *_a, **_k: None  # noqa: E731 - only rank 0 talks
     last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
+    if resume and not last_path.is_file():
+        raise CheckpointError(f"--resume: there is no {last_path} to continue; drop --resume to start a new run")
     if main:
-        run_dir.mkdir(parents=True, exist_ok=True)
+        from ndrql.io import make_folder
+
+        make_folder(run_dir)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
     if device.type == "cuda":

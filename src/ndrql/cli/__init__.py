@@ -2,6 +2,10 @@
 
 Each subcommand module exposes ``register(subparsers)`` which adds its parser and sets
 ``func`` (called with the parsed namespace, returns an exit code).
+
+Every error is one line on stderr and exit code 2: bad flags (no usage dump), any
+:class:`~ndrql.errors.NdrqlError`, and a ``ValueError``/``OverflowError`` from the library (a value
+out of range). Messages are cut to :data:`MAX_MESSAGE` characters, so no input is echoed unbounded.
 """
 
 from __future__ import annotations
@@ -9,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from typing import NoReturn
 
 from ndrql import __version__
 from ndrql.errors import NdrqlError
@@ -27,9 +32,26 @@ SUBCOMMANDS: tuple[str, ...] = (
 )
 
 
+#: Longest error message printed (characters); longer ones are cut with "...".
+MAX_MESSAGE = 400
+
+
+def one_line(message: object) -> str:
+    """``message`` on one line of at most :data:`MAX_MESSAGE` characters."""
+    text = " ".join(str(message).split())
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 3] + "..."
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage dump); subcommand parsers inherit it."""
+
+    def error(self, message: str) -> "NoReturn":  # type: ignore[override]
+        self.exit(2, f"ndrql: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the full ``ndrql`` parser with every subcommand registered."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="ndrql",
         description="Learning-guided grid path planning (NDR-QL): NDR model, Q-learning planners, A*.",
     )
@@ -55,9 +77,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         return int(args.func(args) or 0)
-    except NdrqlError as exc:
-        print(f"ndrql: error: {exc}", file=sys.stderr)
+    except (NdrqlError, ValueError, OverflowError) as exc:
+        print(f"ndrql: error: {one_line(exc)}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("ndrql: error: out of memory", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("ndrql: interrupted", file=sys.stderr)
         return 130

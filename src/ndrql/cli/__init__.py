@@ -24,6 +24,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "map_cmd",
     "astar_cmd",
     "plan_cmd",
+    "data_cmd",
     "train_cmd",
     "eval_cmd",
     "predict_cmd",

@@ -42,6 +42,8 @@ class NDRConfig:
     """Channels of the UNet's first level (doubles per level, 4 levels)."""
     encoding: str = "point"
     """Input encoding of start and goal the model was trained with (see ndrql.dataset.encodings)."""
+    input_mode: str = "map"
+    """What the model was trained to see: map (the map resized, the paper's input) or grid (the planning grid at 4 px per cell)."""
 
     @classmethod
     def from_dict(cls, data: dict) -> "NDRConfig":

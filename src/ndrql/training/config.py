@@ -84,6 +84,18 @@ class TrainConfig:
     """Minutes between mid-epoch checkpoints."""
     max_steps: int = 0
     """Stop after this many optimisation steps in this invocation (0 = no limit; for tests)."""
+    sources: str = ""
+    """Weighted training sources, e.g. paper:1,DIR:3 (DIR from ndrql data generate); empty = the paper's dataset alone."""
+    input_mode: str = "map"
+    """What the model sees: map (the map at about 4 px per planning cell) or grid (the planning grid at 4 px per cell)."""
+    grid_sizes: str = "50"
+    """Planning-grid sizes to train for (with --sources), e.g. 50,100: inputs of about 4 x size px."""
+    steps_per_epoch: int = 0
+    """Optimisation steps per epoch with --sources (0 = as many as one pass over the paper's training split)."""
+    val_per_source: int = 64
+    """Held-out validation samples per source with --sources."""
+    init_weights: str = ""
+    """Warm start: weights (checkpoint file) to start from instead of random initialisation."""
 
     def __post_init__(self) -> None:
         check_train_config(self)
@@ -95,4 +107,6 @@ class TrainConfig:
         overrides = dict(self.model_overrides)
         if self.encoding:
             overrides["encoding"] = self.encoding
+        if self.input_mode != "map":
+            overrides["input_mode"] = self.input_mode
         return preset(self.model, **overrides)

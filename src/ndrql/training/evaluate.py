@@ -99,3 +99,37 @@ def markdown_table(rows: list[dict], split: str, original_labels: bool) -> str:
             line += f" {r['region_f1_original']:.2f} |"
         lines.append(line)
     return "\n".join(lines) + "\n"
+
+
+def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "point", bf16: bool = False,
+                      batch_size: int = 16) -> dict[str, float]:
+    """Mean region and guideline F1 (percent) on rendered inputs (``(group, Rendered)`` pairs, any sides),
+    overall and per group (``region_f1/<group>``)."""
+    from ndrql.dataset.mixture import stack
+
+    model.eval()
+    rf: list[float] = []
+    gf: list[float] = []
+    groups: list[str] = []
+    by_side: dict[int, list[int]] = {}
+    for j, (_, r) in enumerate(items):
+        by_side.setdefault(r.obstacles.shape[0], []).append(j)
+    order: list[int] = []
+    for side in sorted(by_side):
+        idx = by_side[side]
+        for s in range(0, len(idx), batch_size):
+            sel = idx[s:s + batch_size]
+            x, region, guide = stack([items[j][1] for j in sel], encoding)
+            r, g = predict_batch(model, x, bf16)
+            rf.extend(f1_per_image(r >= 0.5, region[:, 0].numpy() > 0.5).tolist())
+            gf.extend((f1_per_image(g >= 0.5, guide[:, 0].numpy() > 0.5) if g is not None else np.full(len(sel), np.nan)).tolist())
+            order.extend(sel)
+    groups = [items[j][0] for j in order]
+    rf_a, gf_a = np.array(rf), np.array(gf)
+    out = {"region_f1": float(100 * rf_a.mean()) if len(rf_a) else float("nan"),
+           "guideline_f1": float(100 * np.nanmean(gf_a)) if np.isfinite(gf_a).any() else float("nan")}
+    for name in sorted(set(groups)):
+        sel = np.array([g == name for g in groups])
+        out[f"region_f1/{name}"] = float(100 * rf_a[sel].mean())
+        out[f"guideline_f1/{name}"] = float(100 * np.nanmean(gf_a[sel])) if np.isfinite(gf_a[sel]).any() else float("nan")
+    return out

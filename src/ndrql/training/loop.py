@@ -33,7 +33,7 @@ from ndrql.model.registry import build_model
 from ndrql.training import distributed as D
 from ndrql.training.checkpoint import load_checkpoint, save_checkpoint
 from ndrql.training.config import TrainConfig
-from ndrql.training.evaluate import evaluate
+from ndrql.training.evaluate import evaluate, evaluate_rendered
 from ndrql.training.losses import ndr_loss
 
 
@@ -149,6 +149,35 @@ def _on_rank0(world: D.World, fn):
     return value
 
 
+def build_mixture(cfg: TrainConfig, progress: bool):
+    """The mixture of ``cfg.sources`` (:mod:`ndrql.dataset.mixture`); returns (mixture, train ids, val ids, paper data)."""
+    from ndrql.dataset.mixture import Mixture, generated_source, paper_source, parse_sizes, parse_sources
+
+    sources, paper = [], None
+    for spec in parse_sources(cfg.sources):
+        if spec.name == "paper":
+            paper = load_split(cfg.data, "train", progress=progress)
+            seen = load_split(cfg.data, "seen", progress=progress)
+            tr, va = train_val_split(paper, seen, cfg.val_fraction, cfg.seed)
+            sources.append(paper_source(spec, paper, tr, va))
+        else:
+            sources.append(generated_source(spec))
+    encoding = cfg.model_config().get("encoding") or "point"
+    mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding)
+    tr_ids = np.concatenate([s.train_ids for s in sources])
+    va_ids = np.concatenate([s.val_ids for s in sources])
+    return mixture, tr_ids, va_ids, paper
+
+
+def warm_start(model: nn.Module, path: str, model_cfg: dict) -> None:
+    """Load the weights of checkpoint ``path`` into ``model`` (same architecture; the input mode may differ)."""
+    ck = load_checkpoint(path)
+    strip = lambda d: {k: v for k, v in dict(d).items() if k != "input_mode"}  # noqa: E731
+    if strip(ck["config"]) != strip(model_cfg):
+        raise CheckpointError(f"--init-weights {path} holds model {ck['config']}, this run builds {model_cfg}")
+    model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in ck["model"].items()})
+
+
 @dataclass
 class TrainOutcome:
     """What a training call leaves: the state summary, the (unwrapped) model, and this rank's per-step losses."""
@@ -196,15 +225,23 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
         torch.backends.cudnn.benchmark = True
 
     # Data: the first process of each node builds the cache when it is missing, the others wait.
-    if world.local_rank != 0:
-        D.barrier(world)
-    train_data = load_split(cfg.data, "train", progress=progress)
-    seen = load_split(cfg.data, "seen", progress=progress)
-    if world.local_rank == 0:
-        D.barrier(world)
-    tr_idx, val_idx = train_val_split(train_data, seen, cfg.val_fraction, cfg.seed)
+    mixture = None
+    if cfg.sources:
+        if world.distributed:
+            raise D.DeviceError("--sources (mixture training) runs in one process; drop torchrun")
+        mixture, tr_idx, val_idx, train_data = build_mixture(cfg, progress)
+    else:
+        if world.local_rank != 0:
+            D.barrier(world)
+        train_data = load_split(cfg.data, "train", progress=progress)
+        seen = load_split(cfg.data, "seen", progress=progress)
+        if world.local_rank == 0:
+            D.barrier(world)
+        tr_idx, val_idx = train_val_split(train_data, seen, cfg.val_fraction, cfg.seed)
     global_batch = cfg.batch_size * world.world_size
     steps_per_epoch = len(tr_idx) // global_batch
+    if mixture is not None and cfg.steps_per_epoch:
+        steps_per_epoch = cfg.steps_per_epoch
     total_steps = steps_per_epoch * cfg.epochs
     peak = peak_lr(cfg, world.world_size)
 
@@ -213,6 +250,9 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
     with torch.random.fork_rng(devices=[]):  # initial weights from the seed, global RNG untouched
         torch.manual_seed(cfg.seed)
         model = build_model(model_cfg)
+    if cfg.init_weights and not (resume and last_path.exists()):
+        warm_start(model, cfg.init_weights, model_cfg)
+        log(f"warm start from {cfg.init_weights}")
     model = model.to(device, memory_format=torch.channels_last)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     if cfg.sync_bn and device.type != "cuda":
@@ -276,12 +316,15 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
         }
 
     def batches(epoch: int):
+        if mixture is not None:
+            return mixture.batches(cfg.seed, epoch, steps_per_epoch, cfg.batch_size, state["step"], cfg.augment)
         args = (train_data, tr_idx, cfg.batch_size, cfg.seed, epoch, state["step"], cfg.augment, encoding)
         if device.type == "cpu":
             return D.rank_batches(*args, world=world)
         return D.loader_batches(*args, world=world, workers=cfg.loader_workers, pin=device.type == "cuda")
 
     losses: list[float] = []
+    val_items = None
     last_save = time.monotonic()
     steps_this_call = 0
     while state["epoch"] < cfg.epochs:
@@ -319,13 +362,19 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
                 return TrainOutcome(dict(state), model, losses)
         bar.close()
         _sync_buffers(model, world)  # every rank validates with rank 0's BatchNorm statistics
-        res = validate(model, train_data, val_idx, encoding, cfg, device, precision, world)
+        if mixture is not None:
+            if val_items is None:
+                val_items = mixture.validation(cfg.val_per_source)
+            res = evaluate_rendered(model, val_items, encoding, bf16=cfg.bf16 and device.type == "cpu")
+        else:
+            res = validate(model, train_data, val_idx, encoding, cfg, device, precision, world)
         loss_sum, loss_n = D.all_reduce_sum([loss_sum, loss_n], world, device)
         score = res["region_f1"] + (res["guideline_f1"] if np.isfinite(res["guideline_f1"]) else 0.0)
         state.update(epoch=epoch + 1, step=0)
         row = {"epoch": epoch + 1, "global_step": state["global_step"], "train_hours": round(state["train_seconds"] / 3600, 4),
                "train_loss": round(loss_sum / max(loss_n, 1), 5), "val_region_f1": round(res["region_f1"], 3),
                "val_guideline_f1": round(res["guideline_f1"], 3), "lr": learning_rate(cfg, state["global_step"], total_steps, peak)}
+        row.update({k.replace("/", "_"): round(v, 3) for k, v in res.items() if "/" in k})
         if main:
             write_metrics_row(run_dir / "metrics.csv", row)
         log(f"epoch {epoch + 1}: loss {row['train_loss']} val region F1 {row['val_region_f1']} guideline F1 {row['val_guideline_f1']}")

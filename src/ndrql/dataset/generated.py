@@ -1,0 +1,177 @@
+"""Generated sample sets on disk: written by ``ndrql data generate``, read by training and evaluation.
+
+Layout of a set directory::
+
+    manifest.json          {"format": "ndrql-generated", "version": 1, "spec": {...}, "shard_size": K}
+    shard-00000.npz        samples 0..K-1
+    shard-00001.npz        samples K..2K-1, ...
+
+A shard holds, per sample: the bit-packed square map (concatenated, with offsets), start and goal
+``(row, col)``, the waypoints of the near-optimal path (concatenated, with offsets) and the family.
+Shards are written atomically and each is a pure function of ``(spec, shard index)``, so an
+interrupted ``generate`` resumes by writing the missing shards, and any process count gives the same
+bytes.
+"""
+
+from __future__ import annotations
+
+import json
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ndrql.errors import DatasetError, NdrqlError
+from ndrql.io import save_npz, write_text
+from ndrql.synth.generate import RawSample, SetSpec, generate_sample
+
+FORMAT = "ndrql-generated"
+VERSION = 1
+#: Samples per shard file.
+SHARD_SIZE = 256
+
+
+def shard_path(root: Path, k: int) -> Path:
+    return root / f"shard-{k:05d}.npz"
+
+
+def n_shards(count: int, shard_size: int = SHARD_SIZE) -> int:
+    return -(-count // shard_size)
+
+
+def build_shard(spec: SetSpec, k: int, shard_size: int = SHARD_SIZE) -> dict[str, np.ndarray]:
+    """The arrays of shard ``k`` (samples ``k * shard_size`` .. up to ``spec.count``)."""
+    lo, hi = k * shard_size, min(spec.count, (k + 1) * shard_size)
+    samples = [generate_sample(spec, i) for i in range(lo, hi)]
+    maps = [np.packbits(s.obstacles.ravel()) for s in samples]
+    wps = [np.asarray(s.waypoints, np.int32).reshape(-1, 2) for s in samples]
+    return {
+        "index": np.arange(lo, hi, dtype=np.int64),
+        "sizes": np.array([s.obstacles.shape[0] for s in samples], np.int32),
+        "points": np.array([s.start + s.goal for s in samples], np.int32).reshape(-1, 4),
+        "families": np.array([s.family for s in samples], dtype="U32"),
+        "map_offsets": np.concatenate([[0], np.cumsum([len(m) for m in maps])]).astype(np.int64),
+        "maps": np.concatenate(maps) if maps else np.zeros(0, np.uint8),
+        "wp_offsets": np.concatenate([[0], np.cumsum([len(w) for w in wps])]).astype(np.int64),
+        "waypoints": np.concatenate(wps) if wps else np.zeros((0, 2), np.int32),
+    }
+
+
+def _write_shard(args: tuple[str, dict, int, int]) -> int:
+    root, spec_dict, k, shard_size = args
+    spec = SetSpec.from_dict(spec_dict)
+    arrays = build_shard(spec, k, shard_size)
+    save_npz(shard_path(Path(root), k), arrays, compressed=False)
+    return len(arrays["index"])
+
+
+def read_manifest(root: str | Path) -> dict:
+    """The manifest of a generated set; :class:`DatasetError` when missing or not one."""
+    path = Path(root) / "manifest.json"
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DatasetError(f"not a generated set (no manifest.json): {root}") from None
+    except (OSError, ValueError) as exc:
+        raise DatasetError(f"unreadable manifest {path}: {type(exc).__name__}") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT or data.get("version") != VERSION:
+        raise DatasetError(f"{path} is not a version-{VERSION} {FORMAT} manifest")
+    return data
+
+
+def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bool = True,
+                 shard_size: int = SHARD_SIZE, log: Callable[[str], None] | None = None) -> Path:
+    """Write (or complete) the set ``spec`` under ``root``; returns ``root``.
+
+    An existing set with another spec is refused, never mixed or replaced. Missing shards are
+    written; existing ones are kept (each shard is written atomically, so none is ever partial).
+    """
+    from tqdm import tqdm
+
+    root = Path(root)
+    if root.exists() and not root.is_dir():
+        raise NdrqlError(f"--out {root} exists and is not a directory")
+    manifest = {"format": FORMAT, "version": VERSION, "spec": spec.to_dict(), "shard_size": shard_size}
+    if (root / "manifest.json").exists():
+        old = read_manifest(root)
+        if old["spec"] != manifest["spec"] or old.get("shard_size") != shard_size:
+            raise NdrqlError(f"{root} holds another set ({old['spec']}); choose another --out")
+    else:
+        if root.exists() and any(root.iterdir()):
+            raise NdrqlError(f"--out {root} is a non-empty directory without a manifest; choose an empty or new one")
+        root.mkdir(parents=True, exist_ok=True)
+        write_text(root / "manifest.json", json.dumps(manifest, indent=1) + "\n")
+    todo = [k for k in range(n_shards(spec.count, shard_size)) if not shard_path(root, k).exists()]
+    done = spec.count - sum(min(spec.count, (k + 1) * shard_size) - k * shard_size for k in todo)
+    if log and done:
+        log(f"resuming: {done} of {spec.count} samples already in {root}")
+    jobs = [(str(root), spec.to_dict(), k, shard_size) for k in todo]
+    with tqdm(total=spec.count, initial=done, desc="generate", unit="map", disable=not progress) as bar:
+        if workers <= 1:
+            for job in jobs:
+                bar.update(_write_shard(job))
+        else:
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                for n in pool.map(_write_shard, jobs):
+                    bar.update(n)
+    return root
+
+
+@dataclass
+class GeneratedSet:
+    """A generated set held in memory (packed maps): ``len(s)``, ``s.raw(i)``, ``s.families``."""
+
+    root: Path
+    spec: SetSpec
+    sizes: np.ndarray
+    points: np.ndarray
+    families: np.ndarray
+    map_offsets: np.ndarray
+    maps: np.ndarray
+    wp_offsets: np.ndarray
+    waypoints: np.ndarray
+
+    @classmethod
+    def load(cls, root: str | Path) -> "GeneratedSet":
+        root = Path(root)
+        manifest = read_manifest(root)
+        spec = SetSpec.from_dict(manifest["spec"])
+        shard_size = int(manifest["shard_size"])
+        parts: dict[str, list[np.ndarray]] = {}
+        for k in range(n_shards(spec.count, shard_size)):
+            path = shard_path(root, k)
+            if not path.exists():
+                raise DatasetError(f"{root} is incomplete (no {path.name}); run the same `ndrql data generate` again to finish it")
+            try:
+                with np.load(path) as z:
+                    for key in z.files:
+                        parts.setdefault(key, []).append(z[key])
+            except (OSError, ValueError) as exc:
+                raise DatasetError(f"damaged shard {path} ({type(exc).__name__}); delete it and run `ndrql data generate` again") from None
+
+        def offsets(key: str) -> np.ndarray:
+            out, base = [np.zeros(1, np.int64)], 0
+            for off in parts[key]:
+                out.append(off[1:] + base)
+                base += int(off[-1])
+            return np.concatenate(out)
+
+        return cls(root=root, spec=spec, sizes=np.concatenate(parts["sizes"]), points=np.concatenate(parts["points"]),
+                   families=np.concatenate(parts["families"]), map_offsets=offsets("map_offsets"),
+                   maps=np.concatenate(parts["maps"]), wp_offsets=offsets("wp_offsets"),
+                   waypoints=np.concatenate(parts["waypoints"]))
+
+    def __len__(self) -> int:
+        return len(self.sizes)
+
+    def obstacles(self, i: int) -> np.ndarray:
+        s = int(self.sizes[i])
+        packed = self.maps[self.map_offsets[i]:self.map_offsets[i + 1]]
+        return np.unpackbits(packed, count=s * s).reshape(s, s).astype(bool)
+
+    def raw(self, i: int) -> RawSample:
+        sr, sc, gr, gc = (int(v) for v in self.points[i])
+        wp = self.waypoints[self.wp_offsets[i]:self.wp_offsets[i + 1]]
+        return RawSample(self.obstacles(i), (sr, sc), (gr, gc), np.asarray(wp), str(self.families[i]))

@@ -1,0 +1,195 @@
+"""Training on a weighted mixture of sources at several planning-grid scales.
+
+A *source* is the paper's dataset (``paper``) or a generated set directory (``ndrql data generate``),
+each with a weight: ``"paper:1,/data/gen-a:3"``. Every optimisation step draws one planning-grid
+size ``n`` (all samples of a batch share the input side, :func:`ndrql.dataset.render.input_side`),
+then for each sample a source by weight, a sample of it uniformly and a dihedral transform. All of it
+derives from ``(seed, epoch, step)``, so a resumed run sees exactly the batches it would have seen.
+The batch holds ``batch_size x (201 / side)^2`` samples (at least 2): about the same pixels per step
+at every scale.
+
+Validation uses fixed held-out samples of each source: the paper's validation split, and the last
+:data:`VAL_FRACTION` of each generated set (never drawn for training).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from ndrql.dataset.batches import transform_array, transform_point
+from ndrql.dataset.cache import SplitArrays, unpack
+from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.generated import GeneratedSet
+from ndrql.dataset.render import Rendered, input_side, render
+from ndrql.errors import NdrqlError
+
+#: Share of each generated set held out for validation (its last samples).
+VAL_FRACTION = 0.03
+#: Tries to draw a usable sample before a step gives up (a mixture where most samples are unusable is a bug).
+MAX_TRIES = 64
+
+
+@dataclass(frozen=True)
+class SourceSpec:
+    """One entry of ``--sources``: ``paper`` or a generated set directory, and its weight."""
+
+    name: str
+    weight: float
+
+
+def parse_sources(text: str) -> list[SourceSpec]:
+    """``"paper:1,/dir/gen:3"`` -> specs (a missing weight is 1)."""
+    out = []
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        name, weight = part, 1.0
+        head, sep, tail = part.rpartition(":")
+        if sep:
+            try:
+                name, weight = head, float(tail)
+            except ValueError:
+                name, weight = part, 1.0
+        if not np.isfinite(weight) or weight <= 0:
+            raise NdrqlError(f"source weight must be positive, got {part!r}")
+        out.append(SourceSpec(name, weight))
+    if not out:
+        raise NdrqlError("no training source given (e.g. --sources paper:1,DIR:3)")
+    return out
+
+
+def parse_sizes(text: str) -> tuple[int, ...]:
+    """``"50,100"`` -> planning-grid sizes for training."""
+    try:
+        sizes = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise NdrqlError(f"grid sizes must be integers, got {text!r}") from None
+    if not sizes or any(not 8 <= s <= 256 for s in sizes):
+        raise NdrqlError(f"grid sizes must be 8..256, got {text!r}")
+    return sizes
+
+
+class Source:
+    """Samples of one source as raw (map, start, goal, waypoints), split into train and validation."""
+
+    def __init__(self, spec: SourceSpec, train_ids: np.ndarray, val_ids: np.ndarray, get):
+        self.spec, self.train_ids, self.val_ids, self._get = spec, train_ids, val_ids, get
+
+    def raw(self, i: int) -> tuple[np.ndarray, tuple[int, int], tuple[int, int], np.ndarray | None, np.ndarray | None]:
+        """(obstacles, start, goal, waypoints or None, stored guideline or None) of sample ``i``."""
+        return self._get(i)
+
+
+def paper_source(spec: SourceSpec, data: SplitArrays, train_idx: np.ndarray, val_idx: np.ndarray) -> Source:
+    """The paper's TRAIN split: its own labels where the input is the paper's (201 px map)."""
+
+    def get(i: int):
+        sr, sc, gr, gc = (int(v) for v in data.points[i])
+        return data.obstacles(i), (sr, sc), (gr, gc), None, unpack(data.guideline[i])
+
+    return Source(spec, np.asarray(train_idx), np.asarray(val_idx), get)
+
+
+def generated_source(spec: SourceSpec, val_fraction: float = VAL_FRACTION) -> Source:
+    """A generated set; its last ``val_fraction`` of samples is the validation part."""
+    gs = GeneratedSet.load(Path(spec.name))
+    n = len(gs)
+    n_val = max(1, int(round(val_fraction * n))) if n > 1 else 0
+
+    def get(i: int):
+        raw = gs.raw(i)
+        return raw.obstacles, raw.start, raw.goal, raw.waypoints, None
+
+    return Source(spec, np.arange(n - n_val), np.arange(n - n_val, n), get)
+
+
+def render_source_sample(src: Source, i: int, mode: str, n: int) -> Rendered | None:
+    """Render sample ``i`` of ``src`` for ``mode`` at grid ``n`` (the paper's own labels at 201 px map mode)."""
+    obstacles, start, goal, waypoints, stored_guide = src.raw(i)
+    if mode == "map" and stored_guide is not None:
+        if input_side("map", n) == obstacles.shape[0] == obstacles.shape[1]:
+            from ndrql.synth.labels import dilate_region
+
+            return Rendered(obstacles, start, goal, stored_guide, dilate_region(stored_guide))
+        from ndrql.synth.labels import near_optimal_path
+
+        waypoints = near_optimal_path(obstacles, start, goal)
+    return render(mode, obstacles, start, goal, waypoints, n)
+
+
+def augment(r: Rendered, k: int) -> Rendered:
+    """Dihedral transform ``k`` (0..7) of input, points and labels together."""
+    if not k:
+        return r
+    shape = r.obstacles.shape
+    return Rendered(transform_array(r.obstacles, k), transform_point(r.start, k, shape), transform_point(r.goal, k, shape),
+                    transform_array(r.guideline, k), transform_array(r.region, k))
+
+
+def batch_size_for(side: int, batch_size: int) -> int:
+    """Samples per step at input side ``side``: about ``batch_size`` 201-px inputs' worth of pixels."""
+    return max(2, int(round(batch_size * (201 / side) ** 2)))
+
+
+def stack(items: list[Rendered], encoding: str):
+    """(x, region, guideline) float tensors (B, C, H, W)."""
+    import torch
+
+    x = np.stack([encode_input(r.obstacles, r.start, r.goal, encoding) for r in items])
+    region = np.stack([r.region for r in items])[:, None].astype(np.float32)
+    guide = np.stack([r.guideline for r in items])[:, None].astype(np.float32)
+    return torch.from_numpy(x), torch.from_numpy(region), torch.from_numpy(guide)
+
+
+class Mixture:
+    """Weighted sources, input mode and grid sizes: deterministic batches and a fixed validation list."""
+
+    def __init__(self, sources: list[Source], mode: str, sizes: tuple[int, ...], encoding: str = "point"):
+        if not sources:
+            raise NdrqlError("no training source")
+        self.sources, self.mode, self.sizes, self.encoding = sources, mode, tuple(sizes), encoding
+        w = np.array([s.spec.weight for s in sources], np.float64)
+        self.p = w / w.sum()
+        input_side(mode, sizes[0])  # validates the mode
+
+    def batch(self, seed: int, epoch: int, step: int, batch_size: int, augment_on: bool = True):
+        """Batch number ``step`` of ``epoch`` (a pure function of its arguments)."""
+        rng = np.random.default_rng([seed, epoch, step, 7919])
+        n = int(self.sizes[int(rng.integers(len(self.sizes)))])
+        items = []
+        for _ in range(batch_size_for(input_side(self.mode, n), batch_size)):
+            for _try in range(MAX_TRIES):
+                src = self.sources[int(rng.choice(len(self.sources), p=self.p))]
+                i = int(src.train_ids[int(rng.integers(len(src.train_ids)))])
+                k = int(rng.integers(8)) if augment_on else 0
+                r = render_source_sample(src, i, self.mode, n)
+                if r is not None:
+                    items.append(augment(r, k))
+                    break
+            else:
+                raise NdrqlError(f"no usable sample in {MAX_TRIES} draws at grid {n} ({self.mode} mode)")
+        return stack(items, self.encoding)
+
+    def batches(self, seed: int, epoch: int, steps: int, batch_size: int, start_step: int = 0,
+                augment_on: bool = True) -> Iterator[tuple[int, tuple]]:
+        for step in range(start_step, steps):
+            yield step, self.batch(seed, epoch, step, batch_size, augment_on)
+
+    def validation(self, per_source: int = 64) -> list[tuple[str, Rendered]]:
+        """Fixed validation inputs: up to ``per_source`` held-out samples per source, spread over the grid sizes."""
+        out = []
+        for src in self.sources:
+            got = 0
+            for j, i in enumerate(src.val_ids):
+                if got >= per_source:
+                    break
+                n = self.sizes[j % len(self.sizes)]
+                r = render_source_sample(src, int(i), self.mode, n)
+                if r is not None:  # unusable at this grid (disconnected): the next held-out sample instead
+                    out.append((Path(src.spec.name).name, r))
+                    got += 1
+        return out

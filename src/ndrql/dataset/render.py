@@ -1,0 +1,102 @@
+"""What the model sees and learns, for a planning grid of ``n`` cells: the two input modes.
+
+- ``map`` (the paper's input): the map itself resized to ``4n + 1`` px (201 for the paper's 50x50
+  grid), start and goal scaled with it; labels are the map's near-optimal path drawn at that scale
+  (guideline 2 px, region its 30x30 dilation, as the dataset defines them).
+- ``grid``: the planning grid the planner will solve (the conservative downscale, a cell blocked if
+  any pixel is), rendered at 4 px per cell; labels are the grid's own shortest path drawn the same way
+  (:func:`ndrql.synth.oracle.oracle_prediction`), i.e. the oracle's arrays.
+
+In both modes the model sees about 4 px per planning cell whatever the grid, so the label widths
+(2 and 30 px) keep the same meaning in cells. A sample that the mode cannot use (start and goal
+disconnected or in one cell on the grid) renders to ``None``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ndrql.errors import NdrqlError
+from ndrql.maps.grid import bfs_distances
+from ndrql.maps.safe import conservative_grid, point_to_square_cell
+from ndrql.synth.labels import dilate_region, draw_guideline
+from ndrql.synth.oracle import oracle_prediction
+
+Point = tuple[int, int]
+
+#: Input modes of the model (saved in the model config as ``input_mode``).
+INPUT_MODES = ("map", "grid")
+#: Pixels per planning cell in the model's input.
+PX_PER_CELL = 4
+
+
+@dataclass(frozen=True)
+class Rendered:
+    """One model input and its labels, all (side, side)."""
+
+    obstacles: np.ndarray
+    start: Point
+    goal: Point
+    guideline: np.ndarray
+    region: np.ndarray
+
+
+def input_side(mode: str, n: int) -> int:
+    """Side of the model input for a planning grid of ``n`` cells: ``4n + 1`` (map) or ``4n`` (grid)."""
+    if mode not in INPUT_MODES:
+        raise NdrqlError(f"unknown input mode {mode!r}; valid: {', '.join(INPUT_MODES)}")
+    return PX_PER_CELL * n + (1 if mode == "map" else 0)
+
+
+def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int) -> tuple[np.ndarray, Point, Point]:
+    """The planning grid as the model's input: 4 px per cell, padded with obstacles to ``4n`` square."""
+    side = PX_PER_CELL * n
+    img = np.ones((side, side), bool)
+    up = np.kron(np.asarray(blocked, np.uint8), np.ones((PX_PER_CELL, PX_PER_CELL), np.uint8)).astype(bool)
+    img[:up.shape[0], :up.shape[1]] = up
+    mid = PX_PER_CELL // 2
+    return img, (start_cell[0] * PX_PER_CELL + mid, start_cell[1] * PX_PER_CELL + mid), \
+        (goal_cell[0] * PX_PER_CELL + mid, goal_cell[1] * PX_PER_CELL + mid)
+
+
+def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Rendered | None:
+    """``grid`` mode: conservative grid of ``n`` cells, 4 px per cell, oracle labels."""
+    blocked = conservative_grid(obstacles, n)
+    s, g = point_to_square_cell(start, obstacles.shape, n), point_to_square_cell(goal, obstacles.shape, n)
+    if s == g or blocked[s] or blocked[g] or bfs_distances(blocked, s)[g] < 0:
+        return None
+    img, s_px, g_px = grid_input(blocked, s, g, n)
+    region, guide = oracle_prediction(blocked, s, g, PX_PER_CELL)
+    side = img.shape[0]
+    r = np.zeros((side, side), bool)
+    gl = np.zeros((side, side), bool)
+    r[:region.shape[0], :region.shape[1]] = region > 0.5
+    gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
+    return Rendered(img, s_px, g_px, gl, r)
+
+
+def render_map(obstacles: np.ndarray, start: Point, goal: Point, waypoints: np.ndarray, n: int) -> Rendered | None:
+    """``map`` mode: the map resized to ``4n + 1`` px, the path's waypoints drawn at that scale."""
+    from ndrql.model.predict import to_model_input
+
+    side = input_side("map", n)
+    img, s, g, scale = to_model_input(obstacles, start, goal, side)
+    wp = np.rint((np.asarray(waypoints, np.float64) + 0.5) * scale - 0.5).astype(np.int64)
+    wp = np.clip(wp, 0, side - 1)
+    guide = draw_guideline((side, side), wp)
+    if s == g:
+        return None
+    return Rendered(img, tuple(s), tuple(g), guide, dilate_region(guide))
+
+
+def render(mode: str, obstacles: np.ndarray, start: Point, goal: Point, waypoints: np.ndarray | None, n: int) -> Rendered | None:
+    """Model input and labels of one map for mode ``mode`` and a grid of ``n`` cells (``None``: unusable)."""
+    if mode == "grid":
+        return render_grid(obstacles, start, goal, n)
+    if mode == "map":
+        if waypoints is None:
+            raise NdrqlError("map mode needs the path's waypoints")
+        return render_map(obstacles, start, goal, waypoints, n)
+    raise NdrqlError(f"unknown input mode {mode!r}; valid: {', '.join(INPUT_MODES)}")

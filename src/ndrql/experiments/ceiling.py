@@ -1,0 +1,141 @@
+"""The ceiling: NDR-QL with the model's priors against NDR-QL with oracle priors, on the safe grid.
+
+For each held-out map and planning-grid size ``n`` the planner solves the conservative grid
+(:func:`ndrql.maps.safe.conservative_grid`). On it run, with the same seeds: QL, IQL, NDR-QL with the
+model's region and guideline, and NDR-QL with the *oracle's* (the grid's own shortest path drawn
+as the dataset draws its labels, :func:`ndrql.synth.oracle.oracle_prediction`). The model's share
+of the oracle's reduction is ``(1 - NDR/QL) / (1 - oracle/QL)`` on pooled steps, computed from the
+same runs as the rows it divides. Runs that do not converge count with the steps they used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.render import PX_PER_CELL, grid_input, input_side
+from ndrql.maps.grid import area_downscale, bfs_distances
+from ndrql.maps.safe import cell_size_px, conservative_grid, point_to_square_cell
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.runner import plan
+from ndrql.synth.oracle import oracle_prediction
+
+Point = tuple[int, int]
+
+#: Methods of a ceiling row, in order; the two NDR-QL rows differ only in where the priors come from.
+ROWS = ("QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)")
+
+
+@dataclass(frozen=True)
+class GridCase:
+    """One planning problem on the safe grid of ``n`` cells."""
+
+    name: str
+    group: str
+    obstacles: np.ndarray
+    start: Point
+    goal: Point
+    n: int
+    blocked: np.ndarray
+    start_cell: Point
+    goal_cell: Point
+
+
+def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: Point, n: int) -> GridCase | None:
+    """The safe-grid problem of a map, or ``None`` when start and goal do not connect on it."""
+    blocked = conservative_grid(obstacles, n)
+    s, g = point_to_square_cell(start, obstacles.shape, n), point_to_square_cell(goal, obstacles.shape, n)
+    if s == g or blocked[s] or blocked[g] or bfs_distances(blocked, s)[g] < 0:
+        return None
+    return GridCase(name, group, obstacles, start, goal, n, blocked, s, g)
+
+
+def to_grid(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Probabilities at 4 px per cell (possibly padded) -> the grid, by area averaging."""
+    h, w = shape
+    return area_downscale(prob[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
+
+
+def oracle_priors(case: GridCase) -> tuple[np.ndarray, np.ndarray]:
+    """Region and guideline of the oracle on the grid."""
+    region, guide = oracle_prediction(case.blocked, case.start_cell, case.goal_cell, PX_PER_CELL)
+    return to_grid(region, case.blocked.shape), to_grid(guide, case.blocked.shape)
+
+
+def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.ndarray]:
+    """Region and guideline of the model on the grid, for a model trained on input ``mode``."""
+    from ndrql.model.predict import from_model_output, to_model_input
+
+    if mode == "grid":
+        img, s, g = grid_input(case.blocked, case.start_cell, case.goal_cell, case.n)
+        r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
+        return to_grid(r[0], case.blocked.shape), to_grid(gl[0], case.blocked.shape)
+    side = input_side("map", case.n)
+    img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)
+    r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
+    shape = case.obstacles.shape
+    region = from_model_output(r[0], shape, scale)
+    guide = from_model_output(gl[0], shape, scale)
+    cell = cell_size_px(shape, case.n)
+    hh, ww = case.blocked.shape
+    pad = np.zeros((int(round(hh * cell)), int(round(ww * cell))))
+    out = []
+    for a in (region, guide):
+        p = pad.copy()
+        p[:shape[0], :shape[1]] = a[:p.shape[0], :p.shape[1]]
+        out.append(area_downscale(p, (hh, ww)))
+    return out[0], out[1]
+
+
+@dataclass
+class CaseResult:
+    """Steps (converged or not: the steps used) and path ratios per row and seed."""
+
+    case: str
+    group: str
+    n: int
+    steps: dict[str, list[int]] = field(default_factory=dict)
+    ratio: dict[str, list[float]] = field(default_factory=dict)
+    threshold: dict[str, float | None] = field(default_factory=dict)
+
+
+def run_case(case: GridCase, priors: dict[str, tuple[np.ndarray, np.ndarray] | None], seeds: list[int],
+             config: QLConfig = QLConfig(), prior_config: PriorConfig = PriorConfig()) -> CaseResult:
+    """Run each row in ``priors`` (row name -> region/guideline on the grid, ``None`` for QL/IQL)."""
+    out = CaseResult(case.name, case.group, case.n)
+    for row, pr in priors.items():
+        method = row.split(" ")[0]
+        region, guide = pr if pr is not None else (None, None)
+        runs = [plan(case.blocked, case.start_cell, case.goal_cell, method, s, config, prior_config, region, guide) for s in seeds]
+        out.steps[row] = [int(r.convergence_steps if r.converged else r.total_steps) for r in runs]
+        out.ratio[row] = [float(r.length_ratio) for r in runs if r.converged and r.length_ratio is not None]
+        out.threshold[row] = runs[0].threshold if hasattr(runs[0], "threshold") else None
+    return out
+
+
+def pooled(results: list[CaseResult], row: str) -> float:
+    return float(sum(sum(r.steps[row]) for r in results if row in r.steps))
+
+
+def share(results: list[CaseResult], model_row: str = "NDR-QL (model)", oracle_row: str = "NDR-QL (oracle)") -> float:
+    """``(1 - NDR/QL) / (1 - oracle/QL)`` on pooled steps of the same runs."""
+    ql = pooled(results, "QL")
+    red_m = 1 - pooled(results, model_row) / ql
+    red_o = 1 - pooled(results, oracle_row) / ql
+    return red_m / red_o if red_o > 0 else float("nan")
+
+
+def summary_rows(results: list[CaseResult], rows: tuple[str, ...]) -> list[dict]:
+    """Per row: pooled steps vs QL, mean path/A*, share of maps where it beats IQL (per-map mean steps)."""
+    ql = pooled(results, "QL")
+    out = []
+    for row in rows:
+        if not any(row in r.steps for r in results):
+            continue
+        ratios = [x for r in results for x in r.ratio.get(row, [])]
+        beats = [np.mean(r.steps[row]) < np.mean(r.steps["IQL"]) for r in results if row in r.steps and "IQL" in r.steps]
+        out.append({"row": row, "vs_ql": pooled(results, row) / ql - 1, "path_ratio": float(np.mean(ratios)) if ratios else float("nan"),
+                    "beats_iql": float(np.mean(beats)) if beats else float("nan"), "maps": len(results)})
+    return out

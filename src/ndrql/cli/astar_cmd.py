@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 EXAMPLES = """examples:
@@ -13,7 +14,8 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_problem_arguments
+    from ndrql.cli.common import add_max_pixels_argument, add_problem_arguments
+    from ndrql.limits import MAX_GRID_SIZE
 
     p = subparsers.add_parser(
         "astar",
@@ -27,7 +29,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen: take start and goal from scenario K (default 0)")
-    p.add_argument("--size", type=int, default=50, metavar="N", help="planning grid side (default: 50, paper)")
+    p.add_argument("--size", type=int, default=50, metavar="N",
+                   help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: 50, paper)")
+    add_max_pixels_argument(p)
     p.add_argument("--octile", action="store_true", help="8-connected octile A* on the full-resolution map")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     p.add_argument("--png", metavar="FILE", help="write a picture of the map and the path")
@@ -43,11 +47,12 @@ def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
 
     path, idx = args.scen, 0
     head, sep, tail = args.scen.rpartition(":")
-    if sep and tail.isdigit():
+    if sep and tail.strip().lstrip("+-").isdigit() and len(tail) <= 12 and not Path(args.scen).is_file():
         path, idx = head, int(tail)
     scenarios = read_movingai_scen(path)
     if not 0 <= idx < len(scenarios):
-        raise MapFormatError(f"scenario {idx} not in {path} ({len(scenarios)} scenarios)")
+        raise MapFormatError(f"scenario {idx} not in {path}: it has scenarios 0..{len(scenarios) - 1}"
+                             if scenarios else f"{path} has no scenarios")
     scen = scenarios[idx]
     args.start = args.start or f"{scen.start[0]},{scen.start[1]}"
     args.goal = args.goal or f"{scen.goal[0]},{scen.goal[1]}"
@@ -59,10 +64,9 @@ def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def run(args: argparse.Namespace) -> int:
     from ndrql.cli.common import resolve_problem
-    from ndrql.errors import NdrqlError
+    from ndrql.limits import MAX_GRID_SIZE, check_int
 
-    if args.size < 1:
-        raise NdrqlError(f"--size must be positive, got {args.size}")
+    check_int(args.size, "--size", 1, MAX_GRID_SIZE)
     scen = None
     if args.scen:
         problem, scen = _apply_scen(args)

@@ -36,13 +36,14 @@ class Problem:
 
 def parse_point(text: str, name: str = "point") -> Cell:
     """Parse ``"row,col"`` (integers, spaces allowed) into ``(row, col)``; :class:`PointError` otherwise."""
-    parts = [p.strip() for p in str(text).split(",")]
-    if len(parts) != 2:
-        raise PointError(f"{name} must be ROW,COL (two integers), got {text!r}")
+    shown = repr(str(text)[:40]) + ("..." if len(str(text)) > 40 else "")
+    parts = [p.strip() for p in str(text).split(",", 2)]
+    if len(parts) != 2 or not all(len(p) <= 12 for p in parts):
+        raise PointError(f"{name} must be ROW,COL (two integers), got {shown}")
     try:
         return (int(parts[0]), int(parts[1]))
     except ValueError:
-        raise PointError(f"{name} must be ROW,COL (two integers), got {text!r}") from None
+        raise PointError(f"{name} must be ROW,COL (two integers), got {shown}") from None
 
 
 def parse_sample_spec(text: str) -> tuple[Path, str, int]:
@@ -92,6 +93,14 @@ def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = F
     parser.add_argument("--crop", action="store_true", help="ROS maps: crop to the bounding box of known cells")
 
 
+def add_max_pixels_argument(parser: argparse.ArgumentParser) -> None:
+    """``--max-pixels N``: the largest map read (refused from its header before decoding)."""
+    from ndrql.maps.readers import MAX_MAP_PIXELS
+
+    parser.add_argument("--max-pixels", type=int, default=MAX_MAP_PIXELS, metavar="N",
+                        help=f"refuse maps with more pixels than this (default: {MAX_MAP_PIXELS:,} = 4096 x 4096)")
+
+
 def add_problem_arguments(parser: argparse.ArgumentParser) -> None:
     """Map arguments plus ``--start ROW,COL`` and ``--goal ROW,COL`` (source-map pixels)."""
     add_map_arguments(parser)
@@ -100,8 +109,12 @@ def add_problem_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
-    """The map named by ``args``: a :class:`Problem` for ``--sample``, else a :class:`GridMap`."""
-    from ndrql.maps.readers import load_map
+    """The map named by ``args``: a :class:`Problem` for ``--sample``, else a :class:`GridMap`.
+
+    A map larger than ``args.max_pixels`` (when the subcommand has that flag, else the readers'
+    default of 4096 x 4096) is refused before it is decoded.
+    """
+    from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
 
     sample = getattr(args, "sample", None)
     if sample and args.map:
@@ -110,7 +123,11 @@ def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
         return load_sample_problem(sample)
     if not args.map:
         raise NdrqlError("no map given: pass MAP or --sample DATASET_DIR:SPLIT:INDEX")
-    return load_map(args.map, invert=args.invert, threshold=args.threshold, crop=args.crop)
+    from ndrql.limits import check_finite, check_int
+
+    max_pixels = check_int(getattr(args, "max_pixels", MAX_MAP_PIXELS), "--max-pixels", 1)
+    check_finite(args.threshold, "--threshold")
+    return load_map(args.map, invert=args.invert, threshold=args.threshold, crop=args.crop, max_pixels=max_pixels)
 
 
 def resolve_problem(args: argparse.Namespace) -> Problem:
@@ -130,6 +147,8 @@ def resolve_problem(args: argparse.Namespace) -> Problem:
         if not problem.grid_map.contains(point):
             h, w = problem.grid_map.shape
             raise PointError(f"{name} {point[0]},{point[1]} is off the map (rows 0..{h - 1}, cols 0..{w - 1})")
+        if problem.grid_map.obstacles[point]:  # the same rule as `plan` (ndrql.api.check_points)
+            raise PointError(f"{name} {point[0]},{point[1]} is on an obstacle of the map")
     return problem
 
 

@@ -57,12 +57,14 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.api import solve
     from ndrql.cli.common import warnings_to_stderr, write_json
     from ndrql.cli.plan_cmd import _save, _short, _summary
-    from ndrql.errors import NdrqlError
     from ndrql.maps.bundled import bundled_sample
     from ndrql.viz.plan import compare_figure, plan_figure
 
-    if args.seeds < 1:
-        raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
+    from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+
+    check_seeds(0, args.seeds)
+    if args.workers is not None:
+        check_int(args.workers, "--workers", 1, MAX_WORKERS)
     sample = bundled_sample()
     out = Path(args.out)
     with warnings_to_stderr():

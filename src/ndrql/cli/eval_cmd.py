@@ -44,6 +44,11 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
     from ndrql.training.evaluate import category_rows, evaluate, markdown_table
 
+    from ndrql.limits import MAX_THREADS, check_int
+
+    check_int(args.batch_size, "--batch-size", 1, 4096)
+    check_int(args.limit, "--limit", 0)
+    check_int(args.threads, "--threads", 0, MAX_THREADS)
     root = args.data or default_root()
     if root is None:
         raise DatasetError("no dataset found: pass --data DIR (the path-planning-dataset in its original layout)")

@@ -34,6 +34,9 @@ def run_onnx(args: argparse.Namespace) -> int:
     from ndrql.model.export import export_onnx
     from ndrql.model.predict import default_weights_path
 
+    from ndrql.limits import check_int
+
+    check_int(args.size, "--size", 32, 4096)
     out = export_onnx(Path(args.weights) if args.weights else default_weights_path(), args.out, args.size)
     print(f"wrote {out}")
     return 0

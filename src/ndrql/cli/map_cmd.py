@@ -12,7 +12,8 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_map_arguments
+    from ndrql.cli.common import add_map_arguments, add_max_pixels_argument
+    from ndrql.limits import MAX_GRID_SIZE
 
     p = subparsers.add_parser(
         "map", help="inspect or convert a map", description="Inspect or convert a map.",
@@ -25,7 +26,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Print the map's size, obstacle ratio and its planning grid (# blocked, . free).",
     )
     add_map_arguments(info)
-    info.add_argument("--size", type=int, default=50, metavar="N", help="planning grid side (default: 50)")
+    add_max_pixels_argument(info)
+    info.add_argument("--size", type=int, default=50, metavar="N", help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: 50)")
     info.add_argument("--json", metavar="FILE", help="also write the information as JSON ('-' for stdout)")
     info.set_defaults(func=run_info)
 
@@ -34,17 +36,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Read any supported map and write it as .png (black = obstacle) or .npy (bool, True = obstacle).",
     )
     add_map_arguments(conv, map_required=True)
+    add_max_pixels_argument(conv)
     conv.add_argument("output", metavar="OUTPUT", help="output file, .png or .npy")
     conv.set_defaults(func=run_convert)
 
 
 def run_info(args: argparse.Namespace) -> int:
     from ndrql.cli.common import Problem, load_map_argument, map_info, write_json
-    from ndrql.errors import NdrqlError
     from ndrql.maps.grid import planning_grid
 
-    if args.size < 1:
-        raise NdrqlError(f"--size must be positive, got {args.size}")
+    from ndrql.limits import MAX_GRID_SIZE, check_int
+
+    check_int(args.size, "--size", 1, MAX_GRID_SIZE)
     loaded = load_map_argument(args)
     grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
     info = map_info(grid_map)

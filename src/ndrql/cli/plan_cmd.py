@@ -182,10 +182,11 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.errors import NdrqlError
     from ndrql.planning.methods import get_method, load_prior_file
 
-    if args.seeds < 1:
-        raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
-    if args.workers is not None and args.workers < 1:
-        raise NdrqlError(f"--workers must be >= 1, got {args.workers}")
+    from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+
+    seeds = check_seeds(args.seed, args.seeds)  # a range: --seeds is bounded, every seed below 2**63
+    if args.workers is not None:
+        check_int(args.workers, "--workers", 1, MAX_WORKERS)
     if args.weights and args.prior_from:
         raise NdrqlError("give either --weights or --prior-from, not both")
     names = [n.strip() for n in (args.compare.split(",") if args.compare else [args.method]) if n.strip()]
@@ -214,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
         predictions = load_prior_file(args.prior_from)
         info["prior_from"] = args.prior_from
     with warnings_to_stderr():
-        report = solve(grid_map, start, goal, methods, [args.seed + i for i in range(args.seeds)],
+        report = solve(grid_map, start, goal, methods, list(seeds),
                        weights=args.weights, predictions=predictions, config=ql_cfg, prior_config=prior_cfg,
                        settings=settings, scen=scen, scen_index=index, workers=args.workers,
                        keep_records=args.records, info=info)

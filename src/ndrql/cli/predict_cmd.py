@@ -11,7 +11,7 @@ EXAMPLES = """examples:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_problem_arguments
+    from ndrql.cli.common import add_max_pixels_argument, add_problem_arguments
     from ndrql.model.predict import BACKENDS
 
     p = sub.add_parser("predict", help="predict the path region and guideline with the NDR model",
@@ -19,6 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size).",
                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_problem_arguments(p)
+    add_max_pixels_argument(p)
     p.add_argument("--weights", metavar="FILE", help="model checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
     p.add_argument("--out", metavar="DIR", default="out/predict", help="output folder (default: out/predict)")
     p.add_argument("--backend", choices=BACKENDS, default="auto",
@@ -33,13 +34,12 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ndrql.cli.common import resolve_problem, save_figure
-    from ndrql.errors import NdrqlError
     from ndrql.io import make_folder, save_npz
+    from ndrql.limits import MAX_THREADS, check_int
     from ndrql.model.predict import Predictor
     from ndrql.viz.prediction import plot_probability_overlay
 
-    if args.threads < 1:
-        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
+    check_int(args.threads, "--threads", 1, MAX_THREADS)
     problem = resolve_problem(args)
     out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
     obstacles = problem.grid_map.obstacles

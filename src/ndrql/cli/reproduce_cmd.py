@@ -6,7 +6,7 @@ import argparse
 import shlex
 import sys
 
-TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "all")
+TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "all")
 
 EXAMPLES = """examples:
   ndrql reproduce table3                       # 8 fixed maps x QL, O-QL, IQL, NDR-QL x 10 seeds -> results/table3/
@@ -15,6 +15,7 @@ EXAMPLES = """examples:
   ndrql reproduce table3 --executor ray        # same table, runs on a local Ray instance (pip install 'ndrql[ray]')
   ndrql reproduce table4 --run --epochs 2      # trains every Table 4 variant (resumable), then evaluates them
   ndrql reproduce sizing                       # validation F1 per training hour by width and precision
+  ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
   ndrql reproduce dynamic
 
 Results go to results/<target>/ (markdown table, summary.json, PNG figures, one JSON per finished
@@ -62,7 +63,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "$NDRQL_CACHE/runs; table4 uses DIR/table4/<variant>)")
     p.add_argument("--rgp-weights", metavar="FILE", help="table1: RGP peer weights (default: $NDRQL_RGP_WEIGHTS or "
                    "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
-    p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split")
+    p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
+                   "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
@@ -70,17 +72,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _options(args: argparse.Namespace):
-    from ndrql.errors import NdrqlError
     from ndrql.experiments.planning_tables import SweepOptions
     from ndrql.planning.config import PriorConfig, QLConfig
 
     from ndrql.cli.options import configs_from_flags
 
+    from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+
     cfgs = configs_from_flags(args, ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)))
-    if args.seeds < 1:
-        raise NdrqlError(f"--seeds must be >= 1, got {args.seeds}")
-    if args.workers < 1:
-        raise NdrqlError(f"--workers must be >= 1, got {args.workers}")
+    check_seeds(args.seed, args.seeds)
+    check_int(args.workers, "--workers", 1, MAX_WORKERS)
+    check_int(args.epochs, "--epochs", 1, 10_000)
+    if args.limit is not None:
+        check_int(args.limit, "--limit", 1)
     command = "ndrql " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv and "ndrql" in sys.argv[0] else ""
     return SweepOptions(seeds=args.seeds, seed0=args.seed, workers=args.workers, executor=args.executor,
                         ray_address=args.ray_address, progress=not args.no_progress, ql=cfgs[0], priors=cfgs[1],
@@ -100,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     if args.per_category < 1 or args.per_category > 300:
         raise NdrqlError(f"--per-category must be in 1..300, got {args.per_category}")
     opts = _options(args)
-    targets = ["table1", "table3", "table2", "dynamic", "scale", "table4", "sizing"] if args.target == "all" else [args.target]
+    targets = ["table1", "table3", "table2", "dynamic", "scale", "table4", "sizing", "labels"] if args.target == "all" else [args.target]
     log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
     for target in targets:
         out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
@@ -123,6 +127,13 @@ def run(args: argparse.Namespace) -> int:
 
             path = table1(out, data=args.data, weights=args.weights, rgp_weights=args.rgp_weights, limit=args.limit,
                           progress=not args.no_progress, command=opts.command, log=log)
+        elif target == "labels":
+            from ndrql.experiments.labels_check import labels_check
+
+            if args.limit is not None and args.limit < 1:
+                raise NdrqlError(f"--limit must be >= 1, got {args.limit}")
+            path = labels_check(out, data=args.data, limit=args.limit, seed=args.seed, command=opts.command,
+                                progress=not args.no_progress, log=log)
         elif target == "sizing":
             from ndrql.experiments.model_tables import sizing
 

@@ -4,6 +4,10 @@ Every reader returns a :class:`~ndrql.maps.grid.GridMap` (``True`` = obstacle, `
 turns any problem with the file into :class:`~ndrql.errors.MapFormatError` with a one-line message.
 :func:`load_map` picks the reader from the file extension. The dataset layout has its own reader,
 :func:`ndrql.dataset.layout.load_sample`.
+
+Hostile files cost memory in proportion to their size, never more: a map larger than ``max_pixels``
+is refused from its header before any pixel is decoded, and error messages never echo a value from
+the file unbounded (:func:`brief`; a 600-byte YAML alias bomb stays 600 bytes).
 """
 
 from __future__ import annotations
@@ -23,6 +27,34 @@ MOVINGAI_FREE = frozenset(".GS")
 MOVINGAI_BLOCKED = frozenset("@OTW")
 ROS_MODES = ("trinary", "scale", "raw")
 ROS_REQUIRED_KEYS = ("image", "resolution", "origin", "occupied_thresh", "free_thresh")
+#: Largest map read by default (pixels): 4096 x 4096. Raise it with ``max_pixels`` (``--max-pixels``).
+MAX_MAP_PIXELS = 4096 * 4096
+
+
+def brief(value: object) -> str:
+    """A value read from a file, for an error message: short scalars as written, anything else described.
+
+    Never formats a container's contents (a YAML alias bomb is tiny as parsed, gigabytes as text).
+    """
+    if value is None or isinstance(value, (bool, float)):
+        return repr(value)
+    if isinstance(value, int):
+        return repr(value) if abs(value) < 10**15 else f"a {value.bit_length()}-bit integer"
+    if isinstance(value, str):
+        return repr(value) if len(value) <= 40 else repr(value[:40]) + "..."
+    if isinstance(value, (list, tuple)):
+        return f"a list of {len(value)} items"
+    if isinstance(value, dict):
+        return f"a mapping of {len(value)} keys"
+    return f"a {type(value).__name__}"
+
+
+def check_pixels(height: int, width: int, max_pixels: int | None, path: Path) -> None:
+    """:class:`MapFormatError` when a ``height`` x ``width`` map exceeds ``max_pixels`` (``None``: no limit)."""
+    if max_pixels is not None and height * width > max_pixels:
+        raise MapFormatError(
+            f"map {path} is {height}x{width} = {height * width:,} pixels, more than the limit of {max_pixels:,}; "
+            f"crop or downscale it, or raise --max-pixels")
 
 
 def _require_file(path: Path) -> None:
@@ -32,24 +64,32 @@ def _require_file(path: Path) -> None:
         raise MapFormatError(f"not a file: {path}")
 
 
-def _decode_image(path: Path) -> np.ndarray:
+def _decode_image(path: Path, max_pixels: int | None = MAX_MAP_PIXELS) -> np.ndarray:
     """Decode an image to a float array of shape (H, W) or (H, W, C) with values in 0..255.
 
     Alpha is kept as the last channel for ROS ``scale`` mode; 16-bit images are scaled to 0..255.
+    The size is checked against ``max_pixels`` from the header, before decoding.
     """
+    import warnings
+
     from PIL import Image
 
     _require_file(path)
     try:
-        with Image.open(path) as img:
-            img.load()
-            mode = img.mode
-            if mode in ("1", "P", "CMYK", "YCbCr", "LAB", "HSV", "PA"):
-                img = img.convert("RGBA" if "transparency" in img.info or mode == "PA" else "RGB")
+        with warnings.catch_warnings():  # the size check below replaces Pillow's bomb warning
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as img:
+                check_pixels(img.height, img.width, max_pixels, path)
+                img.load()
                 mode = img.mode
-            arr = np.asarray(img)
+                if mode in ("1", "P", "CMYK", "YCbCr", "LAB", "HSV", "PA"):
+                    img = img.convert("RGBA" if "transparency" in img.info or mode == "PA" else "RGB")
+                    mode = img.mode
+                arr = np.asarray(img)
     except MapFormatError:
         raise
+    except Image.DecompressionBombError:
+        raise MapFormatError(f"map {path} has more pixels than Pillow will decode; crop or downscale it") from None
     except Exception as exc:  # Pillow raises many types on corrupt input (OSError, ValueError, SyntaxError, ...)
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise MapFormatError(f"cannot read image {path}: {reason}") from exc
@@ -74,30 +114,39 @@ def _gray(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     return arr[..., :3].mean(axis=2), None
 
 
-def read_image(path: str | Path, invert: bool = False, threshold: float = 128) -> GridMap:
+def read_image(path: str | Path, invert: bool = False, threshold: float = 128,
+               max_pixels: int | None = MAX_MAP_PIXELS) -> GridMap:
     """Read a plain image map: dark pixels (gray < ``threshold``) are obstacles; ``invert`` flips that.
 
     Colour images use the mean of their channels; transparency is ignored.
     """
     path = Path(path)
-    gray, _ = _gray(_decode_image(path))
+    gray, _ = _gray(_decode_image(path, max_pixels))
     obstacles = gray < threshold
     if invert:
         obstacles = ~obstacles
     return GridMap(obstacles, source=str(path))
 
 
-def _ros_float(doc: dict, key: str, path: Path) -> float:
+def _number(value: object) -> float | None:
+    """``value`` as a finite float (numbers and numeric strings), else ``None``; containers are never formatted."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        return None
     try:
-        value = float(doc[key])
-    except (TypeError, ValueError):
-        raise MapFormatError(f"ROS map {path}: '{key}' must be a number, got {doc[key]!r}") from None
-    if not math.isfinite(value):
-        raise MapFormatError(f"ROS map {path}: '{key}' must be finite, got {value}")
+        out = float(value[:64] if isinstance(value, str) else value)
+    except (ValueError, OverflowError):
+        return None
+    return out if math.isfinite(out) else None
+
+
+def _ros_float(doc: dict, key: str, path: Path) -> float:
+    value = _number(doc[key])
+    if value is None:
+        raise MapFormatError(f"ROS map {path}: '{key}' must be a finite number, got {brief(doc[key])}")
     return value
 
 
-def read_ros_yaml(path: str | Path, crop: bool = False) -> GridMap:
+def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None = MAX_MAP_PIXELS) -> GridMap:
     """Read a ROS ``map_server`` map (YAML + image), as ``map_server`` interprets it.
 
     ``p = (255 - v) / 255`` (``v / 255`` when ``negate``) with ``v`` the mean of the colour channels;
@@ -114,8 +163,8 @@ def read_ros_yaml(path: str | Path, crop: bool = False) -> GridMap:
     _require_file(path)
     try:
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError, ValueError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    except (yaml.YAMLError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
         raise MapFormatError(f"cannot parse ROS map YAML {path}: {reason}") from None
     if not isinstance(doc, dict):
         raise MapFormatError(f"ROS map {path}: expected a mapping of keys, got {type(doc).__name__}")
@@ -131,25 +180,26 @@ def read_ros_yaml(path: str | Path, crop: bool = False) -> GridMap:
         raise MapFormatError(f"ROS map {path}: need 0 <= free_thresh <= occupied_thresh <= 1, got {free}, {occ}")
     origin = doc["origin"]
     if not isinstance(origin, (list, tuple)) or len(origin) not in (2, 3):
-        raise MapFormatError(f"ROS map {path}: 'origin' must be [x, y, yaw], got {origin!r}")
-    try:
-        origin = [float(v) for v in origin] + ([0.0] if len(origin) == 2 else [])
-    except (TypeError, ValueError):
-        raise MapFormatError(f"ROS map {path}: 'origin' must hold numbers, got {origin!r}") from None
+        raise MapFormatError(f"ROS map {path}: 'origin' must be [x, y, yaw], got {brief(origin)}")
+    numbers = [_number(v) for v in origin]
+    if any(v is None for v in numbers):
+        bad = next(v for v, n in zip(origin, numbers) if n is None)
+        raise MapFormatError(f"ROS map {path}: 'origin' must hold finite numbers, got {brief(bad)}")
+    origin = numbers + ([0.0] if len(origin) == 2 else [])
     negate = doc.get("negate", 0)
-    if negate not in (0, 1, True, False):
-        raise MapFormatError(f"ROS map {path}: 'negate' must be 0 or 1, got {negate!r}")
+    if isinstance(negate, (list, dict)) or negate not in (0, 1, True, False):
+        raise MapFormatError(f"ROS map {path}: 'negate' must be 0 or 1, got {brief(negate)}")
     mode = doc.get("mode", "trinary")
-    if mode not in ROS_MODES:
-        raise MapFormatError(f"ROS map {path}: unknown mode {mode!r}; valid: {', '.join(ROS_MODES)}")
+    if not isinstance(mode, str) or mode not in ROS_MODES:
+        raise MapFormatError(f"ROS map {path}: unknown mode {brief(mode)}; valid: {', '.join(ROS_MODES)}")
     image = doc["image"]
     if not isinstance(image, str) or not image.strip():
-        raise MapFormatError(f"ROS map {path}: 'image' must be a file name, got {image!r}")
+        raise MapFormatError(f"ROS map {path}: 'image' must be a file name, got {brief(image)}")
     image_path = Path(image) if Path(image).is_absolute() else path.parent / image
     if not image_path.exists():
         raise MapFormatError(f"ROS map {path}: image file not found: {image_path}")
 
-    gray, alpha = _gray(_decode_image(image_path))
+    gray, alpha = _gray(_decode_image(image_path, max_pixels))
     if mode == "raw":
         unknown = gray > 100
         obstacles = unknown | (gray >= 50)
@@ -193,7 +243,7 @@ def _read_text(path: Path, what: str) -> str:
         raise MapFormatError(f"{what} {path}: not an ASCII text file") from None
 
 
-def read_movingai_map(path: str | Path) -> GridMap:
+def read_movingai_map(path: str | Path, max_pixels: int | None = MAX_MAP_PIXELS) -> GridMap:
     """Read a MovingAI ``.map``: header ``type octile``, ``height H``, ``width W``, ``map``, then H rows.
 
     ``.`` ``G`` ``S`` are free; ``@`` ``O`` ``T`` ``W`` are blocked. Row 0 is the first map line, column 0
@@ -227,6 +277,7 @@ def read_movingai_map(path: str | Path) -> GridMap:
         raise MapFormatError(f"MovingAI map {path}: bad header, height/width must be integers") from None
     if height < 1 or width < 1:
         raise MapFormatError(f"MovingAI map {path}: bad header, height and width must be positive")
+    check_pixels(height, width, max_pixels, path)
     rows = [ln.rstrip("\r") for ln in lines[i:]]
     while rows and not rows[-1].strip():
         rows.pop()
@@ -296,38 +347,45 @@ def read_movingai_scen(path: str | Path) -> list[Scenario]:
     return out
 
 
-def read_npy(path: str | Path) -> GridMap:
-    """Read a 2-D ``.npy`` array: non-zero (``True``) = obstacle. Pickled objects are refused."""
+def read_npy(path: str | Path, max_pixels: int | None = MAX_MAP_PIXELS) -> GridMap:
+    """Read a 2-D ``.npy`` array: non-zero (``True``) = obstacle. Pickled objects are refused.
+
+    The file is memory-mapped first, so shape, dtype and size are checked before any data is read.
+    """
     path = Path(path)
     _require_file(path)
     try:
-        arr = np.load(path, allow_pickle=False)
+        arr = np.load(path, mmap_mode="r", allow_pickle=False)
     except Exception as exc:  # numpy raises ValueError, OSError, EOFError, ... on corrupt files
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
         raise MapFormatError(f"cannot read .npy map {path}: {reason}") from None
     if not isinstance(arr, np.ndarray) or arr.ndim != 2 or 0 in arr.shape:
         raise MapFormatError(f".npy map {path}: expected a non-empty 2-D array, got shape {getattr(arr, 'shape', None)}")
     if arr.dtype.kind not in "biuf":
         raise MapFormatError(f".npy map {path}: expected a boolean or numeric array, got dtype {arr.dtype}")
+    check_pixels(arr.shape[0], arr.shape[1], max_pixels, path)
+    arr = np.array(arr)
     if arr.dtype.kind == "f" and not np.isfinite(arr).all():
         raise MapFormatError(f".npy map {path}: contains NaN or infinite values")
     return GridMap(arr != 0, source=str(path))
 
 
-def load_map(path: str | Path, *, invert: bool = False, threshold: float = 128, crop: bool = False) -> GridMap:
+def load_map(path: str | Path, *, invert: bool = False, threshold: float = 128, crop: bool = False,
+             max_pixels: int | None = MAX_MAP_PIXELS) -> GridMap:
     """Load a map, choosing the reader by extension (image, ROS YAML, MovingAI ``.map``, ``.npy``).
 
-    ``invert`` and ``threshold`` apply to plain images, ``crop`` to ROS maps.
+    ``invert`` and ``threshold`` apply to plain images, ``crop`` to ROS maps; a map of more than
+    ``max_pixels`` pixels (``None``: no limit) is refused before it is decoded.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in IMAGE_SUFFIXES:
-        return read_image(path, invert=invert, threshold=threshold)
+        return read_image(path, invert=invert, threshold=threshold, max_pixels=max_pixels)
     if suffix in YAML_SUFFIXES:
-        return read_ros_yaml(path, crop=crop)
+        return read_ros_yaml(path, crop=crop, max_pixels=max_pixels)
     if suffix == ".map":
-        return read_movingai_map(path)
+        return read_movingai_map(path, max_pixels=max_pixels)
     if suffix == ".npy":
-        return read_npy(path)
+        return read_npy(path, max_pixels=max_pixels)
     supported = ", ".join(IMAGE_SUFFIXES + YAML_SUFFIXES + (".map", ".npy"))
     raise MapFormatError(f"unsupported map format {suffix or '(no extension)'!r} for {path}; supported: {supported}")

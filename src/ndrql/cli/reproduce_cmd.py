@@ -130,8 +130,6 @@ def run(args: argparse.Namespace) -> int:
         elif target == "labels":
             from ndrql.experiments.labels_check import labels_check
 
-            if args.limit is not None and args.limit < 1:
-                raise NdrqlError(f"--limit must be >= 1, got {args.limit}")
             path = labels_check(out, data=args.data, limit=args.limit, seed=args.seed, command=opts.command,
                                 progress=not args.no_progress, log=log)
         elif target == "sizing":

@@ -202,8 +202,10 @@ def test_read_only_folder_is_one_line():
         with _unprivileged():
             with pytest.raises(OutputError) as err:
                 nio.write_json(folder / "x.json", {})
-            with pytest.raises(OutputError, match="Permission denied"):
+            with pytest.raises(OutputError, match="cannot create its folder"):
                 nio.write_text(folder / "sub" / "x.txt", "x")
+            with pytest.raises(OutputError, match="Permission denied"):
+                nio.check_writable(folder / "x.json")
         assert str(err.value) == f"cannot write {folder / 'x.json'}: Permission denied"
         assert _listing(folder) == []
     finally:
@@ -215,8 +217,13 @@ def test_folder_in_the_way_and_file_in_the_way(tmp_path):
     with pytest.raises(OutputError, match="it is a folder"):
         nio.write_text(tmp_path / "d", "x")
     (tmp_path / "f").write_text("x")
-    with pytest.raises(OutputError, match="a file is in the way"):
+    with pytest.raises(OutputError, match=r"cannot write .*f/x\.txt: a file is in the way \(.*f\)$"):
         nio.write_text(tmp_path / "f" / "x.txt", "x")
+    with pytest.raises(OutputError, match="a file is in the way"):
+        nio.check_writable(tmp_path / "f" / "sub" / "x.txt")
+    with pytest.raises(OutputError, match="it is a folder"):
+        nio.check_writable(tmp_path / "d")
+    assert nio.check_writable(tmp_path / "new" / "x.txt") == tmp_path / "new" / "x.txt"
     with pytest.raises(OutputError, match="a file is in the way"):
         nio.make_folder(tmp_path / "f")
     assert issubclass(OutputError, NdrqlError)

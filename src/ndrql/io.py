@@ -40,6 +40,7 @@ __all__ = [
     "OutputError",
     "atomic_path",
     "atomic_write",
+    "check_writable",
     "file_digest",
     "make_folder",
     "save_figure",
@@ -92,6 +93,48 @@ def _linkat() -> Any:
         return None
     fn.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_int)
     return fn
+
+
+def _parent_folder(given: Path, target: Path) -> Path:
+    """Create the folder ``target`` goes in; an error names the path as the user gave it."""
+    try:
+        return make_folder(target.parent)
+    except OutputError:
+        folder = given.parent
+        reason = "a file is in the way" if _file_in_the_way(target.parent) else "cannot create its folder"
+        raise OutputError(f"cannot write {_shown(given)}: {reason} ({_shown(folder)})") from None
+
+
+def _file_in_the_way(folder: Path) -> bool:
+    for part in (folder, *folder.parents):
+        if part.exists():
+            return not part.is_dir()
+    return False
+
+
+def _nearest_existing(folder: Path) -> Path:
+    for part in (folder, *folder.parents):
+        if part.exists():
+            return part
+    return Path(folder.anchor or ".")
+
+
+def check_writable(path: str | os.PathLike) -> Path:
+    """Fail early, writing nothing: :class:`OutputError` when ``path`` could not be written later.
+
+    Catches a folder or socket in the way, a file where a folder should be and a folder without
+    write permission; a command calls it for its output flags before the long work starts.
+    """
+    given = Path(path)
+    target, st = _inspect(given)
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        return given  # a FIFO or device: written directly
+    folder = _nearest_existing(target.parent)
+    if not folder.is_dir():
+        raise OutputError(f"cannot write {_shown(given)}: a file is in the way ({_shown(given.parent)})")
+    if not os.access(folder, os.W_OK | os.X_OK, effective_ids=os.access in os.supports_effective_ids):
+        raise OutputError(f"cannot write {_shown(given)}: Permission denied")
+    return given
 
 
 def _anonymous_supported() -> bool:
@@ -233,7 +276,7 @@ def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode
     if st is not None and not stat.S_ISREG(st.st_mode):
         _write_direct(given, target, write_fn, mode)
         return given
-    make_folder(target.parent)
+    _parent_folder(given, target)
     _replace(given, target, write_fn, mode, stat.S_IMODE(st.st_mode) if st is not None else None)
     return given
 
@@ -281,7 +324,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
 
             _write_direct(given, target, copy, "wb")
         return
-    folder = make_folder(target.parent)
+    folder = _parent_folder(given, target)
     _sweep_stale(folder, target.name)
     tmp = None
     try:

@@ -63,10 +63,11 @@ def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import resolve_problem
+    from ndrql.cli.common import check_outputs, resolve_problem
     from ndrql.limits import MAX_GRID_SIZE, check_int
 
     check_int(args.size, "--size", 1, MAX_GRID_SIZE)
+    check_outputs(args.json, args.png)
     scen = None
     if args.scen:
         problem, scen = _apply_scen(args)

@@ -178,6 +178,15 @@ def write_json(path: str | Path, data: Any) -> Path:
     return io_write_json(path, data)
 
 
+def check_outputs(*paths: str | Path | None) -> None:
+    """Fail before the work starts when an output file could not be written (``None`` and ``-`` are skipped)."""
+    from ndrql.io import check_writable
+
+    for path in paths:
+        if path is not None and str(path) != "-":
+            check_writable(path)
+
+
 def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 120) -> Path:
     """Create an Agg figure, call ``draw(ax)``, save it through :func:`ndrql.io.save_figure` (format from the extension)."""
     from ndrql.io import save_figure as io_save_figure

@@ -49,6 +49,9 @@ def run(args: argparse.Namespace) -> int:
     check_int(args.batch_size, "--batch-size", 1, 4096)
     check_int(args.limit, "--limit", 0)
     check_int(args.threads, "--threads", 0, MAX_THREADS)
+    from ndrql.cli.common import check_outputs
+
+    check_outputs(args.markdown, args.json)
     root = args.data or default_root()
     if root is None:
         raise DatasetError("no dataset found: pass --data DIR (the path-planning-dataset in its original layout)")

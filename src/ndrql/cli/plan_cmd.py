@@ -185,6 +185,9 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 
     seeds = check_seeds(args.seed, args.seeds)  # a range: --seeds is bounded, every seed below 2**63
+    from ndrql.cli.common import check_outputs
+
+    check_outputs(args.json, args.png)  # before the work: an unwritable output is one line now, not after planning
     if args.workers is not None:
         check_int(args.workers, "--workers", 1, MAX_WORKERS)
     if args.weights and args.prior_from:

@@ -129,20 +129,23 @@ def read_image(path: str | Path, invert: bool = False, threshold: float = 128,
 
 
 def _number(value: object) -> float | None:
-    """``value`` as a finite float (numbers and numeric strings), else ``None``; containers are never formatted."""
+    """``value`` as a float (numbers and numeric strings; a huge integer is infinite), else ``None``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         return None
     try:
-        out = float(value[:64] if isinstance(value, str) else value)
-    except (ValueError, OverflowError):
+        return float(value[:64] if isinstance(value, str) else value)
+    except OverflowError:
+        return math.inf
+    except ValueError:
         return None
-    return out if math.isfinite(out) else None
 
 
 def _ros_float(doc: dict, key: str, path: Path) -> float:
     value = _number(doc[key])
     if value is None:
-        raise MapFormatError(f"ROS map {path}: '{key}' must be a finite number, got {brief(doc[key])}")
+        raise MapFormatError(f"ROS map {path}: '{key}' must be a number, got {brief(doc[key])}")
+    if not math.isfinite(value):
+        raise MapFormatError(f"ROS map {path}: '{key}' must be finite, got {brief(doc[key])}")
     return value
 
 
@@ -182,15 +185,17 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
     if not isinstance(origin, (list, tuple)) or len(origin) not in (2, 3):
         raise MapFormatError(f"ROS map {path}: 'origin' must be [x, y, yaw], got {brief(origin)}")
     numbers = [_number(v) for v in origin]
-    if any(v is None for v in numbers):
-        bad = next(v for v, n in zip(origin, numbers) if n is None)
-        raise MapFormatError(f"ROS map {path}: 'origin' must hold finite numbers, got {brief(bad)}")
+    for v, n in zip(origin, numbers):
+        if n is None or not math.isfinite(n):
+            raise MapFormatError(f"ROS map {path}: 'origin' must hold finite numbers, got {brief(v)}")
     origin = numbers + ([0.0] if len(origin) == 2 else [])
     negate = doc.get("negate", 0)
     if isinstance(negate, (list, dict)) or negate not in (0, 1, True, False):
         raise MapFormatError(f"ROS map {path}: 'negate' must be 0 or 1, got {brief(negate)}")
     mode = doc.get("mode", "trinary")
-    if not isinstance(mode, str) or mode not in ROS_MODES:
+    if not isinstance(mode, str):
+        raise MapFormatError(f"ROS map {path}: 'mode' must be one of {', '.join(ROS_MODES)}, got {brief(mode)}")
+    if mode not in ROS_MODES:
         raise MapFormatError(f"ROS map {path}: unknown mode {brief(mode)}; valid: {', '.join(ROS_MODES)}")
     image = doc["image"]
     if not isinstance(image, str) or not image.strip():

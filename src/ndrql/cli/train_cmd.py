@@ -52,8 +52,14 @@ def run(args: argparse.Namespace) -> int:
         raise DeviceError(f"unknown --device {cfg.device!r}; valid: {', '.join(DEVICES)}")
     if cfg.amp_dtype not in AMP_DTYPES:
         raise DeviceError(f"unknown --amp-dtype {cfg.amp_dtype!r}; valid: {', '.join(AMP_DTYPES)}")
-    check_root(cfg.data)
+    from ndrql.errors import CheckpointError
+    from ndrql.model.registry import check_config
+
+    check_config(cfg.model_config())  # an unknown --model or a bad override: one line before any work
     run_dir = args.run_dir or default_run_dir(cfg.model)
+    if args.resume and not (run_dir / "last.pt").is_file():  # the loop says the same; here before the data loads
+        raise CheckpointError(f"--resume: there is no {run_dir / 'last.pt'} to continue; drop --resume to start a new run")
+    check_root(cfg.data)
     if world_from_env().is_main:
         print(f"run directory: {run_dir}", flush=True)
     train(cfg, run_dir, resume=args.resume, progress=not args.no_progress, log=lambda m: print(m, flush=True))

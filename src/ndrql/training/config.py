@@ -5,8 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-#: Seeds are non-negative and below 2**63 (numpy, torch and the planning kernel all take them).
-SEED_LIMIT = 2**63
+from ndrql.limits import SEED_LIMIT
 
 #: (field, lowest, highest) of the numeric training fields; ``None`` = unbounded on that side.
 _RANGES: tuple[tuple[str, float | None, float | None], ...] = (

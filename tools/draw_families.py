@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ndrql.io import save_figure
+from ndrql.io import atomic_write
 from ndrql.synth import family_names, generate_map
 from ndrql.viz.maps import new_figure
 
@@ -47,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--families", default=",".join(family_names()), help="comma-separated family names")
     parser.add_argument("--sizes", default="201,801", help="comma-separated map sides in px (square maps)")
     parser.add_argument("--seeds", type=int, default=4, help="seeds 0..N-1 per size")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output image")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output PNG")
     parser.add_argument("--dpi", type=int, default=110)
     args = parser.parse_args(argv)
     families = [f for f in args.families.split(",") if f]
@@ -57,7 +57,11 @@ def main(argv: list[str] | None = None) -> int:
     fig = new_figure(figsize=(1.6 * cols, 1.65 * len(families)), dpi=args.dpi)
     draw_sheet(fig, families, sizes, seeds)
     fig.subplots_adjust(left=0.04, right=0.995, top=0.97, bottom=0.005, wspace=0.05, hspace=0.08)
-    save_figure(fig, args.out)
+    fig.canvas.draw()
+    from PIL import Image  # the sheet is grey: an 8-bit greyscale PNG is a third of the RGBA one
+
+    grey = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())).convert("L")
+    atomic_write(args.out, lambda fh: grey.save(fh, format="PNG", optimize=True))
     print(f"wrote {args.out}")
     return 0
 

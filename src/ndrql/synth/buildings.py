@@ -141,13 +141,16 @@ def _office_row(rng: np.random.Generator, rows: tuple[int, int], cols: list[tupl
 
 def office(rng: np.random.Generator, height: int, width: int, *, wall: int | None = None,
            corridor: int | None = None, furniture: int | None = None) -> np.ndarray:
-    """An office floor plan: one or two long corridors, rows of rooms off them, doors, furniture.
+    """An office floor plan: long parallel corridors, rows of rooms off them with doors, furniture.
 
-    Randomises the orientation, the ``wall`` thickness (0.4-2 % of the longer side, clipped to
-    1-10 px), the ``corridor`` width (3.5-9 %, clipped to 4-120 px), one or two corridors (two are
-    joined by a hall), room widths (7-20 %, clipped to 12-700 px, each 0.6-1.5x), door widths
-    (2-5 %, clipped to 3-60 px), back rooms (35 % of one-sided rooms), open-plan areas (25 % of the
-    bands) and up to ``furniture`` (0-4) desks and cabinets per room. Doorways are kept clear.
+    Rows of rooms one deep line the outer walls; between two corridors the rooms stand back to back,
+    and a hall through that band joins the corridors (one corridor on small maps, more where they
+    fit). Randomises the orientation, the ``wall`` thickness (0.05-2 % of the longer side, clipped to
+    1-10 px), the ``corridor`` width (1.5-9 %, clipped to 5-120 px), room widths (2.5-20 %,
+    clipped to 20-400 px, each 0.6-1.5x) and depths (0.7-1.6 widths), door widths (0.8-5 %,
+    clipped to 4-60 px, at most 0.4 room widths), back rooms (35 % of deep rooms), open-plan areas
+    (a quarter of the rows) and up to about ``furniture`` (0-4) desks and cabinets per room-sized
+    area. Doorways are kept clear.
     """
     check_range("wall", wall, 1, max(height, width))
     check_range("corridor", corridor, 1, max(height, width))
@@ -206,10 +209,11 @@ def warehouse(rng: np.random.Generator, height: int, width: int, *, aisle: int |
               shelf: int | None = None, cross: int | None = None) -> np.ndarray:
     """Warehouse shelving: long rack rows with aisles, cross aisles, some aisle ends blocked, pallets.
 
-    Randomises the orientation, the ``aisle`` width (2-7 % of the longer side, clipped to 3-80 px),
-    the ``shelf`` depth (0.8-3 %, clipped to 2-40 px; back-to-back double racks on 60 % of the maps),
-    the number of ``cross`` aisles (0-3, 1-1.8 aisles wide), the main aisle around the racks (1-2
-    aisles), an outer wall (70 %), the share of aisles blocked at one end (0-40 %) and pallets.
+    Randomises the orientation, the ``aisle`` width (0.8-7 % of the longer side, clipped to
+    4-80 px), the ``shelf`` depth (0.3-3 %, clipped to 2-40 px; back-to-back double racks on 60 %
+    of the maps), the number of ``cross`` aisles (0-3, 1-1.8 aisles wide), the main aisle around
+    the racks (1-2 aisles), an outer wall (70 %), the share of aisles blocked at one end (0-40 %)
+    and pallets in the main aisle (half the maps).
     """
     check_range("aisle", aisle, 1, max(height, width))
     check_range("shelf", shelf, 1, max(height, width))
@@ -263,11 +267,13 @@ def ros_scan(rng: np.random.Generator, height: int, width: int, *, outside: floa
              wall: int | None = None, noise: float | None = None) -> np.ndarray:
     """A building interior as a ROS ``map_server`` scan shows it: unknown (blocked) outside, thin walls.
 
-    The outline is a union of rectangles (wings) around the map centre; the blocked ``outside``
-    covers 30-60 % of the map (randomised). Inside: rooms and corridors by recursive division with
-    doors, ``wall`` thickness 0.3-1.2 % of the longer side (clipped to 1-6 px), room sizes 7-22 %
-    (12-800 px), clutter of small pieces, and on 70 % of the maps single-pixel ``noise`` specks
-    (probability 0.05-0.4 % per free pixel).
+    The outline is a union of rectangles (wings) around the map centre, inside an unknown margin
+    of 0-6 % of the shorter side. Randomises the blocked ``outside`` (30-60 % of the map), the
+    ``wall`` thickness (0.05-1.2 % of the longer side, clipped to 1-6 px), rooms and corridors by
+    recursive division (room sides 3-22 %, clipped to 16-600 px), clutter, ragged free patches
+    seen through windows just outside the outline, single-pixel ``noise`` specks (on 70 % of the
+    maps, 0.05-0.4 % of the free pixels) and, on a third of the squarish maps, a turn of the whole
+    scan by up to 30 degrees.
     """
     check_range("outside", outside, 0.0, 0.85)
     check_range("wall", wall, 1, max(height, width))

@@ -37,16 +37,17 @@ def _blocks_once(rng: np.random.Generator, h: int, w: int, density: float | None
     clusters = rng.uniform(0, 1, (int(rng.integers(2, 7)), 2)) * (h, w) if rng.random() < 0.5 else None
     bars = rng.uniform(0.0, 0.3)
     first = int(0.7 * -np.log1p(-d) * h * w / side**2) + 1
-    return fill_to_density((h, w), d, lambda n: random_rects(rng, (h, w), n, side, clusters, bars), first)
+    return fill_to_density((h, w), d, lambda n: random_rects(rng, (h, w), n, side, clusters, bars), first, tol=0.015)
 
 
 def blocks(rng: np.random.Generator, height: int, width: int, *, density: float | None = None,
            size: int | None = None) -> np.ndarray:
     """Random axis-aligned rectangles, clustered on half the maps, some of them long thin bars.
 
-    Randomises the obstacle fraction ``density`` (0.08-0.30), the typical block side ``size``
-    (1.2-15 % of the longer map side, clipped to 4-500 px), clustering (2-6 clusters) and the share
-    of bars (0-30 %).
+    Randomises the obstacle fraction ``density`` (0.08-0.30, met to within 0.015), the typical
+    block ``size`` (0.4-15 % of the longer side, clipped to 4-500 px; each block's sides vary by a
+    factor of about 1.4), clustering (2-6 clusters on half the maps) and the share of bars (0-30 %,
+    3-8x longer).
     """
     check_range("density", density, 0.01, 0.6)
     check_range("size", size, 1, max(height, width))
@@ -124,9 +125,10 @@ def gaps(rng: np.random.Generator, height: int, width: int, *, walls: int | None
          thickness: int | None = None, gap: int | None = None) -> np.ndarray:
     """Straight walls right across the map, each with 1-3 gaps.
 
-    Randomises the orientation, the number of ``walls`` (1-4, and on a fifth of the maps one
-    crossing wall), the wall ``thickness`` (1.5-12 % of the longer side, clipped to 2-250 px) and
-    each ``gap`` width (4-20 %, clipped to 3-300 px) and position.
+    Randomises the orientation, the number of ``walls`` (1-4, plus up to one more per 400 px of the
+    longer side; on a fifth of the maps one crossing wall), the wall ``thickness`` (0.5-12 % of the
+    longer side, clipped to 3-250 px) and each ``gap`` width (1.5-20 %, clipped to 6-300 px and to
+    60 % of the wall) and position.
     """
     check_range("walls", walls, 1, 64)
     check_range("thickness", thickness, 1, max(height, width))
@@ -135,7 +137,11 @@ def gaps(rng: np.random.Generator, height: int, width: int, *, walls: int | None
 
 
 def gaps_blocks(rng: np.random.Generator, height: int, width: int, *, density: float | None = None) -> np.ndarray:
-    """Walls with gaps (as :func:`gaps`) plus random blocks (as :func:`blocks`) of fraction ``density`` (0.05-0.2)."""
+    """Walls with gaps (as :func:`gaps`) plus random blocks (as :func:`blocks`).
+
+    Randomises everything :func:`gaps` does, the blocks' obstacle fraction ``density`` (0.05-0.2)
+    and their typical side (0.5-8 % of the longer side, clipped to 5-300 px).
+    """
     check_range("density", density, 0.01, 0.5)
 
     def draw() -> np.ndarray:
@@ -150,9 +156,9 @@ def narrow_passage(rng: np.random.Generator, height: int, width: int, *, walls: 
                    thickness: int | None = None, passage: int | None = None) -> np.ndarray:
     """Thick walls with ragged outlines right across the map, pierced by 1-3 narrow passages each.
 
-    Randomises the orientation, the number of ``walls`` (1-4), their ``thickness`` (6-22 % of the
-    longer side, clipped to 8-1200 px, varying by +-30 % along the wall), each ``passage`` width
-    (0.8-3 %, clipped to 2-16 px) and position, and dog-leg passages (40 %).
+    Randomises the orientation, the number of ``walls`` (as :func:`gaps`), their ``thickness``
+    (3-22 % of the longer side, clipped to 10-1000 px, varying by +-30 % along the wall), each
+    ``passage`` width (0.8-3 %, clipped to 2-16 px) and position, and dog-leg passages (40 %).
     """
     check_range("walls", walls, 1, 64)
     check_range("thickness", thickness, 1, max(height, width))
@@ -177,8 +183,9 @@ def bugtrap(rng: np.random.Generator, height: int, width: int, *, size: float | 
     """One U- or C-shaped bug trap around the start area (top half) or the goal area (bottom half).
 
     Randomises the trap ``size`` (20-55 % of the shorter side), its aspect (0.75-1.35), its wall
-    ``thickness`` (0.8-3.5 % of the longer side, clipped to 1-40 px), the side it opens to, lips
-    (a C shape, 40 %) and, on half the maps, some extra blocks (obstacle fraction 3-12 %).
+    ``thickness`` (0.3-4 % of the longer side, clipped to 2-40 px), the side it opens to, lips
+    (a C shape, 40 %) and, on half the maps, extra blocks (obstacle fraction 3-12 %, side as in
+    :func:`gaps_blocks`).
     """
     check_range("size", size, 8, max(height, width))
     check_range("thickness", thickness, 1, max(height, width))
@@ -199,8 +206,10 @@ def bugtraps(rng: np.random.Generator, height: int, width: int, *, count: int | 
              thickness: int | None = None) -> np.ndarray:
     """Several (``count``) U- and C-shaped bug traps anywhere on the map, apart from each other.
 
-    Randomises their number, sizes (12-40 % of the shorter side), shared wall ``thickness`` (as
-    :func:`bugtrap`), openings and lips, and on a third of the maps some extra blocks (3-10 %).
+    Randomises their number (2-6, plus one more per 300 px of the longer side), their sizes
+    (log-uniform from 5 % of the shorter side, at least 24 px, to 40 %), the shared wall
+    ``thickness`` (as :func:`bugtrap`), openings and lips, and on a third of the maps extra blocks
+    (3-10 %).
     """
     check_range("count", count, 1, 256)
     check_range("thickness", thickness, 1, max(height, width))
@@ -232,9 +241,9 @@ def maze(rng: np.random.Generator, height: int, width: int, *, corridor: int | N
          wall: int | None = None) -> np.ndarray:
     """A perfect maze (one route between any two cells) with straight corridors on a square lattice.
 
-    Randomises the ``corridor`` width (2-25 px, log-uniform; on large maps at least 1/600 of the
-    longer side; on small ones at most a third of the shorter side), the ``wall`` thickness (1-8 px,
-    at most 1.5 corridors), the horizontal/vertical bias of the passages (0.4-2.5) and the offset of
+    Randomises the ``corridor`` width (2-25 px, log-uniform; at least ``L / 600 - 1`` px on a map
+    whose longer side is ``L``, at most a third of the shorter side less one), the ``wall``
+    thickness (1-8 px, at most 1.5 corridors), the horizontal/vertical bias of the passages (0.4-2.5) and the offset of
     the lattice; the pixels left over beside the lattice are wall. The tree is a random minimum
     spanning tree (randomised Kruskal) of the cell lattice.
     """
@@ -266,11 +275,12 @@ def maze(rng: np.random.Generator, height: int, width: int, *, corridor: int | N
 
 def rooms(rng: np.random.Generator, height: int, width: int, *, room: int | None = None,
           wall: int | None = None, door: int | None = None) -> np.ndarray:
-    """Rooms and corridors by recursive division, inside an outer wall, doors in every wall.
+    """Rooms and corridors by recursive division inside an outer wall, a door in every wall.
 
-    Randomises the smallest ``room`` side (8-30 % of the longer side, clipped to 12-900 px), the
-    ``wall`` thickness (0.3-2 %, clipped to 1-8 px), the ``door`` width (2-7 %, clipped to 3-80 px),
-    the share of splits that are corridors (0-50 %, corridor 3-8 %, 4-120 px) and early stops.
+    Randomises the smallest ``room`` side (3-30 % of the longer side, clipped to 20-900 px), the
+    ``wall`` thickness (0.05-2 %, clipped to 1-8 px), the ``door`` width (0.6-7 %, clipped to
+    4-80 px), the share of splits that are corridors (0-50 %; corridors 3-8 %, clipped to
+    4-120 px) and how often mid-sized regions stay undivided (0-40 %). Every room is reachable.
     """
     check_range("room", room, 3, max(height, width))
     check_range("wall", wall, 1, max(height, width))
@@ -296,8 +306,9 @@ def scatter(rng: np.random.Generator, height: int, width: int, *, density: float
     """A random scatter of discs and squares, topped up until the obstacle fraction is ``density``.
 
     Randomises ``density`` (0.05-0.35), the largest diameter ``size`` (2-12 px times
-    ``(L / 201) ** u``, ``u`` uniform in 0..1 and ``L`` the longer side, so large maps get small and
-    large scatter; diameters are uniform in ``size / 4``..``size``) and the share of ``squares``.
+    ``(L / 201) ** u``, ``u`` uniform in 0..1 and ``L`` the longer side, so large maps get both fine
+    and coarse scatter; diameters are uniform in ``size / 4``..``size``) and the share of
+    ``squares`` (none, all, or a random share).
     """
     check_range("density", density, 0.0, 0.6)
     check_range("size", size, 1, max(height, width))

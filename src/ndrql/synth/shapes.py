@@ -43,7 +43,8 @@ def feature_px(rng: np.random.Generator, extent: int, px: tuple[float, float], r
 def paint_rects(shape: tuple[int, int], rects: np.ndarray | Sequence[Sequence[int]]) -> np.ndarray:
     """Boolean mask of the union of half-open rectangles ``(r0, c0, r1, c1)``, clipped to ``shape``.
 
-    Many rectangles are drawn in one pass with a 2-D difference array; a few by slicing.
+    A few rectangles are drawn by slicing, many small ones pixel by pixel (work proportional to
+    their area), many large ones in one pass with a 2-D difference array (work proportional to the map).
     """
     h, w = shape
     r = np.asarray(rects, dtype=np.int64).reshape(-1, 4)
@@ -55,6 +56,15 @@ def paint_rects(shape: tuple[int, int], rects: np.ndarray | Sequence[Sequence[in
         out = np.zeros(shape, dtype=bool)
         for a, b, c, d in zip(r0, c0, r1, c1):
             out[a:c, b:d] = True
+        return out
+    widths = c1 - c0
+    areas = (r1 - r0) * widths
+    total = int(areas.sum())
+    if total <= h * w // 4:
+        k = np.repeat(np.arange(r0.size), areas)
+        offset = np.arange(total) - np.repeat(np.cumsum(areas) - areas, areas)
+        out = np.zeros(shape, dtype=bool)
+        out[r0[k] + offset // widths[k], c0[k] + offset % widths[k]] = True
         return out
     diff = np.zeros((h + 1, w + 1), dtype=np.int32)
     np.add.at(diff, (r0, c0), 1)
@@ -177,12 +187,13 @@ def check_range(name: str, value: float | None, lo: float, hi: float) -> None:
 
 
 def fill_to_density(shape: tuple[int, int], density: float, batch: Callable[[int], np.ndarray],
-                    first: int) -> np.ndarray:
+                    first: int, tol: float = 0.003) -> np.ndarray:
     """Union of ``batch(n)`` masks of ``n`` random items, topped up until the obstacle fraction reaches ``density``.
 
-    After each round the coverage so far gives the items still needed (random items of mean area
-    ``a`` cover ``1 - exp(-n a / A)`` of an area ``A``); 90 % of them are drawn, at most 12 rounds.
-    ``batch`` draws from its own generator.
+    Stops once the fraction is within ``tol`` below ``density`` (the last round may overshoot by
+    about one item). After each round the coverage so far gives the items still needed (random
+    items of mean area ``a`` cover ``1 - exp(-n a / A)`` of an area ``A``); 90 % of them are drawn,
+    at most 12 rounds. ``batch`` draws from its own generator.
     """
     out = np.zeros(shape, dtype=bool)
     n_total, n = 0, max(1, first)
@@ -190,7 +201,7 @@ def fill_to_density(shape: tuple[int, int], density: float, batch: Callable[[int
         out |= batch(n)
         n_total += n
         covered = float(out.mean())
-        if covered >= density - 0.003 or covered >= 0.999:
+        if covered >= density - tol or covered >= 0.999:
             break
         if covered <= 0.0:
             n *= 2

@@ -37,14 +37,19 @@ def walls(tmp_path):
         (("0,0", "12,18"), "goal 12,18 is on an obstacle of the map"),
         (("-1,5", "50,50"), "start -1,5 is outside the map (rows 0..99, cols 0..99)"),
         (("0,0", "50,100"), "goal 50,100 is outside the map"),
-        (("0,0", "99,99"), "not 4-connected"),  # the wall separates them
-        (("0,0", "1,1"), "same planning cell"),
+        (("0,0", "99,99"), "are not connected on the map itself"),  # the wall separates them
         (("0,0", "five,5"), "--goal must be ROW,COL"),
     ],
 )
 def test_bad_points(ndrql_exe, walls, points, needle):
     r = run(ndrql_exe, "plan", walls, f"--start={points[0]}", f"--goal={points[1]}", "--method", "QL")
     assert_one_line_error(r, needle)
+
+
+@pytest.mark.parametrize("grid", ["safe", "area"])
+def test_same_planning_cell(ndrql_exe, walls, grid):
+    r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "1,1", "--method", "QL", "--grid", grid, "--size", "10")
+    assert_one_line_error(r, "same planning cell")
 
 
 def test_unsupported_file(ndrql_exe, tmp_path):
@@ -69,7 +74,7 @@ def test_map_too_large_for_given_limit_and_grid_too_fine(ndrql_exe, walls):
     r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--max-pixels", "5000")
     assert_one_line_error(r, "more than the limit of 5,000")
     r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--size", "1000")
-    assert_one_line_error(r, "planning grid size 1000 is larger than the limit 256")
+    assert_one_line_error(r, "planning grid size 1000 is larger than the limit 512")
 
 
 def test_missing_model_weights(ndrql_exe, walls):

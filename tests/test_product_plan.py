@@ -73,8 +73,13 @@ def test_plan_png_map(ndrql_exe, model_weights, tmp_path):
     r = plan(ndrql_exe, path, "--start", "20,20", "--goal", "130,210", "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["map"]["height"] == 150 and data["map"]["width"] == 230
-    pix = data["runs"][0]["path_pixels"]  # cell centres in map pixels: 3 px high, 4.6 px wide cells
-    assert pix[0] == pytest.approx([(data["start"][0] + 0.5) * 3 - 0.5, (data["start"][1] + 0.5) * 4.6 - 0.5])
+    side = data["planning_grid"]["cell_px"][0]  # the safe grid: square cells, size on the longer side (230 px)
+    assert data["planning_grid"]["cell_px"] == [side, side] and side == pytest.approx(230 / data["planning_grid"]["size"])
+    pix = data["runs"][0]["path_pixels"]  # cell centres in map pixels
+    assert pix[0] == pytest.approx([(data["start"][0] + 0.5) * side - 0.5, (data["start"][1] + 0.5) * side - 0.5])
+    route = data["runs"][0]["route"]
+    assert route["pixels"][0] == [20, 20] and route["pixels"][-1] == [130, 210]  # the final path joins the points
+    assert data["runs"][0]["success"] is True and data["runs"][0]["collisions"] == []
     assert "path_world" not in data["runs"][0]  # a PNG has no resolution/origin
     assert data["source_start"] == [20, 20] and data["source_goal"] == [130, 210]
 
@@ -91,12 +96,15 @@ def test_plan_ros_yaml_map(ndrql_exe, model_weights, tmp_path):
     r = plan(ndrql_exe, tmp_path / "office.yaml", "--start", "15,15", "--goal", "165,150", "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["map"]["resolution"] == 0.05 and data["map"]["origin"] == [-4.5, -4.5, 0.0]
-    # world coordinates of the path (metres): first point = centre of the start cell (3.6 px on a side)
+    # world poses of the final path (metres, radians): the first is the start pixel's centre
     run = data["runs"][0]
-    (r0, c0), (x0, y0) = run["path_pixels"][0], run["path_world"][0]
+    (r0, c0), (x0, y0, yaw0) = run["route"]["pixels"][0], run["path_world"][0]
+    assert (r0, c0) == (15, 15)
     assert x0 == pytest.approx(-4.5 + (c0 + 0.5) * 0.05) and y0 == pytest.approx(-4.5 + (180 - r0 - 0.5) * 0.05)
-    assert abs(r0 - 15) <= 3.6 and abs(c0 - 15) <= 3.6
-    assert len(run["path_world"]) == len(run["path"])
+    (r1, c1), (x1, y1, _) = run["route"]["pixels"][1], run["path_world"][1]
+    assert yaw0 == pytest.approx(np.arctan2(y1 - y0, x1 - x0), abs=1e-3)  # facing the next pose
+    assert len(run["path_world"]) == len(run["route"]["pixels"])
+    assert run["route"]["length_m"]["final"] == pytest.approx(run["route"]["length_px"]["final"] * 0.05, abs=1e-3)
 
 
 def _movingai(tmp_path, m):
@@ -179,7 +187,8 @@ def test_point_in_a_blocked_cell_moves_with_a_warning(ndrql_exe, tmp_path):
     m[50, 50] = False  # a free pixel inside the block
     np.save(tmp_path / "m.npy", m)
     out = tmp_path / "w.json"
-    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "50,50", "--goal", "95,95", "--method", "QL", "--json", out)
+    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "50,50", "--goal", "95,95", "--method", "QL", "--json", out,
+             "--grid", "area", "--size", "50")  # the paper's rule: the cell is at least half obstacle
     assert r.returncode == 0, r.stderr
     assert r.stderr.startswith("ndrql: warning: start (50, 50) falls in blocked planning cell (25, 25)")
     data = json.loads(out.read_text())

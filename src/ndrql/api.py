@@ -9,13 +9,16 @@
 planning grid, the model's predictions, the NDR-QI thresholds and the time of every stage; the
 ``ndrql plan`` and ``ndrql demo`` commands are thin wrappers around it.
 
-The pipeline (SPEC sections 1-4): read the map (image, ROS ``map_server`` YAML, MovingAI ``.map``,
-``.npy``, or an array) -> check start and goal (on the map, not on an obstacle pixel) -> planning
-grid (50x50 by area averaging; a point whose cell is blocked moves to the nearest free cell with a
-warning; start and goal must be 4-connected) -> the NDR model predicts region and guideline at the
-map's resolution (any size: :mod:`ndrql.model.predict` resizes the longer side to 201 and pads with
-obstacles) -> area-averaged to the planning grid -> priors of each method (Eqs. 2-7) -> Q-learning
-to convergence (Eq. 1). The model is loaded once per process and reused
+The pipeline (:mod:`ndrql.pipeline`): read the map (image, ROS ``map_server`` YAML, MovingAI
+``.map``, ``.npy``, or an array) -> check start and goal (on the map, not on an obstacle pixel; ROS
+maps also take them in metres) -> inflate obstacles by the robot's radius -> planning grid (on a
+user's map the safe grid: square cells, a cell blocked when any pixel is an obstacle, at the coarsest
+size that keeps the route; :meth:`PlanSettings.paper` gives the paper's 50x50 area-averaged grid) ->
+the NDR model predicts region and guideline at the map's resolution
+(:func:`ndrql.pipeline.predictions.predict_region`) -> area-averaged to the planning grid -> priors
+of each method (Eqs. 2-7) -> Q-learning to convergence (Eq. 1) -> each learned path as a polyline on
+the full map, checked for collisions, shortcut by line of sight, and as world poses
+(:mod:`ndrql.pipeline.route`). The model is loaded once per process and reused
 (:func:`ndrql.planning.methods.load_predictor`); torch and numba are imported only when needed.
 
 Bad input raises an :class:`~ndrql.errors.NdrqlError` subclass with a one-line message (the CLI
@@ -34,8 +37,11 @@ from typing import Any, Iterator, Sequence
 
 import numpy as np
 
-from ndrql.errors import MapFormatError, NdrqlError, PointError
+from ndrql.errors import NdrqlError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid
+from ndrql.pipeline.problem import GridSetup, check_map_size, check_points, read_map, scenario_points
+from ndrql.pipeline.route import Route
+from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.results import PlanResult
 
@@ -43,43 +49,50 @@ Point = tuple[int, int]
 
 #: Stages timed by :func:`solve`, in order. ``startup`` is per-process (numba kernel load from its
 #: disk cache); ``load`` is the model's, once per process (with the torch import on the torch backend
-#: or when ONNX Runtime's export is not cached yet); the others are the work done for one map.
-STAGES: tuple[str, ...] = ("startup", "map", "load", "predict", "priors", "learn")
+#: or when ONNX Runtime's export is not cached yet); ``grid`` is inflation, the size search and the
+#: planning grid; ``route`` the paths' check and shortcut on the full map; the others the work for one map.
+STAGES: tuple[str, ...] = ("startup", "map", "grid", "load", "predict", "priors", "learn", "route")
 #: The stages that make up the work for one map after start-up (the 0.5 s budget of issue 6).
 WORK_STAGES: tuple[str, ...] = ("load", "predict", "priors", "learn")
 
 
 @dataclass(frozen=True)
-class PlanSettings:
-    """How a map becomes a planning problem (SPEC section 1), and the limits that guard it."""
+class PlannedRun(PlanResult):
+    """A :class:`PlanResult` with its path on the map: :attr:`route` (checked, shortcut, world poses)."""
 
-    size: int = 50
-    """Side of the planning grid in cells (paper: 201 px -> 50 cells)."""
-    max_map_pixels: int = 4096 * 4096
-    """Largest map accepted, in pixels; larger maps are refused (crop or downscale them first)."""
-    max_size: int = 256
-    """Largest planning grid side accepted (the Q-table and episode caps grow with its square)."""
-    threads: int = 1
-    """Threads for the model's forward pass (1: about as fast as 2 for one map, and much faster on a busy machine)."""
-    backend: str = "auto"
-    """Model inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch."""
+    route: Route | None = field(default=None, compare=False, repr=False)
+    """The learned path on the full map (``None`` when the run found no path)."""
 
-    def __post_init__(self) -> None:
-        if self.size < 2:
-            raise NdrqlError(f"the planning grid size must be at least 2, got {self.size}")
-        if self.size > self.max_size:
-            raise NdrqlError(f"the planning grid size {self.size} is larger than the limit {self.max_size}")
-        if self.max_map_pixels < 1:
-            raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
-        from ndrql.model.predict import BACKENDS
+    def to_dict(self, include_records: bool = False) -> dict[str, Any]:
+        """The run's JSON form (the route is added by :meth:`PlanReport.to_dict`)."""
+        out = super().to_dict(include_records=include_records)
+        out.pop("route", None)
+        return out
 
-        if self.backend not in BACKENDS:
-            raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
+    @property
+    def success(self) -> bool:
+        """Converged, and the final path crosses no obstacle of the (inflated) map."""
+        return bool(self.converged and self.route is not None and not self.route.collides)
+
+    @property
+    def path_pixels(self) -> np.ndarray | None:
+        """The final path in map pixels ``(M, 2)`` (``(row, col)``)."""
+        return None if self.route is None else self.route.pixels
+
+    @property
+    def poses(self) -> np.ndarray | None:
+        """The final path as map-frame poses ``(M, 3)``: x, y in metres, yaw in radians (ROS maps only)."""
+        return None if self.route is None else self.route.poses
+
+    @property
+    def collisions(self) -> list[tuple[int, tuple[int, int]]]:
+        """Segments of the final path that cross an obstacle: ``(segment, first blocked pixel)``."""
+        return [] if self.route is None else list(self.route.final_collisions)
 
 
 @dataclass(frozen=True)
 class PlanReport:
-    """Everything :func:`solve` computed: problem, predictions, runs and timings."""
+    """Everything :func:`solve` computed: problem, predictions, runs, their paths on the map and timings."""
 
     grid_map: GridMap
     """The map as read (``True`` = obstacle)."""
@@ -93,8 +106,8 @@ class PlanReport:
     """Method names, in run order."""
     seeds: tuple[int, ...]
     """Seeds, the same for every method."""
-    results: tuple[PlanResult, ...]
-    """One result per (method, seed), methods outer."""
+    results: tuple[PlannedRun, ...]
+    """One result per (method, seed), methods outer, each with its route on the map."""
     region: np.ndarray | None
     """NDR region probabilities at the map's resolution (``None`` if no method needed the model)."""
     guideline: np.ndarray | None
@@ -113,6 +126,10 @@ class PlanReport:
     """Q-learning settings the runs used."""
     prior_config: PriorConfig = PriorConfig()
     """Prior settings the runs used."""
+    setup: GridSetup | None = None
+    """How the map became the planning grid (rule, size, robot radius) and the map paths were checked on."""
+    settings: PlanSettings = PlanSettings()
+    """The settings of this plan."""
 
     @property
     def astar_length(self) -> int:
@@ -124,18 +141,23 @@ class PlanReport:
         """Wall seconds of load + predict + priors + learn."""
         return sum(self.timings.get(s, 0.0) for s in WORK_STAGES)
 
-    def runs(self, method: str) -> list[PlanResult]:
+    def runs(self, method: str) -> list[PlannedRun]:
         """The results of one method, in seed order."""
         return [r for r in self.results if r.method == method]
 
-    def _run_dict(self, r: PlanResult, include_records: bool) -> dict[str, Any]:
+    def _run_dict(self, r: PlannedRun, include_records: bool) -> dict[str, Any]:
         out = r.to_dict(include_records=include_records)
+        out["success"] = r.success
         if r.path:
-            px = cell_path_to_pixels(self, r.path)
-            out["path_pixels"] = [[round(a, 3), round(b, 3)] for a, b in px]
-            world = pixels_to_world(self.grid_map, px)
-            if world is not None:
-                out["path_world"] = [[round(x, 4), round(y, 4)] for x, y in world]
+            out["path_pixels"] = [[round(a, 3), round(b, 3)] for a, b in (self.grid.centre(c) for c in r.path)]
+        if r.route is not None:
+            route = r.route.to_dict(self.grid_map)
+            out["collisions"] = route["final_collisions"]
+            if "poses" in route:
+                out["path_world"] = route["poses"]
+            out["route"] = route
+        else:
+            out["collisions"] = []
         return out
 
     def to_dict(self, include_records: bool = False) -> dict[str, Any]:
@@ -151,7 +173,7 @@ class PlanReport:
             map_info["origin"] = list(gm.origin)
         pg = self.grid
         first = self.results[0]
-        return {
+        out = {
             "map": map_info,
             **{k: v for k, v in self.info.items() if k != "source"},
             "planning_size": list(pg.shape),
@@ -174,6 +196,8 @@ class PlanReport:
                 m: {
                     "runs": len(self.runs(m)),
                     "not_converged": sum(not r.converged for r in self.runs(m)),
+                    "success": sum(r.success for r in self.runs(m)),
+                    "collide": sum(bool(r.collisions) for r in self.runs(m)),
                     "convergence_steps": summarize([r.convergence_steps for r in self.runs(m) if r.converged]),
                     "convergence_episode": summarize([r.convergence_episode for r in self.runs(m) if r.converged]),
                     "length_ratio": summarize([r.length_ratio for r in self.runs(m) if r.converged]),
@@ -183,6 +207,9 @@ class PlanReport:
             "runs": [self._run_dict(r, include_records) for r in self.results],
             "first": {"method": first.method, "seed": first.seed},
         }
+        if self.setup is not None:
+            out["planning_grid"] = self.setup.to_dict(pg, gm.resolution)
+        return out
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -205,86 +232,16 @@ class _Clock:
             self.cpu[name] += time.process_time() - c
 
 
-def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, crop: bool = False) -> GridMap:
-    """A :class:`GridMap` from a path (any supported format), a ``GridMap`` or a 2-D array (non-zero = obstacle)."""
-    if isinstance(map_or_path, GridMap):
-        return map_or_path
-    if isinstance(map_or_path, np.ndarray):
-        if map_or_path.ndim != 2 or map_or_path.size == 0:
-            raise MapFormatError(f"a map array must be non-empty and 2-D, got shape {map_or_path.shape}")
-        return GridMap(map_or_path != 0, source="array")
-    if isinstance(map_or_path, (str, os.PathLike)):
-        from ndrql.maps.readers import load_map
+def _world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) -> tuple[Point | None, float | None]:
+    """A ``(x, y[, yaw])`` world point (metres) as a map pixel and its yaw."""
+    from ndrql.maps.world import world_to_pixel
 
-        return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
-    raise MapFormatError(f"cannot read a map from {type(map_or_path).__name__}; pass a file path, a GridMap or a 2-D array")
-
-
-def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> tuple[Point, Point, dict[str, Any]]:
-    """Start and goal ``(row, col)`` of scenario ``index`` in a MovingAI ``.scen`` file, checked against the map."""
-    from ndrql.maps.readers import read_movingai_scen
-
-    scenarios = read_movingai_scen(scen)
-    if not 0 <= index < len(scenarios):
-        raise MapFormatError(f"scenario {index} not in {scen} (it has {len(scenarios)} scenarios, 0..{len(scenarios) - 1})")
-    s = scenarios[index]
-    if grid_map.shape != (s.height, s.width):
-        raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "
-                             f"the map is {grid_map.width}x{grid_map.height}")
-    info = {"scenario": {"file": str(scen), "index": index, "optimal_length": s.optimal_length}}
-    return (int(s.start[0]), int(s.start[1])), (int(s.goal[0]), int(s.goal[1])), info
-
-
-def check_points(grid_map: GridMap, start: Sequence[int], goal: Sequence[int]) -> tuple[Point, Point]:
-    """``start``/``goal`` as ``(row, col)`` ints, on the map and on free pixels; :class:`PointError` otherwise."""
-    h, w = grid_map.shape
-    out = []
-    for name, p in (("start", start), ("goal", goal)):
-        if p is None:
-            raise PointError(f"no {name} given (ROW,COL in map pixels)")
-        try:
-            r, c = (int(v) for v in p)
-        except (TypeError, ValueError):
-            raise PointError(f"{name} must be (row, col), got {p!r}") from None
-        if not (0 <= r < h and 0 <= c < w):
-            raise PointError(f"{name} {r},{c} is outside the map (rows 0..{h - 1}, cols 0..{w - 1})")
-        if grid_map.obstacles[r, c]:
-            raise PointError(f"{name} {r},{c} is on an obstacle of the map")
-        out.append((r, c))
-    return out[0], out[1]
-
-
-def check_map_size(grid_map: GridMap, settings: PlanSettings) -> None:
-    """Refuse maps larger than ``settings.max_map_pixels`` (they cost memory and time for nothing)."""
-    if grid_map.height * grid_map.width > settings.max_map_pixels:
-        raise MapFormatError(
-            f"map is {grid_map.height}x{grid_map.width} = {grid_map.height * grid_map.width:,} pixels, more than the "
-            f"limit of {settings.max_map_pixels:,} for a {settings.size}x{settings.size} planning grid; crop or "
-            f"downscale it, or raise --max-pixels"
-        )
-
-
-def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict[str, Any]:
-    """Where start and goal land in the model's 201x201 input (:func:`ndrql.model.predict.to_model_input`).
-
-    A map that is not 201x201 is resized and padded for the model; a point whose resized pixel is an
-    obstacle is moved to the nearest free pixel there. That is reported with a warning (the model
-    then sees the point somewhere else; planning still uses the exact point).
-    """
-    from ndrql.model.predict import MODEL_SIDE, point_on_grid, to_model_input
-
-    h, w = obstacles.shape
-    _, s_in, g_in, scale = to_model_input(obstacles, start, goal)
-    nh = max(1, round(h * scale))
-    moved = []
-    for name, p, q in (("start", start, s_in), ("goal", goal, g_in)):
-        want = p if scale == 1.0 and (h, w) == (MODEL_SIDE, MODEL_SIDE) else point_on_grid(p, nh / h, MODEL_SIDE)
-        moved.append(tuple(want) != tuple(q))
-        if moved[-1]:
-            warnings.warn(f"{name} {p[0]},{p[1]} falls on an obstacle of the model's {MODEL_SIDE}x{MODEL_SIDE} input "
-                          f"(the map resized by {scale:.3f}); the model sees it at {q[0]},{q[1]}", UserWarning, stacklevel=3)
-    return {"side": MODEL_SIDE, "scale": scale, "start": list(s_in), "goal": list(g_in),
-            "moved": {"start": moved[0], "goal": moved[1]}}
+    if given is None:
+        return None, None
+    vals = [float(v) for v in given]
+    if len(vals) not in (2, 3):
+        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {tuple(given)!r}")
+    return world_to_pixel(grid_map, vals[0], vals[1], name), (vals[2] if len(vals) == 3 else None)
 
 
 # --------------------------------------------------------------------------------------------- API
@@ -304,6 +261,8 @@ def solve(
     settings: PlanSettings = PlanSettings(),
     scen: str | os.PathLike | None = None,
     scen_index: int = 0,
+    start_world: Sequence[float] | None = None,
+    goal_world: Sequence[float] | None = None,
     invert: bool = False,
     threshold: float = 128,
     crop: bool = False,
@@ -315,11 +274,16 @@ def solve(
 
     ``map_or_path``: a map file (image, ROS ``.yaml``, MovingAI ``.map``, ``.npy``), a
     :class:`GridMap` or a 2-D array (non-zero = obstacle). ``start``/``goal``: ``(row, col)`` map
-    pixels, or taken from MovingAI scenario ``scen_index`` of ``scen``. ``seeds``: a list, or an int
-    ``N`` for seeds ``0..N-1``. ``weights``: model file (default: ``$NDRQL_WEIGHTS`` or the shipped
-    weights); ``predictions``: ``(region, guideline)`` at the map's resolution instead of the model.
+    pixels, or ``start_world``/``goal_world`` ``(x, y[, yaw])`` in metres on ROS maps (the yaws orient
+    the first and last pose), or taken from MovingAI scenario ``scen_index`` of ``scen``.
+    ``seeds``: a list, or an int ``N`` for seeds ``0..N-1``. ``weights``: model file (default:
+    ``$NDRQL_WEIGHTS`` or the shipped weights); ``predictions``: ``(region, guideline)`` at the map's
+    resolution instead of the model. ``settings``: grid rule, size, robot radius, smoothing
+    (default: the safe grid for a user's map; :meth:`PlanSettings.paper` for the paper's).
     ``workers``: processes for many runs (default: all cores; results do not depend on it).
     """
+    from ndrql.pipeline.problem import build_grid
+    from ndrql.pipeline.route import make_route
     from ndrql.planning.methods import build_priors, downscale_priors, get_method
 
     clock = _Clock()
@@ -343,8 +307,16 @@ def solve(
             start = start if start is not None else s_start
             goal = goal if goal is not None else s_goal
             info.update(s_info)
+        w_start, start_yaw = _world_point(grid_map, start_world, "start")
+        w_goal, goal_yaw = _world_point(grid_map, goal_world, "goal")
+        for name, px, w in (("start", start, w_start), ("goal", goal, w_goal)):
+            if px is not None and w is not None:
+                raise PointError(f"give the {name} in pixels or in world coordinates, not both")
+        start = w_start if w_start is not None else start
+        goal = w_goal if w_goal is not None else goal
         start, goal = check_points(grid_map, start, goal)  # type: ignore[arg-type]
-        pg = PlanningGrid.from_map(grid_map, start, goal, size=settings.size)
+    with clock.stage("grid"):
+        pg, setup = build_grid(grid_map, start, goal, settings)
         if pg.start == pg.goal:
             raise PointError(f"start and goal fall in the same planning cell {pg.start}; nothing to plan "
                              f"(use a finer grid with --size or points further apart)")
@@ -360,6 +332,7 @@ def solve(
                                      f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
         else:
             from ndrql.model.predict import default_weights_path
+            from ndrql.pipeline.predictions import predict_region
             from ndrql.planning.methods import load_predictor
 
             with clock.stage("load"):
@@ -367,10 +340,9 @@ def solve(
             info["backend"] = predictor.backend_name
             used_weights = str(weights if weights is not None else default_weights_path())
             with clock.stage("predict"):
-                info["model_input"] = model_input_points(grid_map.obstacles, start, goal)
-                pred = predictor.predict(grid_map.obstacles, start, goal)
-                region_map = np.asarray(pred.region, dtype=np.float64)
-                guideline_map = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
+                view = predict_region(predictor, grid_map, pg, start, goal)
+                info["model_input"] = view.info
+                region_map, guideline_map = view.region, view.guideline
         needs_guide = [m.name for m in ms if m.needs_guideline]
         if guideline_map is None and needs_guide:
             raise NdrqlError(f"{', '.join(needs_guide)} need the guideline prediction, which "
@@ -405,11 +377,25 @@ def solve(
             results = run_many([PlanJob(pg.blocked, pg.start, pg.goal, m.name, s, config, prior_config, region, guideline,
                                         keep_records) for m, s in jobs], workers=n_workers)
 
+    with clock.stage("route"):
+        routes: dict[tuple[tuple[int, int], ...], Route] = {}  # seeds often agree on the path: check it once
+        runs = []
+        for r in results:
+            route = None
+            if r.path:
+                key = tuple((int(a), int(b)) for a, b in r.path)
+                if key not in routes:
+                    routes[key] = make_route(setup.check_map, pg, r.path, grid_map, smooth=settings.smoothing,
+                                             start_yaw=start_yaw, goal_yaw=goal_yaw)
+                route = routes[key]
+            fields = {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
+            runs.append(PlannedRun(**fields, route=route))
+
     return PlanReport(
         grid_map=grid_map, start=start, goal=goal, grid=pg, methods=tuple(m.name for m in ms),
-        seeds=tuple(seed_list), results=tuple(results), region=region_map, guideline=guideline_map,
+        seeds=tuple(seed_list), results=tuple(runs), region=region_map, guideline=guideline_map,
         thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=used_weights,
-        info=info, config=config, prior_config=prior_config,
+        info=info, config=config, prior_config=prior_config, setup=setup, settings=settings,
     )
 
 
@@ -420,14 +406,14 @@ def plan(
     method: str = "NDR-QL",
     seed: int = 0,
     **kwargs: Any,
-) -> PlanResult:
-    """Plan a path with one method and one seed; returns the run's :class:`PlanResult`.
+) -> PlannedRun:
+    """Plan a path with one method and one seed; returns the run (a :class:`PlanResult` with its route).
 
     ``map_or_path``: a map file (image, ROS ``.yaml``, MovingAI ``.map``, ``.npy``), a ``GridMap`` or
     a 2-D array (non-zero = obstacle); ``start``/``goal``: ``(row, col)`` map pixels. Keyword
-    arguments are those of :func:`solve` (``weights``, ``config``, ``prior_config``, ``settings``,
-    ``scen``/``scen_index``, ...). ``result.path`` is in planning-grid cells; see :func:`solve` for
-    the grid, predictions and timings.
+    arguments are those of :func:`solve` (``weights``, ``settings``, ``start_world``, ``scen``, ...).
+    ``result.path`` is in planning-grid cells; ``result.route`` is the path on the map (checked for
+    collisions, shortcut, with world poses on ROS maps) and ``result.success`` says whether it holds.
     """
     return solve(map_or_path, start, goal, methods=(method,), seeds=(seed,), **kwargs).results[0]
 
@@ -435,32 +421,8 @@ def plan(
 def cell_path_to_pixels(report: PlanReport, path: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
     """A planning-grid path as ``(row, col)`` map-pixel coordinates of the cell centres (pixel ``(r, c)``'s
     centre is ``(r, c)``; fractional values fall between pixels)."""
-    from ndrql.maps.grid import cell_to_point
-
-    return [cell_to_point(c, report.grid_map.shape, report.grid.shape) for c in path]
+    return [report.grid.centre(c) for c in path]
 
 
-def pixels_to_world(grid_map: GridMap, points: Sequence[Sequence[float]]) -> list[tuple[float, float]] | None:
-    """ROS ``map_server`` world coordinates ``(x, y)`` in metres of ``(row, col)`` pixel points.
-
-    ``origin = (x0, y0, yaw)`` is the pose of the lower-left corner of the image (row ``H - 1`` is the
-    bottom), ``resolution`` metres per pixel. ``None`` for maps without resolution and origin.
-    """
-    import math
-
-    if grid_map.resolution is None or grid_map.origin is None:
-        return None
-    res = float(grid_map.resolution)
-    x0, y0 = grid_map.origin[0], grid_map.origin[1]
-    yaw = grid_map.origin[2] if len(grid_map.origin) > 2 else 0.0
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    h = grid_map.height
-    out = []
-    for r, c in points:
-        dx, dy = (c + 0.5) * res, (h - (r + 0.5)) * res
-        out.append((x0 + cy * dx - sy * dy, y0 + sy * dx + cy * dy))
-    return out
-
-
-__all__ = ["PlanReport", "PlanSettings", "STAGES", "WORK_STAGES", "plan", "solve", "read_map", "scenario_points",
-           "check_points", "cell_path_to_pixels", "pixels_to_world"]
+__all__ = ["PlanReport", "PlanSettings", "PlannedRun", "STAGES", "WORK_STAGES", "plan", "solve", "read_map",
+           "scenario_points", "check_points", "cell_path_to_pixels"]

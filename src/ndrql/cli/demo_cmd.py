@@ -54,7 +54,7 @@ def table_markdown(report: Any) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ndrql.api import solve
+    from ndrql.api import PlanSettings, solve
     from ndrql.cli.common import warnings_to_stderr, write_json
     from ndrql.cli.plan_cmd import _save, _short, _summary
     from ndrql.maps.bundled import bundled_sample
@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with warnings_to_stderr():
         report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
-                       workers=args.workers, info={"source": sample.description})
+                       workers=args.workers, info={"source": sample.description},
+                       settings=PlanSettings.paper())  # a dataset map: the paper's 50x50 area grid
     pg = report.grid
     print(f"demo map: {sample.description}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "

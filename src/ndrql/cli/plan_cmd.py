@@ -12,12 +12,22 @@ EXAMPLES = """examples:
   ndrql plan arena.map --scen arena.map.scen --index 3                       # MovingAI map + scenario 3
   ndrql plan map.png --start 25,179 --goal 167,5 --compare QL,IQL,NDR-QL --seeds 10 --png out/cmp.png
   ndrql plan map.png --start 25,179 --goal 167,5 --method N-Q --prior-from preds.npz
+  ndrql plan office.yaml --start-world 2.5,4.0 --goal-world 12.0,1.5,1.57 --robot-radius 0.2 --path-out plan.yaml
+  ndrql plan floor.png --start 300,200 --goal 1700,1800 --grid area --size 50   # the paper's grid instead of the safe one
 
 methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL; N-C, N-Q and NDR-QL use the
 NDR model (shipped weights, or --weights FILE, or $NDRQL_WEIGHTS; --prior-from FILE.npz gives the
 predictions instead). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
 seed gives the same run on any machine load and any number of workers. Time per stage: load (model
 weights), predict, priors, learn; start-up (torch import, loading the compiled kernel) is per process.
+
+planning grid: on a map file the safe grid (square cells, a cell blocked when any of its pixels is an
+obstacle after inflating obstacles by --robot-radius, --size auto: the coarsest grid whose route is
+within 8%% of the map's own shortest route); with --sample the paper's 50x50 area grid (--grid area).
+Every learned path is checked on the full map: a path that crosses an obstacle is reported
+("path collides", JSON "collisions", red marks in the figure) and not called a success (exit
+status 0). Q-learning's episodes are capped at 4 x cells moves, so grids above 256 cells per side
+can take minutes.
 """
 
 #: Config fields that become flags (``alpha`` -> ``--alpha``), from the frozen dataclasses.
@@ -56,9 +66,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]")
     from ndrql.model.predict import BACKENDS
 
+    from ndrql.pipeline.settings import GRID_RULES
+
     settings = PlanSettings()
     docs = field_docs(PlanSettings)
-    p.add_argument("--size", type=int, default=settings.size, metavar="N", help=f"{docs['size']} (default: {settings.size})")
+    g = p.add_argument_group("planning grid and path on the map")
+    g.add_argument("--grid", choices=GRID_RULES, default=None,
+                   help=f"{docs['grid']} (default: safe for a map file, area for --sample)")
+    g.add_argument("--size", default=None, metavar="N|auto",
+                   help=f"cells on the map's longer side, or auto: the coarsest safe grid whose route stays within "
+                   f"{settings.tolerance:.0%}% of the map's own shortest route (default: auto for safe, 50 for area; "
+                   f"at most --max-size)")
+    g.add_argument("--max-size", type=int, default=settings.max_size, metavar="N",
+                   help=f"{docs['max_size']} (default: {settings.max_size})")
+    g.add_argument("--robot-radius", type=float, default=0.0, metavar="R",
+                   help=f"{docs['robot_radius']} (default: 0)")
+    g.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=None,
+                   help="shortcut the learned path by line of sight on the full map (default: on for a map file, "
+                   "off for --sample)")
+    g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres in the map frame (ROS maps), instead of --start")
+    g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
+    g.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
+                   "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
     p.add_argument("--max-pixels", type=int, default=settings.max_map_pixels, metavar="N",
                    help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
     p.add_argument("--threads", type=int, default=settings.threads, metavar="N",
@@ -82,34 +111,6 @@ def _configs(args: argparse.Namespace):
     return ql_cfg, prior_cfg
 
 
-def _fmt(v: Any, nd: int = 0) -> str:
-    if v is None:
-        return "-"
-    return f"{v:,.{nd}f}"
-
-
-def _table(methods: list[str], results: list[Any]) -> list[str]:
-    from ndrql.planning.results import summarize
-
-    head = (f"{'method':<8} {'conv':>6} {'steps mean':>11} {'median':>9} {'95% CI':>21} {'episodes':>9} "
-            f"{'path/A*':>8} {'short/long':>12}")
-    lines = [head, "-" * len(head)]
-    for m in methods:
-        rs = [r for r in results if r.method == m]
-        conv = [r for r in rs if r.converged]
-        st = summarize([r.convergence_steps for r in conv])
-        ep = summarize([r.convergence_episode for r in conv])
-        ratio = summarize([r.length_ratio for r in conv])
-        short = summarize([r.shortest_success_length for r in conv])
-        long_ = summarize([r.longest_success_length for r in conv])
-        ci = f"[{_fmt(st['ci95_low'])}, {_fmt(st['ci95_high'])}]" if st["ci95_low"] is not None else "-"
-        lines.append(
-            f"{m:<8} {len(conv):>3}/{len(rs):<2} {_fmt(st['mean']):>11} {_fmt(st['median']):>9} {ci:>21} "
-            f"{_fmt(ep['mean']):>9} {_fmt(ratio['mean'], 3):>8} {_fmt(short['mean']) + '/' + _fmt(long_['mean']):>12}"
-        )
-    return lines
-
-
 def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
     if not args.scen:
         if args.index is not None:
@@ -125,35 +126,10 @@ def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
 
 
 def _summary(report: Any) -> list[str]:
-    """The short summary printed by ``plan``: runs, A* optimum, NDR-QI threshold, time per stage."""
-    from ndrql.api import WORK_STAGES
+    """The short summary printed by ``plan`` (:func:`ndrql.cli.plan_report.summary_lines`)."""
+    from ndrql.cli.plan_report import summary_lines
 
-    lines = []
-    opt = report.astar_length
-    single = len(report.methods) == 1 and len(report.seeds) <= 3
-    if single:
-        for r in report.results:
-            if r.converged:
-                lines.append(f"{r.method} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
-                             f"{r.convergence_steps:,} steps; path {r.path_length} moves ({r.length_ratio:.3f} x A*)")
-            else:
-                tail = f"; last greedy path {r.path_length} moves" if r.path_length is not None else ""
-                lines.append(f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
-                             f"({r.total_steps:,} steps){tail}")
-    lines.append(f"A* optimum: {opt} moves; seeds {report.seeds[0]}..{report.seeds[-1]}; "
-                 f"max {report.config.max_episodes} episodes")
-    if not single:
-        lines += _table(list(report.methods), list(report.results))
-    for name, thd in report.thresholds.items():
-        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else 'none (mask 0 everywhere)'}")
-    not_conv = sum(not r.converged for r in report.results)
-    if not_conv:
-        lines.append(f"{not_conv} of {len(report.results)} runs did not converge (reported, not dropped)")
-    t = report.timings
-    stages = ", ".join(f"{s} {t[s]:.3f}" for s in WORK_STAGES)
-    lines.append(f"time (s): {stages}; work {report.work_time:.3f} "
-                 f"(+ map {t['map']:.3f}, start-up {t['startup']:.2f})")
-    return lines
+    return summary_lines(report)
 
 
 def _short(path: str) -> str:
@@ -177,8 +153,9 @@ def run(args: argparse.Namespace) -> int:
     import functools
     import sys
 
-    from ndrql.api import PlanSettings, solve
+    from ndrql.api import solve
     from ndrql.cli.common import load_map_argument, parse_point, Problem, warnings_to_stderr, write_json
+    from ndrql.maps.world import parse_world_point
     from ndrql.errors import NdrqlError
     from ndrql.planning.methods import get_method, load_prior_file
 
@@ -199,20 +176,33 @@ def run(args: argparse.Namespace) -> int:
     ql_cfg, prior_cfg = _configs(args)
     if args.threads < 1:
         raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
-    settings = PlanSettings(size=args.size, max_map_pixels=args.max_pixels, threads=args.threads, backend=args.backend)
     scen, index = _scenario(args)
+    for flag, pixel, world in (("start", args.start, args.start_world), ("goal", args.goal, args.goal_world)):
+        if pixel and world:
+            raise NdrqlError(f"give --{flag} (ROW,COL pixels) or --{flag}-world (X,Y metres), not both")
     loaded = load_map_argument(args)
+    settings = _settings(args, sample=isinstance(loaded, Problem))
+    start_world = parse_world_point(args.start_world, "--start-world") if args.start_world else None
+    goal_world = parse_world_point(args.goal_world, "--goal-world") if args.goal_world else None
     if isinstance(loaded, Problem):  # a dataset sample: its points unless overridden
         grid_map, info = loaded.grid_map, dict(loaded.info)
-        start = parse_point(args.start, "--start") if args.start else loaded.start
-        goal = parse_point(args.goal, "--goal") if args.goal else loaded.goal
+        start = parse_point(args.start, "--start") if args.start else None if start_world else loaded.start
+        goal = parse_point(args.goal, "--goal") if args.goal else None if goal_world else loaded.goal
     else:
         grid_map, info = loaded, {"source": loaded.source}
         start = parse_point(args.start, "--start") if args.start else None
         goal = parse_point(args.goal, "--goal") if args.goal else None
-        if scen is None and (start is None or goal is None):
-            missing = [f for f, v in (("--start", start), ("--goal", goal)) if v is None]
-            raise NdrqlError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels), or --scen FILE")
+        if scen is None and ((start is None and start_world is None) or (goal is None and goal_world is None)):
+            missing = [f for f, v, w in (("--start", start, start_world), ("--goal", goal, goal_world))
+                       if v is None and w is None]
+            raise NdrqlError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels, or "
+                             f"{' and '.join(m + '-world' for m in missing)} X,Y in metres on ROS maps), or --scen FILE")
+    if args.path_out:
+        from ndrql.maps.world import has_world_frame
+
+        if not has_world_frame(grid_map):
+            raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
+                             "(a ROS map_server .yaml); use --json for the path in pixels")
     predictions = None
     if args.prior_from and any(get_method(m).needs_ndr for m in methods):
         predictions = load_prior_file(args.prior_from)
@@ -221,12 +211,13 @@ def run(args: argparse.Namespace) -> int:
         report = solve(grid_map, start, goal, methods, list(seeds),
                        weights=args.weights, predictions=predictions, config=ql_cfg, prior_config=prior_cfg,
                        settings=settings, scen=scen, scen_index=index, workers=args.workers,
-                       keep_records=args.records, info=info)
+                       keep_records=args.records, info=info, start_world=_xyyaw(start_world),
+                       goal_world=_xyyaw(goal_world))
     pg = report.grid
     # with --json - the JSON owns stdout; the summary goes to stderr
     echo = functools.partial(print, file=sys.stderr if args.json == "-" else sys.stdout)
-    echo(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}); planning grid {pg.shape[0]}x{pg.shape[1]}, "
-          f"start {pg.start}, goal {pg.goal}")
+    echo(f"map: {report.grid_map.source} ({report.grid_map.height}x{report.grid_map.width}); planning grid "
+         f"{pg.shape[0]}x{pg.shape[1]}, start {pg.start}, goal {pg.goal}")
     if report.weights:
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')})")
     echo("\n".join(_summary(report)))
@@ -239,4 +230,37 @@ def run(args: argparse.Namespace) -> int:
 
         fig = plan_figure(report) if len(methods) == 1 else compare_figure(report)
         echo(f"wrote {_save(fig, args.png)}")
+    if args.path_out:
+        echo(f"wrote {write_path(args.path_out, report.results[0])}")
     return 0
+
+
+def _settings(args: argparse.Namespace, sample: bool) -> Any:
+    """:class:`PlanSettings` from the flags: the paper's grid for a dataset sample, the safe grid for a map file."""
+    from ndrql.api import PlanSettings
+
+    rule = args.grid or ("area" if sample else "safe")
+    smooth = args.smooth if args.smooth is not None else not sample
+    return PlanSettings(grid=rule, size=args.size, robot_radius=args.robot_radius, smooth=smooth,
+                        max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads,
+                        backend=args.backend)
+
+
+def _xyyaw(point: Any) -> Any:
+    return None if point is None else tuple(v for v in point if v is not None)
+
+
+def write_path(path: str, run: Any) -> Any:
+    """Write ``run``'s final path as a nav_msgs/Path (YAML for ``.yaml``/``.yml``, else JSON)."""
+    from ndrql.errors import NdrqlError
+    from ndrql.io import write_json, write_text
+    from ndrql.maps.world import nav_path
+
+    if run.route is None or run.route.poses is None:
+        raise NdrqlError(f"{run.method} seed {run.seed} found no path to write to {path}")
+    msg = nav_path(run.route.poses)
+    if path.lower().endswith((".yaml", ".yml")):
+        import yaml
+
+        return write_text(path, yaml.safe_dump(msg, sort_keys=False, default_flow_style=None))
+    return write_json(path, msg)

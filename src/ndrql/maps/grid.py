@@ -307,11 +307,27 @@ class PlanningGrid:
     """Goal as given, in source-map pixels (row, col)."""
     snapped: tuple[bool, bool] = field(default=(False, False))
     """Whether start, goal were moved off a blocked cell."""
+    cell_px: tuple[float, float] | None = None
+    """Cell size (rows, cols) in map pixels; ``None``: ``source_shape / shape`` (the area grid's cells)."""
 
     def __post_init__(self) -> None:
         arr = np.array(self.blocked, dtype=bool, copy=True)
         arr.setflags(write=False)
         object.__setattr__(self, "blocked", arr)
+
+    @property
+    def cell_size(self) -> tuple[float, float]:
+        """Cell size (rows, cols) in map pixels."""
+        if self.cell_px is not None:
+            return (float(self.cell_px[0]), float(self.cell_px[1]))
+        return (self.source_shape[0] / self.shape[0], self.source_shape[1] / self.shape[1])
+
+    def centre(self, cell: Sequence[float]) -> tuple[float, float]:
+        """Centre of planning cell ``(row, col)`` in map-pixel coordinates (pixel ``(r, c)``'s centre is ``(r, c)``)."""
+        if self.cell_px is None:
+            return cell_to_point(cell, self.source_shape, self.shape)
+        sr, sc = self.cell_size
+        return ((cell[0] + 0.5) * sr - 0.5, (cell[1] + 0.5) * sc - 0.5)
 
     @classmethod
     def from_map(

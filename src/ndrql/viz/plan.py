@@ -57,12 +57,17 @@ def plot_plan(
     color: str = "tab:red",
     title: str | None = None,
     legend: bool = True,
+    cell_size: Sequence[float] | None = None,
+    route: Any = None,
 ) -> list[Any]:
     """The map, the planning grid's blocked cells, region (green) and guideline (orange) probabilities,
     the A* path (blue, dashed) and the learned path; returns every artist drawn.
 
     ``obstacles``, ``region`` and ``guideline`` are at the map's resolution; ``blocked`` and both
-    paths on the planning grid (``(row, col)`` cells).
+    paths on the planning grid (``(row, col)`` cells). ``cell_size``: cell side (rows, cols) in map
+    pixels (default: the map's size over the grid's, the area grid). ``route``: the learned path on
+    the map (:class:`~ndrql.pipeline.route.Route`): its final path is drawn solid over a thin grid
+    path, and every collision with an obstacle as a red cross.
     """
     from matplotlib.patches import Patch
 
@@ -72,6 +77,8 @@ def plot_plan(
     blocked = np.asarray(blocked, dtype=bool)
     h, w = obstacles.shape
     extent = (-0.5, w - 0.5, h - 0.5, -0.5)
+    if cell_size is not None:
+        extent = (-0.5, blocked.shape[1] * cell_size[1] - 0.5, blocked.shape[0] * cell_size[0] - 0.5, -0.5)
     # predictions first, then the map on top of them so obstacles stay crisp
     artists: list[Any] = [plot_occupancy(ax, obstacles, color="black", zorder=2)]
     artists.append(plot_occupancy(ax, blocked, color="0.55", alpha=0.25, extent=extent, zorder=2))
@@ -84,14 +91,26 @@ def plot_plan(
         keys.append(Patch(color=GUIDELINE_RGB, alpha=0.85, label="NDR guideline"))
 
     def px(cells: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
-        return [cell_to_point(c, (h, w), blocked.shape) for c in cells]
+        if cell_size is None:
+            return [cell_to_point(c, (h, w), blocked.shape) for c in cells]
+        return [((r + 0.5) * cell_size[0] - 0.5, (c + 0.5) * cell_size[1] - 0.5) for r, c in cells]
 
     if astar_path:
         artists += plot_path(ax, px(astar_path), color=ASTAR_COLOR, linewidth=1.5,
                              label=f"A* ({len(astar_path) - 1} moves)", zorder=3)
         artists[-1].set_linestyle("--")
+    smoothed = route is not None and route.smoothed
     if path:
-        artists += plot_path(ax, px(path), color=color, linewidth=2.0, label=f"{label} ({len(path) - 1} moves)", zorder=4)
+        artists += plot_path(ax, px(path), color=color, linewidth=1.0 if smoothed else 2.0,
+                             label=f"{label} ({len(path) - 1} moves)", zorder=4)
+        if smoothed:
+            artists[-1].set_linestyle(":")
+    if smoothed:
+        artists += plot_path(ax, route.pixels, color=color, linewidth=2.0, label=f"{label}, smoothed on the map", zorder=5)
+    if route is not None and route.final_collisions:
+        hits = np.asarray([p for _, p in route.final_collisions], dtype=float)
+        artists.append(ax.scatter(hits[:, 1], hits[:, 0], s=70, c="red", marker="x", linewidths=2.0, zorder=6,
+                                  label=f"collision ({len(hits)})"))
     artists += plot_endpoints(ax, source_start, source_goal)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)
@@ -141,10 +160,20 @@ def _astar(report: Any) -> list[list[int]]:
 
 
 def _run_title(r: Any) -> str:
+    collides = getattr(r, "route", None) is not None and r.route.collides
+    tail = f"; PATH COLLIDES ({len(r.route.final_collisions)} segments)" if collides else ""
     if r.converged:
         return (f"{r.method} seed {r.seed}: converged, {r.convergence_steps:,} steps\n"
-                f"path {r.path_length} moves = {r.length_ratio:.2f} x A*")
-    return f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes"
+                f"path {r.path_length} moves = {r.length_ratio:.2f} x A*{tail}")
+    return f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes{tail}"
+
+
+def _grid_kw(report: Any, r: Any) -> dict[str, Any]:
+    """The cell size of square (safe) grids and the run's route, for :func:`plot_plan`."""
+    kw: dict[str, Any] = {"route": getattr(r, "route", None)}
+    if report.grid.cell_px is not None:
+        kw["cell_size"] = report.grid.cell_size
+    return kw
 
 
 def plan_figure(report: Any, method: str | None = None, seed: int | None = None, dpi: int = 110) -> Any:
@@ -155,7 +184,7 @@ def plan_figure(report: Any, method: str | None = None, seed: int | None = None,
     ax = fig.add_subplot(1, 1, 1)
     plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
               path=r.path, astar_path=_astar(report), region=report.region, guideline=report.guideline,
-              label=r.method, color=method_color(r.method), title=_run_title(r))
+              label=r.method, color=method_color(r.method), title=_run_title(r), **_grid_kw(report, r))
     fig.tight_layout()
     return fig
 
@@ -178,7 +207,7 @@ def compare_figure(report: Any, dpi: int = 110) -> Any:
         plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
                   path=r.path, astar_path=best, region=report.region if ndr else None,
                   guideline=report.guideline if ndr else None, label=name, color=method_color(name, i),
-                  title=_run_title(r))
+                  title=_run_title(r), **_grid_kw(report, r))
     if with_steps:
         ax = fig.add_subplot(1, n, n)
         plot_convergence(ax, {m: [r.convergence_steps for r in report.runs(m)] for m in methods},

@@ -1,0 +1,129 @@
+"""The text ``ndrql plan`` (and ``ndrql demo``) print: runs, the planning grid, the path on the map, timings."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def fmt(v: Any, nd: int = 0) -> str:
+    """``v`` with thousands separators and ``nd`` decimals; ``-`` for ``None``."""
+    if v is None:
+        return "-"
+    return f"{v:,.{nd}f}"
+
+
+def length_text(px: float, resolution: float | None) -> str:
+    """``"1,234 px"`` or ``"1,234 px = 61.7 m"`` on maps with a resolution."""
+    return f"{px:,.0f} px" + (f" = {px * resolution:,.2f} m" if resolution is not None else "")
+
+
+def table(methods: list[str], results: list[Any]) -> list[str]:
+    """Per-method table: converged runs, steps (mean, median, 95% CI), episodes, path / A*, short/long episodes."""
+    from ndrql.planning.results import summarize
+
+    head = (f"{'method':<8} {'conv':>6} {'steps mean':>11} {'median':>9} {'95% CI':>21} {'episodes':>9} "
+            f"{'path/A*':>8} {'short/long':>12}")
+    lines = [head, "-" * len(head)]
+    for m in methods:
+        rs = [r for r in results if r.method == m]
+        conv = [r for r in rs if r.converged]
+        st = summarize([r.convergence_steps for r in conv])
+        ep = summarize([r.convergence_episode for r in conv])
+        ratio = summarize([r.length_ratio for r in conv])
+        short = summarize([r.shortest_success_length for r in conv])
+        long_ = summarize([r.longest_success_length for r in conv])
+        ci = f"[{fmt(st['ci95_low'])}, {fmt(st['ci95_high'])}]" if st["ci95_low"] is not None else "-"
+        lines.append(
+            f"{m:<8} {len(conv):>3}/{len(rs):<2} {fmt(st['mean']):>11} {fmt(st['median']):>9} {ci:>21} "
+            f"{fmt(ep['mean']):>9} {fmt(ratio['mean'], 3):>8} {fmt(short['mean']) + '/' + fmt(long_['mean']):>12}"
+        )
+    return lines
+
+
+def grid_lines(report: Any) -> list[str]:
+    """How the map became the planning grid (safe grid only: the paper's area grid keeps its one line)."""
+    setup = report.setup
+    if setup is None or setup.rule != "safe":
+        return []
+    res = report.grid_map.resolution
+    cell = report.grid.cell_size[0]
+    metres = f" = {cell * res:.3g} m" if res is not None else ""
+    text = f"grid: safe, square cells of {cell:.2f} px{metres} ({setup.size} on the longer side)"
+    if setup.radius_px > 0:
+        text += f"; robot radius {length_text(setup.radius_px, res)}"
+    lines = [text]
+    a = setup.auto
+    if a is not None:
+        lost = [str(t.size) for t in a.trials if t.ratio is None]
+        over = [f"{t.size} ({t.ratio:.2f}x)" for t in a.trials if t.ratio is not None and t.size != a.size]
+        tail = "; ".join(x for x in (f"{', '.join(lost)}: not connected" if lost else "",
+                                     f"too long: {', '.join(over)}" if over else "") if x)
+        lines.append(f"size auto: route on the grid {a.chosen.ratio:.3f} x the map's shortest "
+                     f"({length_text(a.full_length, res)}), tolerance {a.tolerance:.0%}" + (f" ({tail})" if tail else ""))
+    return lines
+
+
+def route_lines(report: Any) -> list[str]:
+    """The learned paths on the full map: collisions (always shown), lengths before and after smoothing."""
+    res = report.grid_map.resolution
+    lines = []
+    single = len(report.results) == 1
+    area = report.setup is not None and report.setup.rule == "area"
+    for m in report.methods:
+        runs = [r for r in report.runs(m) if r.route is not None]
+        bad = [r for r in runs if r.route.collides]
+        if bad:
+            r = bad[0]
+            seg, (pr, pc) = r.route.final_collisions[0]
+            who = f"{m} seed {r.seed}" if single or len(bad) == 1 else f"{m}: {len(bad)} of {len(runs)} runs; seed {r.seed}"
+            hint = " (the paper's area grid cuts thin walls: --grid safe)" if area else ""
+            lines.append(f"{who}: path collides: {len(r.route.final_collisions)} of {len(r.route.pixels) - 1} segments "
+                         f"cross obstacles on the full map (first at pixel ({pr}, {pc})); not a success{hint}")
+        elif runs and not area:
+            r = runs[0]
+            what = "smoothed" if r.route.smoothed else "not smoothed"
+            who = f"{m} seed {r.seed}" if single else f"{m}: {len(runs)} of {len(runs)} paths collision-free; seed {r.seed}"
+            lines.append(f"{who}: path on the map collision-free; grid path {length_text(r.route.grid_length, res)}, "
+                         f"{what} {length_text(r.route.length, res)}" + _vs_full(report, r.route.length))
+    return lines
+
+
+def _vs_full(report: Any, length: float) -> str:
+    a = report.setup.auto if report.setup is not None else None
+    if a is None or a.full_length <= 0:
+        return ""
+    return f" ({length / a.full_length:.3f} x the map's shortest)"
+
+
+def summary_lines(report: Any) -> list[str]:
+    """The short summary printed by ``plan``: runs, A* optimum, NDR-QI threshold, path on the map, time per stage."""
+    from ndrql.api import WORK_STAGES
+
+    lines = grid_lines(report)
+    opt = report.astar_length
+    single = len(report.methods) == 1 and len(report.seeds) <= 3
+    if single:
+        for r in report.results:
+            if r.converged:
+                lines.append(f"{r.method} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
+                             f"{r.convergence_steps:,} steps; path {r.path_length} moves ({r.length_ratio:.3f} x A*)")
+            else:
+                tail = f"; last greedy path {r.path_length} moves" if r.path_length is not None else ""
+                lines.append(f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
+                             f"({r.total_steps:,} steps){tail}")
+    lines.append(f"A* optimum: {opt} moves; seeds {report.seeds[0]}..{report.seeds[-1]}; "
+                 f"max {report.config.max_episodes} episodes")
+    if not single:
+        lines += table(list(report.methods), list(report.results))
+    for name, thd in report.thresholds.items():
+        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else 'none (mask 0 everywhere)'}")
+    not_conv = sum(not r.converged for r in report.results)
+    if not_conv:
+        lines.append(f"{not_conv} of {len(report.results)} runs did not converge (reported, not dropped)")
+    lines += route_lines(report)
+    t = report.timings
+    stages = ", ".join(f"{s} {t[s]:.3f}" for s in WORK_STAGES)
+    extra = "".join(f", {s} {t[s]:.3f}" for s in ("grid", "route") if t.get(s, 0.0) >= 0.0005)
+    lines.append(f"time (s): {stages}; work {report.work_time:.3f} "
+                 f"(+ map {t['map']:.3f}{extra}, start-up {t['startup']:.2f})")
+    return lines

@@ -1,0 +1,67 @@
+"""The one place that asks the NDR model about a planning problem.
+
+:func:`predict_region` decides what the model sees and returns region and guideline probabilities
+at the map's resolution; everything downstream (priors, figures, JSON) takes them from here. Today
+the model sees the map as drawn (not inflated), resized so its longer side is 201 px and padded with
+obstacles (:func:`ndrql.model.predict.to_model_input`), with start and goal scaled along.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ndrql.maps.grid import GridMap, PlanningGrid
+
+Point = tuple[int, int]
+
+
+@dataclass(frozen=True)
+class ModelView:
+    """The model's predictions for one problem, at the map's resolution."""
+
+    region: np.ndarray
+    """Region probabilities, float64 ``(H, W)``."""
+    guideline: np.ndarray | None
+    """Guideline probabilities, float64 ``(H, W)``, or ``None`` for a model without guideline decoder."""
+    info: dict[str, Any]
+    """What the model saw (JSON ``model_input``): its input side, scale and where start and goal landed."""
+
+
+def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict[str, Any]:
+    """Where start and goal land in the model's 201x201 input (:func:`ndrql.model.predict.to_model_input`).
+
+    A map that is not 201x201 is resized and padded for the model; a point whose resized pixel is an
+    obstacle is moved to the nearest free pixel there. That is reported with a warning (the model
+    then sees the point somewhere else; planning still uses the exact point).
+    """
+    from ndrql.model.predict import MODEL_SIDE, point_on_grid, to_model_input
+
+    h, w = obstacles.shape
+    _, s_in, g_in, scale = to_model_input(obstacles, start, goal)
+    nh = max(1, round(h * scale))
+    moved = []
+    for name, p, q in (("start", start, s_in), ("goal", goal, g_in)):
+        want = p if scale == 1.0 and (h, w) == (MODEL_SIDE, MODEL_SIDE) else point_on_grid(p, nh / h, MODEL_SIDE)
+        moved.append(tuple(want) != tuple(q))
+        if moved[-1]:
+            warnings.warn(f"{name} {p[0]},{p[1]} falls on an obstacle of the model's {MODEL_SIDE}x{MODEL_SIDE} input "
+                          f"(the map resized by {scale:.3f}); the model sees it at {q[0]},{q[1]}", UserWarning, stacklevel=3)
+    return {"side": MODEL_SIDE, "scale": scale, "start": list(s_in), "goal": list(g_in),
+            "moved": {"start": moved[0], "goal": moved[1]}}
+
+
+def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
+    """Region and guideline for planning ``grid`` from ``start`` to ``goal`` (map pixels), at the map's resolution.
+
+    ``predictor``: a loaded model (:func:`ndrql.planning.methods.load_predictor`). ``grid`` is passed
+    so that what the model sees can follow the planning grid; today the model sees the map itself.
+    """
+    info = model_input_points(grid_map.obstacles, start, goal)
+    pred = predictor.predict(grid_map.obstacles, start, goal)
+    region = np.asarray(pred.region, dtype=np.float64)
+    guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
+    return ModelView(region=region, guideline=guideline, info=info)

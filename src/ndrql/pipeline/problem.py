@@ -1,0 +1,222 @@
+"""From a map and two points to the planning problem: read and check them, inflate by the robot, build the grid.
+
+Two grid rules (:data:`~ndrql.pipeline.settings.GRID_RULES`):
+
+- ``area``, the paper's (SPEC section 1): the map area-averaged to ``size x size`` cells, a cell
+  blocked when at least half of it is obstacle (:class:`~ndrql.maps.grid.PlanningGrid`);
+- ``safe``, the default on a user's map: square cells, a cell blocked when any pixel is an obstacle
+  (:mod:`ndrql.maps.safe`), at a given size or the coarsest size that keeps the route
+  (:func:`~ndrql.maps.sizing.choose_size`).
+
+Both run on the map after inflating its obstacles by the robot's radius (:func:`~ndrql.maps.safe.inflate`);
+that inflated map (``GridSetup.check_map``) is also what every learned path is checked against.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from ndrql.errors import MapFormatError, NoPathError, PointError
+from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
+from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
+
+Point = tuple[int, int]
+
+
+class SlowGridWarning(UserWarning):
+    """The planning grid is large: Q-learning may take minutes."""
+
+
+@dataclass(frozen=True)
+class GridSetup:
+    """How the map became the planning grid, and the full-resolution map paths are checked on."""
+
+    rule: str
+    """``safe`` or ``area``."""
+    size: int
+    """Cells on the map's longer side (area rule: the grid's side)."""
+    radius_px: float
+    """Robot radius in map pixels (obstacles inflated by it)."""
+    check_map: np.ndarray = field(repr=False)
+    """The map after inflation (``True`` = obstacle), read-only: paths are checked and shortcut on it."""
+    auto: Any = None
+    """The :class:`~ndrql.maps.sizing.SizeChoice` of ``size auto``, else ``None``."""
+    seconds: float = 0.0
+    """Wall time spent on inflation and the size search."""
+
+    def to_dict(self, grid: PlanningGrid, resolution: float | None) -> dict[str, Any]:
+        """JSON form: rule, size, cell size in px (and m), robot radius, and the auto search."""
+        sr, sc = grid.cell_size
+        out: dict[str, Any] = {"rule": self.rule, "size": self.size, "shape": list(grid.shape),
+                               "cell_px": [round(sr, 4), round(sc, 4)], "robot_radius_px": round(self.radius_px, 4)}
+        if resolution is not None:
+            out["cell_m"] = [round(sr * resolution, 6), round(sc * resolution, 6)]
+            out["robot_radius_m"] = round(self.radius_px * resolution, 6)
+        if self.auto is not None:
+            a = self.auto
+            out["auto"] = {
+                "tolerance": a.tolerance,
+                "within_tolerance": a.within_tolerance,
+                "full_length_px": round(a.full_length, 3),
+                "tried": [{"size": t.size, "shape": list(t.shape), "cell_px": round(t.cell_px, 4),
+                           "grid_length_px": None if t.grid_length is None else round(t.grid_length, 3),
+                           "ratio": None if t.ratio is None else round(t.ratio, 4)} for t in a.trials],
+            }
+            if resolution is not None:
+                out["auto"]["full_length_m"] = round(a.full_length * resolution, 4)
+        return out
+
+
+def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, crop: bool = False) -> GridMap:
+    """A :class:`GridMap` from a path (any supported format), a ``GridMap`` or a 2-D array (non-zero = obstacle)."""
+    if isinstance(map_or_path, GridMap):
+        return map_or_path
+    if isinstance(map_or_path, np.ndarray):
+        if map_or_path.ndim != 2 or map_or_path.size == 0:
+            raise MapFormatError(f"a map array must be non-empty and 2-D, got shape {map_or_path.shape}")
+        return GridMap(map_or_path != 0, source="array")
+    if isinstance(map_or_path, (str, os.PathLike)):
+        from ndrql.maps.readers import load_map
+
+        return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
+    raise MapFormatError(f"cannot read a map from {type(map_or_path).__name__}; pass a file path, a GridMap or a 2-D array")
+
+
+def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> tuple[Point, Point, dict[str, Any]]:
+    """Start and goal ``(row, col)`` of scenario ``index`` in a MovingAI ``.scen`` file, checked against the map."""
+    from ndrql.maps.readers import read_movingai_scen
+
+    scenarios = read_movingai_scen(scen)
+    if not 0 <= index < len(scenarios):
+        raise MapFormatError(f"scenario {index} not in {scen} (it has {len(scenarios)} scenarios, 0..{len(scenarios) - 1})")
+    s = scenarios[index]
+    if grid_map.shape != (s.height, s.width):
+        raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "
+                             f"the map is {grid_map.width}x{grid_map.height}")
+    info = {"scenario": {"file": str(scen), "index": index, "optimal_length": s.optimal_length}}
+    return (int(s.start[0]), int(s.start[1])), (int(s.goal[0]), int(s.goal[1])), info
+
+
+def check_points(grid_map: GridMap, start: Sequence[int], goal: Sequence[int]) -> tuple[Point, Point]:
+    """``start``/``goal`` as ``(row, col)`` ints, on the map and on free pixels; :class:`PointError` otherwise."""
+    h, w = grid_map.shape
+    out = []
+    for name, p in (("start", start), ("goal", goal)):
+        if p is None:
+            raise PointError(f"no {name} given (ROW,COL in map pixels)")
+        try:
+            r, c = (int(v) for v in p)
+        except (TypeError, ValueError):
+            raise PointError(f"{name} must be (row, col), got {p!r}") from None
+        if not (0 <= r < h and 0 <= c < w):
+            raise PointError(f"{name} {r},{c} is outside the map (rows 0..{h - 1}, cols 0..{w - 1})")
+        if grid_map.obstacles[r, c]:
+            raise PointError(f"{name} {r},{c} is on an obstacle of the map")
+        out.append((r, c))
+    return out[0], out[1]
+
+
+def check_map_size(grid_map: GridMap, settings: PlanSettings) -> None:
+    """Refuse maps larger than ``settings.max_map_pixels`` (they cost memory and time for nothing)."""
+    if grid_map.height * grid_map.width > settings.max_map_pixels:
+        raise MapFormatError(
+            f"map is {grid_map.height}x{grid_map.width} = {grid_map.height * grid_map.width:,} pixels, more than the "
+            f"limit of {settings.max_map_pixels:,}; crop or downscale it, or raise --max-pixels"
+        )
+
+
+def _units(px: float, resolution: float | None) -> str:
+    return f"{px:.1f} px" + (f" = {px * resolution:.3g} m" if resolution is not None else "")
+
+
+def _check_clearance(check_map: np.ndarray, grid_map: GridMap, points: Sequence[Point], radius_px: float) -> None:
+    for name, (r, c) in zip(("start", "goal"), points):
+        if check_map[r, c]:
+            raise PointError(f"{name} {r},{c} is within the robot radius ({_units(radius_px, grid_map.resolution)}) "
+                             f"of an obstacle; move it into the open or use a smaller --robot-radius")
+
+
+def _area_grid(check_map: np.ndarray, start: Point, goal: Point, size: int) -> PlanningGrid:
+    """The paper's grid; its errors get a hint about the safe grid."""
+    try:
+        return PlanningGrid.from_map(check_map, start, goal, size=size)
+    except NoPathError as exc:
+        raise NoPathError(f"{exc}; the safe grid keeps thin passages: --grid safe --size auto") from None
+
+
+def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, max_size: int) -> int | None:
+    from ndrql.maps.sizing import ladder, try_size
+
+    for s in ladder(check_map.shape, max_size):
+        if s > size and try_size(check_map, start, goal, s, 1.0).grid_length is not None:
+            return s
+    return None
+
+
+def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Point, size: int,
+               max_size: int) -> PlanningGrid:
+    from ndrql.maps.safe import cell_size_px, conservative_grid
+    from ndrql.maps.sizing import connected4, place_point
+
+    blocked = conservative_grid(check_map, size)
+    cells, snapped = [], []
+    for name, p in (("start", start), ("goal", goal)):
+        cell, moved = place_point(check_map, blocked, p, size)
+        if moved:
+            warnings.warn(f"{name} {p[0]},{p[1]}: its cell of the safe grid touches an obstacle; planning from the "
+                          f"nearest free cell {cell} (joined to the point on the full map)", SnapWarning, stacklevel=3)
+        cells.append(cell)
+        snapped.append(moved)
+    s = cell_size_px(check_map.shape, size)
+    if cells[0] != cells[1] and not connected4(blocked, cells[0], cells[1]):
+        better = _suggest_size(check_map, start, goal, size, max_size)
+        hint = (f"--size {better} connects them (or --size auto)" if better is not None
+                else "no finer grid up to the limit does either; try --size auto for where the bottleneck is")
+        raise NoPathError(f"start and goal are not connected on the {blocked.shape[0]}x{blocked.shape[1]} safe grid "
+                          f"({_units(s, grid_map.resolution)} cells; a passage narrower than a cell closes): {hint}")
+    return PlanningGrid(blocked=blocked, start=cells[0], goal=cells[1], source_shape=check_map.shape,
+                        source_start=start, source_goal=goal, snapped=(snapped[0], snapped[1]), cell_px=(s, s))
+
+
+def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSettings) -> tuple[PlanningGrid, GridSetup]:
+    """The planning grid for ``start``/``goal`` (checked map pixels) under ``settings``, and how it was made.
+
+    Raises :class:`PointError` when a point lies within the robot radius of an obstacle and
+    :class:`NoPathError` (saying what to do) when no grid connects start and goal.
+    """
+    import time
+
+    from ndrql.maps.safe import inflate, radius_to_px
+
+    t0 = time.perf_counter()
+    radius_px = radius_to_px(settings.robot_radius, grid_map.resolution)
+    check_map = inflate(grid_map.obstacles, radius_px) if radius_px >= 1 else grid_map.obstacles
+    check_map.setflags(write=False)
+    _check_clearance(check_map, grid_map, (start, goal), radius_px)
+    size = settings.grid_size
+    auto = None
+    if settings.grid == "area":
+        pg = _area_grid(check_map, start, goal, int(size))
+    else:
+        if size == "auto":
+            from ndrql.maps.sizing import choose_size, full_route
+
+            route = full_route(check_map, start, goal, radius_px)
+            auto = choose_size(check_map, start, goal, route.cost, settings.max_size, settings.tolerance)
+            size = auto.size
+            if not auto.within_tolerance:
+                t = auto.chosen
+                warnings.warn(f"no safe grid up to {settings.max_size} cells keeps the route within "
+                              f"{settings.tolerance:.0%} of the map's own ({_units(auto.full_length, grid_map.resolution)}); "
+                              f"using the closest, {t.size} cells ({t.ratio:.2f}x)", UserWarning, stacklevel=2)
+        pg = _safe_grid(check_map, grid_map, start, goal, int(size), settings.max_size)
+    if max(pg.shape) > SLOW_SIZE:
+        warnings.warn(f"the planning grid is {pg.shape[0]}x{pg.shape[1]}: Q-learning may take minutes "
+                      f"(crop the map around start and goal for a smaller grid)", SlowGridWarning, stacklevel=2)
+    return pg, GridSetup(rule=settings.grid, size=int(size), radius_px=radius_px, check_map=check_map, auto=auto,
+                         seconds=time.perf_counter() - t0)

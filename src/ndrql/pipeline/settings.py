@@ -1,0 +1,100 @@
+"""How a map becomes a planning problem (:class:`PlanSettings`): grid rule, size, robot radius, smoothing, limits."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ndrql.errors import NdrqlError
+
+#: Planning-grid rules: ``safe`` (square cells, a cell blocked when any pixel is an obstacle; the
+#: default on a user's map) and ``area`` (the paper's rule: area average, blocked at >= 0.5).
+GRID_RULES: tuple[str, ...] = ("safe", "area")
+#: Side of the paper's planning grid (201 px -> 50 cells), the ``area`` rule's default size.
+PAPER_SIZE = 50
+#: Above this many cells on the longer side ``plan`` warns that Q-learning may take minutes.
+SLOW_SIZE = 256
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """How a map becomes a planning problem, and the limits that guard it.
+
+    The defaults are for a user's own map (safe grid, ``size="auto"``, smoothing on);
+    :meth:`paper` gives the paper's setting used on the dataset and by the reproduction commands.
+    """
+
+    grid: str = "safe"
+    """Planning-grid rule: safe (square cells, blocked if any pixel is an obstacle) or area (the paper's >= 0.5 rule)."""
+    size: int | str | None = None
+    """Cells on the map's longer side, or auto (the coarsest safe grid that keeps the route); default: auto for safe, 50 for area."""
+    robot_radius: float = 0.0
+    """Robot radius: obstacles are inflated by it before planning (metres on maps with a resolution, else pixels)."""
+    smooth: bool | None = None
+    """Shortcut the learned path by line of sight on the full map (default: on for the safe grid, off for area)."""
+    tolerance: float = 0.08
+    """size auto: how much longer than the map's own shortest route the grid's route may be."""
+    max_map_pixels: int = 4096 * 4096
+    """Largest map accepted, in pixels; larger maps are refused (crop or downscale them first)."""
+    max_size: int = 512
+    """Largest planning grid (cells on the longer side); Q-learning's episode cap is 4 x cells, so big grids take long."""
+    threads: int = 1
+    """Threads for the model's forward pass (1: about as fast as 2 for one map, and much faster on a busy machine)."""
+    backend: str = "auto"
+    """Model inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch."""
+
+    def __post_init__(self) -> None:
+        if self.grid not in GRID_RULES:
+            raise NdrqlError(f"unknown planning grid rule {self.grid!r}; valid: {', '.join(GRID_RULES)}")
+        size = self.size
+        if isinstance(size, str):
+            if size.strip().lower() != "auto":
+                try:
+                    size = int(size)
+                except ValueError:
+                    raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}") from None
+            else:
+                size = "auto"
+            object.__setattr__(self, "size", size)
+        if size == "auto" and self.grid != "safe":
+            raise NdrqlError("size auto needs the safe grid (the area rule has no route check); give a size such as 50")
+        if isinstance(size, bool) or (size not in (None, "auto") and not isinstance(size, int)):
+            raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}")
+        if isinstance(size, int):
+            if size < 2:
+                raise NdrqlError(f"the planning grid size must be at least 2, got {size}")
+            if size > self.max_size:
+                raise NdrqlError(f"the planning grid size {size} is larger than the limit {self.max_size} "
+                                 f"(Q-learning's episode cap grows with the cells; raise the limit to go further)")
+        if not self.robot_radius >= 0 or self.robot_radius == float("inf"):
+            raise NdrqlError(f"the robot radius must be a number >= 0, got {self.robot_radius}")
+        if not 0 <= self.tolerance < 10:
+            raise NdrqlError(f"the size auto tolerance must be in [0, 10), got {self.tolerance}")
+        if self.max_map_pixels < 1:
+            raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
+        from ndrql.limits import MAX_GRID_SIZE
+
+        if not 2 <= self.max_size <= MAX_GRID_SIZE:
+            raise NdrqlError(f"the grid size limit must be in 2..{MAX_GRID_SIZE}, got {self.max_size}")
+        from ndrql.model.predict import BACKENDS
+
+        if self.backend not in BACKENDS:
+            raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
+
+    @classmethod
+    def paper(cls, **overrides) -> "PlanSettings":
+        """The paper's setting (SPEC section 1): area rule, 50 cells, no smoothing; used on the dataset."""
+        kw = {"grid": "area", "size": PAPER_SIZE, "smooth": False}
+        kw.update(overrides)
+        return cls(**kw)
+
+    @property
+    def grid_size(self) -> int | str:
+        """The size in effect: the given one, else auto (safe) or 50 (area)."""
+        if self.size is None:
+            return "auto" if self.grid == "safe" else PAPER_SIZE
+        return self.size
+
+    @property
+    def smoothing(self) -> bool:
+        """Whether the learned path is shortcut on the full map (default: on for safe, off for area)."""
+        return (self.grid == "safe") if self.smooth is None else bool(self.smooth)

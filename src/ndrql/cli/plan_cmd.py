@@ -84,7 +84,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=None,
                    help="shortcut the learned path by line of sight on the full map (default: on for a map file, "
                    "off for --sample)")
-    g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres in the map frame (ROS maps), instead of --start")
+    g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
+                   "(ROS maps), instead of --start; write --start-world=-1.5,2 when x is negative")
     g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
     g.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
                    "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")

@@ -112,7 +112,10 @@ def test_unknown_family_lists_valid_names():
     ({"name": "maze", "height": 100, "width": 100, "corridors": 3}, "corridor, wall"),
     ({"name": "scatter", "height": 100, "width": 100, "density": 1.5}, "density"),
     ({"name": "maze", "height": 30, "width": 30, "corridor": 29}, "no room"),
-    ({"name": "blocks", "height": 50, "width": 50, "size": "big"}, "number"),
+    ({"name": "blocks", "height": 50, "width": 50, "size": "big"}, "integer"),
+    ({"name": "maze", "height": 50, "width": 50, "corridor": 2.5}, "integer"),
+    ({"name": "scatter", "height": 50, "width": 50, "density": "dense"}, "number"),
+    ({"name": "ros_scan", "height": 50, "width": 50, "outside": float("nan")}, "outside"),
 ])
 def test_bad_arguments_raise_one_line_errors(kwargs, fragment):
     kwargs = dict(kwargs)

@@ -50,7 +50,7 @@ def blocks(rng: np.random.Generator, height: int, width: int, *, density: float 
     3-8x longer).
     """
     check_range("density", density, 0.01, 0.6)
-    check_range("size", size, 1, max(height, width))
+    check_range("size", size, 1, max(height, width), integer=True)
     return redraw_until_open(lambda: _blocks_once(rng, height, width, density, size))
 
 
@@ -113,12 +113,16 @@ def _walls_with_gaps(rng: np.random.Generator, h: int, w: int, *, walls: int | N
 
 def _gaps_once(rng: np.random.Generator, h: int, w: int, walls: int | None, thickness: int | None,
                gap: int | None) -> np.ndarray:
-    out = orient(rng, h, w, lambda a, b: _walls_with_gaps(rng, a, b, walls=walls, thickness=thickness,
-                                                           gap=gap, narrow=False))
-    if walls is None and rng.random() < 0.2:  # a cross wall
-        out |= orient(rng, h, w, lambda a, b: _walls_with_gaps(rng, a, b, walls=1, thickness=thickness,
-                                                                gap=gap, narrow=False))
-    return out
+    def draw(n: int | None, vertical: bool) -> np.ndarray:
+        if vertical:
+            return _walls_with_gaps(rng, h, w, walls=n, thickness=thickness, gap=gap, narrow=False)
+        return _walls_with_gaps(rng, w, h, walls=n, thickness=thickness, gap=gap, narrow=False).T
+
+    vertical = bool(rng.random() < 0.5)
+    out = draw(walls, vertical)
+    if walls is None and rng.random() < 0.2:  # one wall across the others
+        out = out | draw(1, not vertical)
+    return np.ascontiguousarray(out)
 
 
 def gaps(rng: np.random.Generator, height: int, width: int, *, walls: int | None = None,
@@ -126,13 +130,13 @@ def gaps(rng: np.random.Generator, height: int, width: int, *, walls: int | None
     """Straight walls right across the map, each with 1-3 gaps.
 
     Randomises the orientation, the number of ``walls`` (1-4, plus up to one more per 400 px of the
-    longer side; on a fifth of the maps one crossing wall), the wall ``thickness`` (0.5-12 % of the
+    longer side, at most as many as fit; on a fifth of the maps one wall across the others), the wall ``thickness`` (0.5-12 % of the
     longer side, clipped to 3-250 px) and each ``gap`` width (1.5-20 %, clipped to 6-300 px and to
     60 % of the wall) and position.
     """
-    check_range("walls", walls, 1, 64)
-    check_range("thickness", thickness, 1, max(height, width))
-    check_range("gap", gap, 1, max(height, width))
+    check_range("walls", walls, 1, 64, integer=True)
+    check_range("thickness", thickness, 1, max(height, width), integer=True)
+    check_range("gap", gap, 1, max(height, width), integer=True)
     return redraw_until_open(lambda: _gaps_once(rng, height, width, walls, thickness, gap))
 
 
@@ -160,9 +164,9 @@ def narrow_passage(rng: np.random.Generator, height: int, width: int, *, walls: 
     (3-22 % of the longer side, clipped to 10-1000 px, varying by +-30 % along the wall), each
     ``passage`` width (0.8-3 %, clipped to 2-16 px) and position, and dog-leg passages (40 %).
     """
-    check_range("walls", walls, 1, 64)
-    check_range("thickness", thickness, 1, max(height, width))
-    check_range("passage", passage, 1, max(height, width))
+    check_range("walls", walls, 1, 64, integer=True)
+    check_range("thickness", thickness, 1, max(height, width), integer=True)
+    check_range("passage", passage, 1, max(height, width), integer=True)
     return redraw_until_open(lambda: orient(rng, height, width, lambda a, b: _walls_with_gaps(
         rng, a, b, walls=walls, thickness=thickness, gap=passage, narrow=True)))
 
@@ -178,7 +182,7 @@ def _trap_thickness(rng: np.random.Generator, h: int, w: int) -> int:
     return feature_px(rng, max(h, w), px=(2, 40), rel=(0.003, 0.04))
 
 
-def bugtrap(rng: np.random.Generator, height: int, width: int, *, size: float | None = None,
+def bugtrap(rng: np.random.Generator, height: int, width: int, *, size: int | None = None,
             thickness: int | None = None) -> np.ndarray:
     """One U- or C-shaped bug trap around the start area (top half) or the goal area (bottom half).
 
@@ -187,8 +191,8 @@ def bugtrap(rng: np.random.Generator, height: int, width: int, *, size: float | 
     (a C shape, 40 %) and, on half the maps, extra blocks (obstacle fraction 3-12 %, side as in
     :func:`gaps_blocks`).
     """
-    check_range("size", size, 8, max(height, width))
-    check_range("thickness", thickness, 1, max(height, width))
+    check_range("size", size, 8, max(height, width), integer=True)
+    check_range("thickness", thickness, 1, max(height, width), integer=True)
 
     def draw() -> np.ndarray:
         s = size if size is not None else rng.uniform(0.2, 0.55) * min(height, width)
@@ -211,8 +215,8 @@ def bugtraps(rng: np.random.Generator, height: int, width: int, *, count: int | 
     ``thickness`` (as :func:`bugtrap`), openings and lips, and on a third of the maps extra blocks
     (3-10 %).
     """
-    check_range("count", count, 1, 256)
-    check_range("thickness", thickness, 1, max(height, width))
+    check_range("count", count, 1, 256, integer=True)
+    check_range("thickness", thickness, 1, max(height, width), integer=True)
 
     def draw() -> np.ndarray:
         n = count if count is not None else int(rng.integers(2, 7 + max(height, width) // 300))
@@ -247,8 +251,8 @@ def maze(rng: np.random.Generator, height: int, width: int, *, corridor: int | N
     the lattice; the pixels left over beside the lattice are wall. The tree is a random minimum
     spanning tree (randomised Kruskal) of the cell lattice.
     """
-    check_range("corridor", corridor, 1, max(height, width))
-    check_range("wall", wall, 1, max(height, width))
+    check_range("corridor", corridor, 1, max(height, width), integer=True)
+    check_range("wall", wall, 1, max(height, width), integer=True)
     L, S = max(height, width), min(height, width)
 
     def draw() -> np.ndarray:
@@ -282,9 +286,9 @@ def rooms(rng: np.random.Generator, height: int, width: int, *, room: int | None
     4-80 px), the share of splits that are corridors (0-50 %; corridors 3-8 %, clipped to
     4-120 px) and how often mid-sized regions stay undivided (0-40 %). Every room is reachable.
     """
-    check_range("room", room, 3, max(height, width))
-    check_range("wall", wall, 1, max(height, width))
-    check_range("door", door, 1, max(height, width))
+    check_range("room", room, 3, max(height, width), integer=True)
+    check_range("wall", wall, 1, max(height, width), integer=True)
+    check_range("door", door, 1, max(height, width), integer=True)
     L = max(height, width)
 
     def draw() -> np.ndarray:
@@ -310,8 +314,8 @@ def scatter(rng: np.random.Generator, height: int, width: int, *, density: float
     and coarse scatter; diameters are uniform in ``size / 4``..``size``) and the share of
     ``squares`` (none, all, or a random share).
     """
-    check_range("density", density, 0.0, 0.6)
-    check_range("size", size, 1, max(height, width))
+    check_range("density", density, 0.01, 0.6)
+    check_range("size", size, 1, max(height, width), integer=True)
     check_range("squares", squares, 0.0, 1.0)
     L = max(height, width)
 

@@ -176,12 +176,16 @@ def redraw_until_open(draw: Callable[[], np.ndarray], tries: int = 30) -> np.nda
     return obstacles if is_open(obstacles) else carve_cross(obstacles)
 
 
-def check_range(name: str, value: float | None, lo: float, hi: float) -> None:
-    """Raise :class:`~ndrql.errors.NdrqlError` unless ``value`` is ``None`` (randomised) or within ``[lo, hi]``."""
+def check_range(name: str, value: float | None, lo: float, hi: float, integer: bool = False) -> None:
+    """Raise :class:`~ndrql.errors.NdrqlError` unless ``value`` is ``None`` (randomised) or within ``[lo, hi]``.
+
+    With ``integer`` the value must also be an integer (a pixel count or a number of things).
+    """
     if value is None:
         return
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise NdrqlError(f"{name} must be a number, got {type(value).__name__}")
+    kinds = (int, np.integer) if integer else (int, float, np.integer, np.floating)
+    if isinstance(value, bool) or not isinstance(value, kinds):
+        raise NdrqlError(f"{name} must be {'an integer' if integer else 'a number'}, got {type(value).__name__}")
     if not lo <= value <= hi:
         raise NdrqlError(f"{name} must be in [{lo:g}, {hi:g}], got {value:g}")
 

@@ -1,4 +1,26 @@
-"""The project's own error types: the CLI turns them into one line on stderr and exit code 2."""
+"""The project's own error types: the CLI turns them into one line on stderr and exit code 2.
+
+:func:`brief` formats a value from a file or the command line for such a line, bounded in length.
+"""
+
+
+def brief(value: object) -> str:
+    """``value`` for an error message: short scalars as written, anything else described, never unbounded.
+
+    Containers are never formatted (a 600-byte YAML alias bomb is tiny as parsed, gigabytes as text),
+    long strings are cut at 40 characters, huge integers are given by their size.
+    """
+    if value is None or isinstance(value, (bool, float)):
+        return repr(value)
+    if isinstance(value, int):
+        return repr(value) if abs(value) < 10**15 else f"a {value.bit_length()}-bit integer"
+    if isinstance(value, str):
+        return repr(value) if len(value) <= 40 else repr(value[:40]) + "..."
+    if isinstance(value, (list, tuple)):
+        return f"a list of {len(value)} items"
+    if isinstance(value, dict):
+        return f"a mapping of {len(value)} keys"
+    return f"a {type(value).__name__}"
 
 
 class NdrqlError(Exception):

@@ -4,12 +4,14 @@ Each check raises ``ValueError`` with one line naming the flag and the allowed r
 it as ``ndrql: error: ...`` with exit code 2. The bounds keep memory and time in proportion to what
 was asked for: no billion-element seed list, no 20,000 x 20,000 planning grid, no 10^5 processes.
 
-Layering: standard library only; any layer may use it.
+Layering: standard library and :mod:`ndrql.errors` only; any layer may use it.
 """
 
 from __future__ import annotations
 
 import math
+
+from ndrql.errors import brief
 
 __all__ = ["MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "check_finite", "check_int",
            "check_seeds"]
@@ -26,20 +28,13 @@ MAX_GRID_SIZE = 1024
 """Largest planning grid for A* and ``map info`` (cells on a side; Q-learning has its own, smaller limit)."""
 
 
-def _show(value: object) -> str:
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
-        return f"a {value.bit_length()}-bit number"
-    text = str(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
 def check_int(value: object, name: str, lo: int, hi: int | None = None) -> int:
     """``value`` if it is an integer in ``lo..hi`` (``hi=None``: no upper bound), else ``ValueError``."""
     ok = isinstance(value, int) and not isinstance(value, bool)
     if ok and value >= lo and (hi is None or value <= hi):
         return value  # type: ignore[return-value]
     rule = f">= {lo}" if hi is None else f"in {lo}..{hi:,}"
-    raise ValueError(f"{name} must be an integer {rule}, got {_show(value)}")
+    raise ValueError(f"{name} must be an integer {rule}, got {brief(value)}")
 
 
 def check_finite(value: object, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -48,7 +43,7 @@ def check_finite(value: object, name: str, lo: float = -math.inf, hi: float = ma
     if ok and math.isfinite(value) and lo <= value <= hi:  # type: ignore[operator]
         return float(value)  # type: ignore[arg-type]
     where = "" if (lo, hi) == (-math.inf, math.inf) else f" in [{lo:g}, {hi:g}]"
-    raise ValueError(f"{name} must be a finite number{where}, got {_show(value)}")
+    raise ValueError(f"{name} must be a finite number{where}, got {brief(value)}")
 
 
 def check_seeds(first: object, count: object, first_name: str = "--seed", count_name: str = "--seeds") -> range:
@@ -57,5 +52,5 @@ def check_seeds(first: object, count: object, first_name: str = "--seed", count_
     count = check_int(count, count_name, 1, MAX_RUNS)
     if not (isinstance(first, int) and not isinstance(first, bool) and 0 <= first <= SEED_LIMIT - count):
         last = f"2**63 - {count}" if count > 1 else "2**63 - 1"
-        raise ValueError(f"{first_name} must be an integer in 0..{last} (every seed below 2**63), got {_show(first)}")
+        raise ValueError(f"{first_name} must be an integer in 0..{last} (every seed below 2**63), got {brief(first)}")
     return range(first, first + count)

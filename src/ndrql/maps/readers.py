@@ -7,7 +7,7 @@ turns any problem with the file into :class:`~ndrql.errors.MapFormatError` with 
 
 Hostile files cost memory in proportion to their size, never more: a map larger than ``max_pixels``
 is refused from its header before any pixel is decoded, and error messages never echo a value from
-the file unbounded (:func:`brief`; a 600-byte YAML alias bomb stays 600 bytes).
+the file unbounded (:func:`ndrql.errors.brief`; a 600-byte YAML alias bomb stays 600 bytes).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ndrql.errors import MapFormatError
+from ndrql.errors import MapFormatError, brief
 from ndrql.maps.grid import GridMap
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pbm", ".bmp", ".tif", ".tiff")
@@ -29,24 +29,6 @@ ROS_MODES = ("trinary", "scale", "raw")
 ROS_REQUIRED_KEYS = ("image", "resolution", "origin", "occupied_thresh", "free_thresh")
 #: Largest map read by default (pixels): 4096 x 4096. Raise it with ``max_pixels`` (``--max-pixels``).
 MAX_MAP_PIXELS = 4096 * 4096
-
-
-def brief(value: object) -> str:
-    """A value read from a file, for an error message: short scalars as written, anything else described.
-
-    Never formats a container's contents (a YAML alias bomb is tiny as parsed, gigabytes as text).
-    """
-    if value is None or isinstance(value, (bool, float)):
-        return repr(value)
-    if isinstance(value, int):
-        return repr(value) if abs(value) < 10**15 else f"a {value.bit_length()}-bit integer"
-    if isinstance(value, str):
-        return repr(value) if len(value) <= 40 else repr(value[:40]) + "..."
-    if isinstance(value, (list, tuple)):
-        return f"a list of {len(value)} items"
-    if isinstance(value, dict):
-        return f"a mapping of {len(value)} keys"
-    return f"a {type(value).__name__}"
 
 
 def check_pixels(height: int, width: int, max_pixels: int | None, path: Path) -> None:

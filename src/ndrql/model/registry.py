@@ -13,6 +13,7 @@ from typing import Any, Callable
 
 from torch import nn
 
+from ndrql.errors import brief
 from ndrql.model.backbone import STDC_DEPTHS
 from ndrql.model.ndr import NDRConfig, NDRNet
 
@@ -63,12 +64,6 @@ def _config_class(arch: str) -> Any:
     return NDRConfig
 
 
-def _short(value: Any) -> str:
-    """A value for an error message, at most 60 characters (configs may come from crafted files)."""
-    text = repr(value) if isinstance(value, (str, int, float, bool, type(None))) else type(value).__name__
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
 def _check_field(name: str, value: Any, default: Any) -> None:
     if isinstance(default, bool):
         ok = isinstance(value, bool)
@@ -84,19 +79,19 @@ def _check_field(name: str, value: Any, default: Any) -> None:
     else:
         ok = True
     if not ok:
-        raise ValueError(f"model config field {name!r} must be like {default!r}, got {_short(value)}")
+        raise ValueError(f"model config field {name!r} must be like {default!r}, got {brief(value)}")
     lo_hi = LIMITS.get(name)
     if lo_hi is not None:
         for v in value if isinstance(value, (list, tuple)) else (value,):
             if not lo_hi[0] <= v <= lo_hi[1]:
-                raise ValueError(f"model config field {name!r} must be in {lo_hi[0]}..{lo_hi[1]}, got {_short(v)}")
+                raise ValueError(f"model config field {name!r} must be in {lo_hi[0]}..{lo_hi[1]}, got {brief(v)}")
     if name in CHOICES and value not in CHOICES[name]:
-        raise ValueError(f"unknown {name} {_short(value)} in the model config; valid: {', '.join(CHOICES[name])}")
+        raise ValueError(f"unknown {name} {brief(value)} in the model config; valid: {', '.join(CHOICES[name])}")
     if name == "encoding":
         from ndrql.dataset.encodings import ENCODINGS
 
         if value not in ENCODINGS:
-            raise ValueError(f"unknown encoding {_short(value)}; valid: {', '.join(ENCODINGS)}")
+            raise ValueError(f"unknown encoding {brief(value)}; valid: {', '.join(ENCODINGS)}")
 
 
 def check_config(config: Any) -> dict:
@@ -109,12 +104,12 @@ def check_config(config: Any) -> dict:
         raise ValueError(f"a model config is a mapping of fields, got {type(config).__name__}")
     arch = config.get("arch", "ndr")
     if not isinstance(arch, str) or arch not in ARCHITECTURES:
-        raise ValueError(f"unknown architecture {_short(arch)}; valid: {', '.join(ARCHITECTURES)}")
+        raise ValueError(f"unknown architecture {brief(arch)}; valid: {', '.join(ARCHITECTURES)}")
     cls = _config_class(arch)
     defaults = {f.name: f.default for f in fields(cls)}
     unknown = [k for k in config if k not in defaults]
     if unknown:
-        raise ValueError(f"unknown config fields for {arch}: {', '.join(_short(k) for k in unknown[:5])}")
+        raise ValueError(f"unknown config fields for {arch}: {', '.join(brief(k) for k in unknown[:5])}")
     for name, value in config.items():
         _check_field(name, value, defaults[name])
     return dict(config)

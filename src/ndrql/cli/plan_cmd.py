@@ -10,6 +10,7 @@ EXAMPLES = """examples:
   ndrql plan --sample ../shared/data/path-planning-dataset:seen:0            # start and goal from the sample
   ndrql plan office.yaml --start 120,80 --goal 30,200                        # ROS map_server map
   ndrql plan arena.map --scen arena.map.scen --index 3                       # MovingAI map + scenario 3
+  ndrql plan arena.map --scen arena.map.scen --all --jsonl arena.jsonl       # every scenario vs its optimal length
   ndrql plan map.png --start 25,179 --goal 167,5 --compare QL,IQL,NDR-QL --seeds 10 --png out/cmp.png
   ndrql plan map.png --start 25,179 --goal 167,5 --method N-Q --prior-from preds.npz
   ndrql plan office.yaml --start-world 2.5,4.0 --goal-world 12.0,1.5,1.57 --robot-radius 0.2 --path-out plan.yaml
@@ -55,7 +56,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
-    p.add_argument("--index", type=int, default=None, metavar="K", help="scenario number in --scen (0-based)")
+    p.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "
+                   "scenarios A..B-1 in a batch")
+    p.add_argument("--all", action="store_true", help="run every scenario of --scen: one line each and a summary "
+                   "against the .scen optimal lengths")
+    p.add_argument("--jsonl", metavar="FILE", help="batch (--all, --index A:B): append one JSON record per scenario; "
+                   "scenarios already in FILE are skipped (resume)")
     p.add_argument("--method", default="NDR-QL", metavar="NAME", help="planning method (default: NDR-QL)")
     p.add_argument("--compare", metavar="A,B,...", help="run these methods on the same seeds and print a table")
     p.add_argument("--seeds", type=int, default=1, metavar="N", help="number of runs (seeds S..S+N-1; default: 1)")
@@ -123,7 +129,41 @@ def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
     head, sep, tail = args.scen.rpartition(":")
     if sep and tail.isdigit():
         path, idx = head, int(tail)
-    return path, idx if args.index is None else args.index
+    if args.index is None:
+        return path, idx
+    try:
+        return path, int(args.index)
+    except ValueError:
+        from ndrql.errors import NdrqlError
+
+        raise NdrqlError(f"--index must be a scenario number K or a range A:B, got {str(args.index)[:40]!r}") from None
+
+
+def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg: Any) -> int:
+    """``--all`` / ``--index A:B``: every chosen scenario with one method and one seed (:mod:`ndrql.cli.plan_batch`)."""
+    from ndrql.cli.common import Problem, load_map_argument, warnings_to_stderr
+    from ndrql.cli.plan_batch import run_batch
+    from ndrql.errors import NdrqlError
+
+    if not args.scen:
+        raise NdrqlError("--all and --index A:B need --scen FILE")
+    bad = [f for f, v in (("--compare", args.compare), ("--start", args.start), ("--goal", args.goal),
+                          ("--start-world", args.start_world), ("--goal-world", args.goal_world), ("--json", args.json),
+                          ("--png", args.png), ("--path-out", args.path_out), ("--prior-from", args.prior_from)) if v]
+    if bad or args.seeds != 1:
+        raise NdrqlError(f"a scenario batch runs one method with one seed and writes --jsonl; drop "
+                         f"{', '.join(bad) or '--seeds'}")
+    loaded = load_map_argument(args)
+    if isinstance(loaded, Problem):
+        raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
+    scen_path = args.scen
+    head, sep, tail = scen_path.rpartition(":")
+    if sep and tail.isdigit():
+        raise NdrqlError("give the batch range with --index A:B or --all, not --scen FILE:K")
+    with warnings_to_stderr():
+        return run_batch(loaded, scen_path, args.index, args.all, method=methods[0], seed=args.seed,
+                         settings=_settings(args, sample=False), jsonl=args.jsonl, echo=print,
+                         solve_kw={"weights": args.weights, "config": ql_cfg, "prior_config": prior_cfg, "workers": 1})
 
 
 def _summary(report: Any) -> list[str]:
@@ -177,6 +217,10 @@ def run(args: argparse.Namespace) -> int:
     ql_cfg, prior_cfg = _configs(args)
     if args.threads < 1:
         raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
+    if args.all or (args.index is not None and ":" in str(args.index)):
+        return _batch(args, methods, ql_cfg, prior_cfg)
+    if args.jsonl:
+        raise NdrqlError("--jsonl is for scenario batches (--scen FILE --all or --index A:B); use --json")
     scen, index = _scenario(args)
     for flag, pixel, world in (("start", args.start, args.start_world), ("goal", args.goal, args.goal_world)):
         if pixel and world:

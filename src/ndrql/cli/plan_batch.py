@@ -1,0 +1,179 @@
+"""``ndrql plan MAP --scen FILE --all`` (or ``--index A:B``): every scenario of a MovingAI ``.scen`` on one map.
+
+One line per scenario and a summary against the ``.scen`` optimal lengths: the final (smoothed) path's
+octile cost, the MovingAI measure, over the optimal octile length. ``--jsonl FILE`` appends one JSON
+record per scenario as it finishes; run the same command again and the scenarios already in the file
+are skipped (resume). A scenario that cannot be planned (start and goal not connected at the robot's
+radius, in one cell, ...) is reported on its line and in its record and does not stop the batch.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+from ndrql.errors import NdrqlError
+
+
+def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
+    """Scenario numbers from ``--index K`` / ``--index A:B`` (B excluded) / ``--all``, checked against ``count``."""
+    if all_:
+        if text is not None:
+            raise NdrqlError("give either --all or --index, not both")
+        return list(range(count))
+    if text is None:
+        return [0]
+    head, sep, tail = str(text).partition(":")
+    try:
+        lo = int(head) if head.strip() else 0
+        hi = (int(tail) if tail.strip() else count) if sep else lo + 1
+    except ValueError:
+        raise NdrqlError(f"--index must be K or A:B (scenario numbers), got {str(text)[:40]!r}") from None
+    if not (0 <= lo < hi <= count):
+        raise NdrqlError(f"--index {text} is outside the scenarios 0..{count - 1} of the file")
+    return list(range(lo, hi))
+
+
+def _done(path: Path, key: dict[str, Any]) -> dict[int, dict[str, Any]]:
+    """Records already in a JSON-lines file of the same run (same map, scenarios, method, seed, settings)."""
+    if not path.exists():
+        return {}
+    out: dict[int, dict[str, Any]] = {}
+    good = 0
+    with open(path, "rb") as f:
+        lines = f.read().split(b"\n")
+    for i, raw in enumerate(lines):
+        if not raw.strip():
+            continue
+        try:
+            rec = json.loads(raw)
+        except ValueError:
+            if i >= len(lines) - 2:  # a last line cut short by an interruption: dropped and redone
+                break
+            raise NdrqlError(f"{path} line {i + 1} is not JSON; give another --jsonl file") from None
+        if {k: rec.get(k) for k in key} != key:
+            raise NdrqlError(f"{path} holds results of another run ({', '.join(f'{k} {rec.get(k)}' for k in key)}); "
+                             f"give another --jsonl file")
+        out[int(rec["scenario"])] = rec
+        good += len(raw) + 1
+    if good < path.stat().st_size:  # drop the cut line so appends start on a fresh line
+        with open(path, "r+b") as f:
+            f.truncate(good)
+    return out
+
+
+def _append(path: Path, record: dict[str, Any]) -> None:
+    """One JSON line, written in one call and flushed to disk (a crash leaves at most a cut last line)."""
+    from ndrql.io import to_jsonable
+
+    line = (json.dumps(to_jsonable(record, strict=False), separators=(",", ":")) + "\n").encode()
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+    try:
+        os.write(fd, line)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _record(index: int, scen: Any, key: dict[str, Any], report: Any, seconds: float) -> dict[str, Any]:
+    from ndrql.pipeline.route import octile_cost
+
+    run = report.results[0]
+    rec: dict[str, Any] = {**key, "scenario": index, "start": list(scen.start), "goal": list(scen.goal),
+                           "optimal": scen.optimal_length, "converged": run.converged, "success": run.success,
+                           "grid": list(report.grid.shape), "seconds": round(seconds, 3)}
+    if run.route is not None:
+        cost = octile_cost(run.route.pixels)
+        rec.update(octile=round(cost, 4), length=round(run.route.length, 4),
+                   ratio=round(cost / scen.optimal_length, 5) if scen.optimal_length > 0 else None,
+                   collisions=len(run.route.final_collisions))
+    return rec
+
+
+def _line(rec: dict[str, Any]) -> str:
+    head = f"scenario {rec['scenario']}: {tuple(rec['start'])} -> {tuple(rec['goal'])}, optimal {rec['optimal']:.2f}"
+    if "error" in rec:
+        return f"{head}: ERROR {rec['error']}"
+    if "octile" not in rec:
+        return f"{head}: no path ({'converged' if rec['converged'] else 'not converged'})"
+    state = "ok" if rec["success"] else ("COLLIDES" if rec.get("collisions") else "not converged")
+    ratio = f"{rec['ratio']:.3f}x" if rec.get("ratio") is not None else "-"
+    return (f"{head}; path {rec['octile']:.2f} ({ratio}) on a {rec['grid'][0]}x{rec['grid'][1]} grid, {state}, "
+            f"{rec['seconds']:.2f} s")
+
+
+def summary(records: Sequence[dict[str, Any]]) -> list[str]:
+    """Counts and the distribution of octile cost / optimal over the scenarios with a path."""
+    import numpy as np
+
+    n = len(records)
+    ok = sum(bool(r.get("success")) for r in records)
+    errors = sum("error" in r for r in records)
+    collide = sum(bool(r.get("collisions")) for r in records)
+    ratios = np.asarray([r["ratio"] for r in records if r.get("ratio") is not None and r.get("success")])
+    lines = [f"scenarios: {n}; success {ok}, path collides {collide}, not converged or no path {n - ok - collide - errors}, "
+             f"errors {errors}"]
+    if ratios.size:
+        q = np.quantile(ratios, [0.5, 0.9])
+        lines.append(f"path octile cost / optimal over {ratios.size} successes: mean {ratios.mean():.3f}, median "
+                     f"{q[0]:.3f}, 90% {q[1]:.3f}, max {ratios.max():.3f}; "
+                     f"time {sum(r.get('seconds', 0.0) for r in records):.1f} s")
+    return lines
+
+
+def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, method: str, seed: int,
+              settings: Any, jsonl: str | None, echo: Any, solve_kw: dict[str, Any]) -> int:
+    """Run the chosen scenarios of ``scen_path`` on ``grid_map``; print a line each and a summary."""
+    from tqdm import tqdm
+
+    from ndrql.api import solve
+    from ndrql.maps.readers import read_movingai_scen
+
+    scenarios = read_movingai_scen(scen_path)
+    if not scenarios:
+        raise NdrqlError(f"{scen_path} has no scenarios")
+    indices = parse_indices(index, len(scenarios), all_)
+    for i in indices:
+        s = scenarios[i]
+        if grid_map.shape != (s.height, s.width):
+            raise NdrqlError(f"scenario {i} of {scen_path} is for a {s.width}x{s.height} map (width x height), "
+                             f"the map is {grid_map.width}x{grid_map.height}")
+    key = {"map": str(grid_map.source), "scen": str(scen_path), "method": method, "seed": seed,
+           "grid_rule": settings.grid, "size": str(settings.grid_size), "robot_radius": settings.robot_radius}
+    out = Path(jsonl) if jsonl else None
+    done = _done(out, key) if out is not None else {}
+    records = [done[i] for i in indices if i in done]
+    if records:
+        echo(f"resuming: {len(records)} of {len(indices)} scenarios already in {out}")
+    todo = [i for i in indices if i not in done]
+    t0 = time.perf_counter()
+    for i in tqdm(todo, desc="scenarios", unit="scen", disable=None, leave=False):
+        s = scenarios[i]
+        t = time.perf_counter()
+        try:
+            report = solve(grid_map, s.start, s.goal, (method,), (seed,), settings=settings, **solve_kw)
+            rec = _record(i, s, key, report, time.perf_counter() - t)
+        except NdrqlError as exc:
+            rec = {**key, "scenario": i, "start": list(s.start), "goal": list(s.goal), "optimal": s.optimal_length,
+                   "converged": False, "success": False, "error": " ".join(str(exc).split())[:300],
+                   "seconds": round(time.perf_counter() - t, 3)}
+        if out is not None:
+            _append(out, rec)
+        records.append(rec)
+        tqdm.write(_line(rec), file=_stream(echo))
+    records.sort(key=lambda r: int(r["scenario"]))
+    for line in summary(records):
+        echo(line)
+    if out is not None:
+        echo(f"wrote {out} ({len(records)} records; {math.ceil(time.perf_counter() - t0)} s this run)")
+    return 0
+
+
+def _stream(echo: Any) -> Any:
+    import sys
+
+    return echo.keywords.get("file", sys.stdout) if hasattr(echo, "keywords") else sys.stdout

@@ -65,14 +65,18 @@ def oracle_priors(case: GridCase) -> tuple[np.ndarray, np.ndarray]:
 
 
 def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.ndarray]:
-    """Region and guideline of the model on the grid, for a model trained on input ``mode``."""
+    """Region and guideline of the model on the grid, for a model trained on input ``mode``.
+
+    ``grid``: the safe grid at 4 px per cell; ``map``: the map at ``4n + 1`` px; ``map201``: the map at
+    201 px whatever the grid (the input of the paper's model before multi-scale training).
+    """
     from ndrql.model.predict import from_model_output, to_model_input
 
     if mode == "grid":
         img, s, g = grid_input(case.blocked, case.start_cell, case.goal_cell, case.n)
         r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
         return to_grid(r[0], case.blocked.shape), to_grid(gl[0], case.blocked.shape)
-    side = input_side("map", case.n)
+    side = 201 if mode == "map201" else input_side("map", case.n)
     img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)
     r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
     shape = case.obstacles.shape

@@ -243,9 +243,11 @@ class Predictor:
     to about 1e-4 (tested). ``backend_name`` says which one runs.
     """
 
-    def __init__(self, runner, encoding: str = "point"):
+    def __init__(self, runner, encoding: str = "point", input_mode: str = "map"):
         self._runner = runner
         self.encoding = encoding
+        self.input_mode = input_mode
+        """What the model was trained to see: ``map`` (the map resized) or ``grid`` (the planning grid at 4 px per cell)."""
 
     @property
     def backend_name(self) -> str:
@@ -296,7 +298,10 @@ class Predictor:
         from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
 
         data = load_checkpoint(path)
-        return cls.from_model(model_from_checkpoint(data), dict(data["config"]).get("encoding", "point"), threads)
+        config = dict(data["config"])
+        out = cls.from_model(model_from_checkpoint(data), config.get("encoding", "point"), threads)
+        out.input_mode = config.get("input_mode", "map")
+        return out
 
     def predict_batch(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Probabilities for an encoded batch (B, C, H, W) -> (B, H, W) arrays."""

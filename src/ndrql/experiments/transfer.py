@@ -1,0 +1,179 @@
+"""``ndrql reproduce transfer``: how the model does on maps of every family that it never trained on.
+
+The evaluation set is versioned (``transfer_sets.json``: families, map sizes, count and a seed that
+training never uses); it is generated into the cache on first use, deterministically. For every
+map and planning grid (default 50 and 100, the safe grid), with the same seeds: QL, IQL, NDR-QL with
+the model's priors and NDR-QL with the oracle's (:mod:`ndrql.experiments.ceiling`). Reported per
+family and pooled: region/guideline F1 of the model against the labels of its own input mode,
+NDR-QL vs QL and vs IQL (pooled steps, and the share of maps where NDR-QL needs fewer steps than
+IQL), greedy path / A*, the share of maps where the Eq. 7 threshold had to fall below 0.5, and the
+model's share of the oracle's reduction. Maps whose start and goal do not connect on a grid are
+skipped at that grid and counted.
+"""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ndrql.dataset.cache import cache_dir
+from ndrql.dataset.generated import GeneratedSet, generate_set, read_manifest
+from ndrql.dataset.render import render
+from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_priors
+from ndrql.experiments.report import md_table
+from ndrql.experiments.sweep import Task, fingerprint, run_sweep
+from ndrql.io import write_json, write_text
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.synth.generate import SetSpec
+from ndrql.training.metrics import f1_per_image
+
+ROWS = ("QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)")
+
+
+def eval_spec(name: str = "transfer") -> SetSpec:
+    """The versioned evaluation set ``name`` of ``transfer_sets.json``."""
+    data = json.loads(resources.files("ndrql.experiments").joinpath("transfer_sets.json").read_text())
+    return SetSpec.from_dict(data["sets"][name])
+
+
+def eval_set(spec: SetSpec, progress: bool = True) -> GeneratedSet:
+    """The evaluation set in the cache (generated on first use; same spec, same bytes)."""
+    root = cache_dir() / "gen" / f"eval-{fingerprint(spec.to_dict())}"
+    if not (root / "manifest.json").exists() or read_manifest(root)["spec"] != spec.to_dict():
+        generate_set(root, spec, workers=2, progress=progress)
+    return GeneratedSet.load(root)
+
+
+def _runs(blocked, s, g, priors: dict, seeds: list[int], ql: QLConfig, pc: PriorConfig) -> dict:
+    from ndrql.planning.runner import plan
+
+    out: dict = {}
+    for row, pr in priors.items():
+        method = row.split(" ")[0]
+        region, guide = (np.asarray(pr[0]), np.asarray(pr[1])) if pr is not None else (None, None)
+        runs = [plan(blocked, s, g, method, seed, ql, pc, region, guide) for seed in seeds]
+        out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
+                    "converged": [bool(r.converged) for r in runs],
+                    "ratio": [float(r.length_ratio) if r.converged and r.length_ratio is not None else None for r in runs],
+                    "threshold": runs[0].threshold}
+    return out
+
+
+def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
+    """Region and guideline F1 of the model against the labels of its input mode at this grid."""
+    from ndrql.dataset.encodings import encode_input
+
+    r = render("grid" if mode == "grid" else "map", case.obstacles, case.start, case.goal, waypoints, case.n)
+    if r is None:
+        return float("nan"), float("nan")
+    reg, gl = predictor.predict_batch(encode_input(r.obstacles, r.start, r.goal, predictor.encoding)[None])
+    return float(f1_per_image(reg >= 0.5, r.region[None])[0]), float(f1_per_image(gl >= 0.5, r.guideline[None])[0])
+
+
+def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seeds: list[int], out: Path, *,
+            per_family: int | None = None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig(),
+            workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True) -> list[dict]:
+    """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case."""
+    picked: dict[str, list[int]] = {}
+    for i in range(len(gs)):
+        fam = str(gs.families[i])
+        if per_family is None or len(picked.setdefault(fam, [])) < per_family:
+            picked.setdefault(fam, []).append(i)
+    tasks, meta = [], {}
+    for n in grids:
+        for fam, ids in picked.items():
+            for i in ids:
+                raw = gs.raw(i)
+                key = f"{fam}-{i}-g{n}"
+                case = grid_case(key, fam, raw.obstacles, raw.start, raw.goal, n)
+                if case is None:
+                    meta[key] = {"family": fam, "n": n, "skipped": True}
+                    continue
+                model = model_priors(predictor, mode, case)
+                oracle = oracle_priors(case)
+                f1 = _f1(predictor, mode, case, raw.waypoints)
+                meta[key] = {"family": fam, "n": n, "skipped": False, "f1": f1}
+                priors = {"QL": None, "IQL": None, "NDR-QL (model)": [a.tolist() for a in model],
+                          "NDR-QL (oracle)": [a.tolist() for a in oracle]}
+                fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.blocked.tobytes().hex()[:64])
+                tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, ql, pc), fp))
+    rep = run_sweep(tasks, out / "tasks", executor=executor, workers=workers, progress=progress, desc="transfer")
+    return [{"key": k, **m, **({"runs": rep.results[k]} if not m["skipped"] else {})} for k, m in meta.items()]
+
+
+def _pooled(records: list[dict], row: str) -> float:
+    return float(sum(sum(r["runs"][row]["steps"]) for r in records))
+
+
+def summarize(records: list[dict]) -> dict:
+    """Pooled and per-map figures of a group of case records (same seeds in every row)."""
+    ok = [r for r in records if not r["skipped"]]
+    if not ok:
+        return {"maps": 0, "skipped": len(records)}
+    ql = _pooled(ok, "QL")
+    red = {row: 1 - _pooled(ok, row) / ql for row in ROWS}
+    ratios = [x for r in ok for x in r["runs"]["NDR-QL (model)"]["ratio"] if x is not None]
+    thd = [r["runs"]["NDR-QL (model)"]["threshold"] for r in ok]
+    return {
+        "maps": len(ok), "skipped": len(records) - len(ok),
+        "region_f1": 100 * float(np.nanmean([r["f1"][0] for r in ok])),
+        "guideline_f1": 100 * float(np.nanmean([r["f1"][1] for r in ok])),
+        "vs_ql": {row: -red[row] for row in ROWS},
+        "vs_iql": _pooled(ok, "NDR-QL (model)") / _pooled(ok, "IQL") - 1,
+        "beats_iql": float(np.mean([np.mean(r["runs"]["NDR-QL (model)"]["steps"]) < np.mean(r["runs"]["IQL"]["steps"]) for r in ok])),
+        "path_ratio": float(np.mean(ratios)) if ratios else float("nan"),
+        "threshold_below_half": float(np.mean([t is None or t < 0.5 for t in thd])),
+        "not_converged": int(sum(not c for r in ok for c in r["runs"]["NDR-QL (model)"]["converged"])),
+        "share": red["NDR-QL (model)"] / red["NDR-QL (oracle)"] if red["NDR-QL (oracle)"] > 0 else float("nan"),
+    }
+
+
+def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
+    """Markdown: one table per grid, a row per family and a pooled row."""
+    parts = []
+    head = ["family", "maps (skipped)", "region F1", "guideline F1", "NDR-QL vs QL", "oracle vs QL", "share of oracle",
+            "NDR-QL vs IQL", "beats IQL", "path / A*", "Eq. 7 thd < 0.5"]
+    for n in grids:
+        at_n = [r for r in records if r["n"] == n]
+        rows = []
+        for fam in sorted({r["family"] for r in at_n}) + ["all"]:
+            s = summarize([r for r in at_n if fam == "all" or r["family"] == fam])
+            if not s["maps"]:
+                rows.append([fam, f"0 ({s['skipped']})"] + ["-"] * (len(head) - 2))
+                continue
+            rows.append([f"**{fam}**" if fam == "all" else fam, f"{s['maps']} ({s['skipped']})", f"{s['region_f1']:.1f}",
+                         f"{s['guideline_f1']:.1f}", f"{100 * s['vs_ql']['NDR-QL (model)']:+.1f}%",
+                         f"{100 * s['vs_ql']['NDR-QL (oracle)']:+.1f}%", f"{100 * s['share']:.0f}%", f"{100 * s['vs_iql']:+.1f}%",
+                         f"{100 * s['beats_iql']:.0f}%", f"{s['path_ratio']:.3f}", f"{100 * s['threshold_below_half']:.0f}%"])
+        parts.append(f"**Planning grid {n}** (safe grid)\n\n" + md_table(head, rows))
+    return "\n\n".join(parts) + "\n"
+
+
+def transfer(out: str | Path, weights: str | None = None, set_name: str = "transfer", grids: tuple[int, ...] = (50, 100),
+             seeds: int = 10, seed0: int = 0, per_family: int | None = None, workers: int = 2, executor: str = "process",
+             progress: bool = True, command: str = "", log: Callable[[str], None] = print) -> Path:
+    """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``."""
+    from ndrql.io import file_digest
+    from ndrql.model.predict import Predictor, default_weights_path
+
+    out = Path(out)
+    wpath = Path(weights) if weights else default_weights_path()
+    predictor = Predictor.load(wpath, threads=1, backend="torch")
+    mode = predictor.input_mode
+    gs = eval_set(eval_spec(set_name), progress)
+    seed_list = list(range(seed0, seed0 + seeds))
+    records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, workers=workers,
+                      executor=executor, weights_id=file_digest(wpath), progress=progress)
+    text = (f"Weights {wpath.name} (input mode {mode}); evaluation set {set_name!r} {gs.spec.to_dict()}; "
+            f"seeds {seed_list[0]}..{seed_list[-1]}.\n\n" + render_tables(records, tuple(grids)))
+    if command:
+        text += f"\nCommand: `{command}`\n"
+    write_text(out / "transfer.md", text)
+    write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "set": gs.spec.to_dict(), "seeds": seed_list,
+                                      "grids": list(grids), "records": records}, strict=False)
+    log(text)
+    return out / "transfer.md"

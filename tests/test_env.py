@@ -109,12 +109,22 @@ def test_renders():
 
 
 def test_bad_arguments():
+    from ndrql.errors import NdrqlError, NoPathError, PointError
+
     blocked, start, goal = small_problem()
-    with pytest.raises(ValueError, match="free cell"):
+    with pytest.raises(PointError, match="free cell"):
         GridPathEnv(blocked, (2, 2), goal)
-    with pytest.raises(ValueError, match="render_mode"):
+    with pytest.raises(NdrqlError, match="render_mode"):
         GridPathEnv(blocked, start, goal, render_mode="human")
+    walled = blocked.copy()
+    walled[2, :] = True
+    with pytest.raises(NoPathError, match="not 4-connected"):
+        GridPathEnv(walled, start, goal)
+    with pytest.raises(NdrqlError, match="not both"):
+        GridPathEnv(blocked, start, goal, map=blocked)
     env = GridPathEnv(blocked, start, goal)
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="invalid action"):
+    with pytest.raises(NdrqlError, match="invalid action"):
         env.step(7)
+    with pytest.raises(NdrqlError, match="unknown reset option 'mpa'"):
+        env.reset(options={"mpa": blocked})

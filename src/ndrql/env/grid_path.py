@@ -1,13 +1,18 @@
-"""``ndrql/GridPath-v0``: the Q-learning problem of SPEC section 2 as a Gymnasium environment."""
+"""``ndrql/GridPath-v0``: the tabular Q-learning problem of the NDR-QL paper (Eq. 1) as a Gymnasium environment."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ndrql.env.render import render_rgb, render_text
+from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
+from ndrql.errors import NdrqlError, PointError
+from ndrql.maps.grid import GridMap
 from ndrql.planning import rules
 from ndrql.planning.config import QLConfig
 
@@ -23,60 +28,81 @@ DEFAULT_MAP: tuple[str, ...] = (
     "........",
 )
 
-_COLOURS = {
-    "free": (255, 255, 255),
-    "blocked": (40, 40, 40),
-    "visited": (190, 215, 255),
-    "start": (220, 40, 40),
-    "goal": (40, 80, 220),
-    "agent": (40, 170, 60),
-}
+#: Reset options :class:`GridPathEnv` understands.
+RESET_OPTIONS = ("map", "grid", "start", "goal")
+
+MapLike = str | Path | GridMap | np.ndarray
 
 
 def _parse_map(rows: tuple[str, ...] | list[str]) -> np.ndarray:
     return np.array([[ch == "#" for ch in row] for row in rows], dtype=bool)
 
 
+def check_options(options: dict[str, Any] | None, valid: tuple[str, ...]) -> dict[str, Any]:
+    """``options`` as a dict after refusing keys other than ``valid`` (one clear :class:`NdrqlError`)."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise NdrqlError(f"reset options must be a dict, got {type(options).__name__}")
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise NdrqlError(f"unknown reset option {', '.join(map(repr, unknown))}; valid: {', '.join(valid)}")
+    return options
+
+
 class GridPathEnv(gym.Env):
-    """Grid path planning with the rewards of the NDR-QL paper (Eq. 1).
+    """Grid path planning with the rewards of the NDR-QL paper (Eq. 1): the tabular Q-learning problem.
 
     ## Description
-    An agent moves on a 4-connected occupancy grid from a start cell to a goal cell. The rules are
-    those of the compiled Q-learning kernel, from the one definition in
-    :mod:`ndrql.planning.rules` (SPEC section 2).
+    An agent moves on a 4-connected planning grid from a start cell to a goal cell. The rules are
+    those of the compiled Q-learning kernel, from their one definition in :mod:`ndrql.planning.rules`
+    (see ``docs/method.md``). The observation is the cell alone, as in tabular Q-learning: the
+    revisit penalty depends on the cells visited in this episode, which it does not show (the
+    goal-conditioned ``ndrql/GridPathRandom-v0`` observes them).
 
     ## Action Space
     ``Discrete(4)``: 0 up (row - 1), 1 down (row + 1), 2 left (col - 1), 3 right (col + 1).
 
     ## Observation Space
-    ``Discrete(H * W)``: the agent's cell as ``row * W + col``.
+    ``Discrete(h * w)``: the agent's cell as ``row * w + col`` on the ``h x w`` planning grid.
 
     ## Starting State
     The start cell. With ``random_start=True``, a free cell drawn uniformly (from
     ``self.np_random``) among those 4-connected to the goal, other than the goal.
 
     ## Reward
-    - -10 for moving into an obstacle or off the map (the agent stays where it is);
+    - -10 for moving into an obstacle or off the grid (the agent stays where it is);
     - +40 for reaching the goal;
     - -5 for moving into a cell already visited in this episode;
     - ``r_c[row, col]`` of the cell entered otherwise (0 for plain Q-learning; see
-      :mod:`ndrql.planning.priors` for the paper's continuous rewards).
+      :mod:`ndrql.planning.priors` for the paper's continuous rewards, Eqs. 2-4).
 
     ## Episode End
-    Terminated when the agent reaches the goal. Truncated after ``max_steps`` moves
-    (default ``4 * H * W``, as in training).
+    Terminated when the agent reaches the goal. Truncated after ``max_steps`` moves (default
+    ``4 * h * w``, as in training). ``gym.make`` adds a ``TimeLimit`` of 10,000 steps
+    (``spec.max_episode_steps``): the same cap for the paper's 50x50 grid, never earlier for a smaller one.
 
     ## Arguments
-    - ``grid``: bool ``(H, W)`` array, ``True`` = blocked (default :data:`DEFAULT_MAP`, 8x8);
-    - ``start``, ``goal``: ``(row, col)`` free cells (default top-left and bottom-right);
-    - ``r_c``: ``(H, W)`` continuous reward (default zeros);
+    - ``map``: a map file (image, ROS ``map_server`` YAML, MovingAI ``.map``, ``.npy``), a ``GridMap``
+      or a bool array in pixels; it becomes a planning grid of ``size`` cells on its longer side
+      (default 50) by ``grid_rule`` (``area``, the paper's, or ``safe``); ``start``/``goal`` are then
+      ``(row, col)`` map pixels and required;
+    - ``grid``: a planning grid given directly, bool ``(h, w)``, ``True`` = blocked (default
+      :data:`DEFAULT_MAP`, 8x8, when neither ``map`` nor ``grid`` is given); ``start``/``goal`` are
+      then ``(row, col)`` cells (default top-left and bottom-right);
+    - ``r_c``: ``(h, w)`` continuous reward (default zeros);
     - ``config``: :class:`~ndrql.planning.config.QLConfig` for the reward constants and ``max_steps``;
     - ``random_start``: draw the start cell at each reset;
     - ``render_mode``: ``"ansi"`` (text: ``#`` blocked, ``S``/``G`` start/goal, ``A`` agent,
       ``*`` visited) or ``"rgb_array"`` (``cell_px`` pixels per cell).
 
-    ``info`` holds ``cell`` (row, col), ``outcome`` (``move``, ``collision``, ``revisit``, ``goal``)
-    and ``steps``.
+    ``reset(options=...)`` takes ``map`` or ``grid`` (a new problem of the same grid shape: the
+    observation space is fixed) and ``start``/``goal`` (map pixels when the env has a map, else
+    cells); points not given are kept.
+
+    ``info`` holds ``cell`` (row, col), ``outcome`` (``reset``, ``move``, ``collision``,
+    ``revisit``, ``goal``) and ``steps``; after a reset also ``start``, ``goal`` and
+    ``astar_length`` (moves of a shortest path from the start cell).
     """
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
@@ -91,38 +117,71 @@ class GridPathEnv(gym.Env):
         random_start: bool = False,
         render_mode: str | None = None,
         cell_px: int = 8,
+        map: MapLike | None = None,  # noqa: A002  (the name users pass to gym.make)
+        size: int = 50,
+        grid_rule: str = "area",
     ) -> None:
-        blocked = _parse_map(DEFAULT_MAP) if grid is None else np.asarray(grid, dtype=bool)
-        if blocked.ndim != 2 or blocked.size == 0:
-            raise ValueError(f"grid must be a non-empty 2-D bool array, got shape {blocked.shape}")
-        h, w = blocked.shape
-        start = (0, 0) if start is None else (int(start[0]), int(start[1]))
-        goal = (h - 1, w - 1) if goal is None else (int(goal[0]), int(goal[1]))
-        for name, p in (("start", start), ("goal", goal)):
-            if not (0 <= p[0] < h and 0 <= p[1] < w) or blocked[p]:
-                raise ValueError(f"{name} {p} must be a free cell of the {h}x{w} grid")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+            raise NdrqlError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        if grid_rule not in GRID_RULES:
+            raise NdrqlError(f"unknown grid_rule {grid_rule!r}; valid: {', '.join(GRID_RULES)}")
+        if map is not None and grid is not None:
+            raise NdrqlError("give either map (pixels) or grid (planning cells), not both")
+        self.size = int(size)
+        self.grid_rule = grid_rule
         self.config = config or QLConfig()
-        self.blocked = blocked.copy()
-        self.start = start
-        self.goal = goal
+        self.problem = self._new_problem(map, grid, start, goal, None)
+        h, w = self.problem.blocked.shape
         self.r_c = np.zeros((h, w)) if r_c is None else np.asarray(r_c, dtype=np.float64)
         if self.r_c.shape != (h, w):
-            raise ValueError(f"r_c must have the grid's shape {(h, w)}, got {self.r_c.shape}")
+            raise NdrqlError(f"r_c must have the grid's shape {(h, w)}, got {self.r_c.shape}")
         self._r_flat = np.ascontiguousarray(self.r_c).ravel()
         self.random_start = bool(random_start)
         self.render_mode = render_mode
         self.cell_px = int(cell_px)
         self.max_steps = self.config.steps_cap(h * w)
-        self.nxt = rules.next_table(self.blocked)
         self.observation_space = spaces.Discrete(h * w)
         self.action_space = spaces.Discrete(rules.N_ACTIONS)
         self._visited = np.zeros(h * w, dtype=np.int64)
         self._mark = 0
         self._steps = 0
-        self._s = rules.cell_index(start, w)
+        self._use_problem(self.problem)
+
+    # -- the problem -----------------------------------------------------------------------------
+
+    def _new_problem(self, map_: MapLike | None, grid: np.ndarray | None, start, goal,
+                     old: EnvProblem | None) -> EnvProblem:
+        """The problem for a map (pixels) or a grid (cells); points default to ``old``'s (or the corners)."""
+        if map_ is not None:
+            start = start if start is not None else (old.start_px if old is not None else None)
+            goal = goal if goal is not None else (old.goal_px if old is not None else None)
+            if start is None or goal is None:
+                raise PointError("a map needs start and goal, (row, col) in map pixels")
+            return map_problem(map_, start, goal, self.size, self.grid_rule)
+        if grid is None and old is not None and old.obstacles is not None:  # new points on the same map
+            return map_problem(old.name, start if start is not None else old.start_px,
+                               goal if goal is not None else old.goal_px, self.size, self.grid_rule,
+                               obstacles=old.obstacles)
+        if grid is None:
+            blocked = old.blocked if old is not None else _parse_map(DEFAULT_MAP)
+        else:
+            blocked = np.asarray(grid, dtype=bool)
+        if blocked.ndim != 2 or blocked.size == 0:
+            raise NdrqlError(f"grid must be a non-empty 2-D bool array, got shape {blocked.shape}")
+        h, w = blocked.shape
+        keep = old is not None and old.blocked.shape == blocked.shape
+        start = start if start is not None else (old.start if keep else (0, 0))
+        goal = goal if goal is not None else (old.goal if keep else (h - 1, w - 1))
+        return grid_problem(blocked, start, goal)
+
+    def _use_problem(self, problem: EnvProblem) -> None:
+        self.problem = problem
+        self.blocked = problem.blocked
+        self.start = problem.start
+        self.goal = problem.goal
+        self.nxt = rules.next_table(self.blocked)
         self._start_choices: np.ndarray | None = None
+        self._s = rules.cell_index(self.start, self.width)
 
     @property
     def width(self) -> int:
@@ -141,8 +200,21 @@ class GridPathEnv(gym.Env):
     def _info(self, outcome: str) -> dict[str, Any]:
         return {"cell": rules.index_cell(self._s, self.width), "outcome": outcome, "steps": self._steps}
 
+    # -- the Gymnasium API -----------------------------------------------------------------------
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
+        opts = check_options(options, RESET_OPTIONS)
+        if opts:
+            if "map" in opts and "grid" in opts:
+                raise NdrqlError("give either map or grid in the reset options, not both")
+            problem = self._new_problem(opts.get("map"), opts.get("grid"), opts.get("start"), opts.get("goal"),
+                                        self.problem)
+            if problem.blocked.shape != self.blocked.shape:
+                raise NdrqlError(f"the new planning grid is {problem.blocked.shape[0]}x{problem.blocked.shape[1]}; "
+                                 f"this env's observation space is for {self.blocked.shape[0]}x{self.blocked.shape[1]} "
+                                 f"(make a new env for another shape)")
+            self._use_problem(problem)
         if self.random_start:
             choices = self._reachable_starts()
             self._s = int(choices[self.np_random.integers(len(choices))])
@@ -151,11 +223,13 @@ class GridPathEnv(gym.Env):
         self._mark += 1
         self._visited[self._s] = self._mark
         self._steps = 0
-        return int(self._s), self._info("reset")
+        info = self._info("reset")
+        info.update(start=self.start, goal=self.goal, astar_length=self.problem.astar_length)
+        return int(self._s), info
 
     def step(self, action):
         if not self.action_space.contains(action):
-            raise ValueError(f"invalid action {action!r}; valid: 0..3 (up, down, left, right)")
+            raise NdrqlError(f"invalid action {action!r}; valid: 0..3 (up, down, left, right)")
         cfg = self.config
         s2, r, outcome = rules.step(
             self.nxt,
@@ -179,43 +253,9 @@ class GridPathEnv(gym.Env):
         return (self._visited == self._mark).reshape(self.blocked.shape)
 
     def render(self):
-        if self.render_mode == "ansi":
-            return self._render_text()
-        if self.render_mode == "rgb_array":
-            return self._render_rgb()
-        return None
-
-    def _render_text(self) -> str:
-        visited = self._visited_grid()
         agent = rules.index_cell(self._s, self.width)
-        lines = []
-        for r in range(self.blocked.shape[0]):
-            row = []
-            for c in range(self.blocked.shape[1]):
-                if (r, c) == agent:
-                    ch = "A"
-                elif (r, c) == self.goal:
-                    ch = "G"
-                elif (r, c) == self.start:
-                    ch = "S"
-                elif self.blocked[r, c]:
-                    ch = "#"
-                elif visited[r, c]:
-                    ch = "*"
-                else:
-                    ch = "."
-                row.append(ch)
-            lines.append("".join(row))
-        return "\n".join(lines) + "\n"
-
-    def _render_rgb(self) -> np.ndarray:
-        h, w = self.blocked.shape
-        img = np.empty((h, w, 3), dtype=np.uint8)
-        img[:] = _COLOURS["free"]
-        img[self._visited_grid()] = _COLOURS["visited"]
-        img[self.blocked] = _COLOURS["blocked"]
-        img[self.start] = _COLOURS["start"]
-        img[self.goal] = _COLOURS["goal"]
-        img[rules.index_cell(self._s, w)] = _COLOURS["agent"]
-        k = max(1, self.cell_px)
-        return np.ascontiguousarray(np.repeat(np.repeat(img, k, axis=0), k, axis=1))
+        if self.render_mode == "ansi":
+            return render_text(self.blocked, self._visited_grid(), agent, self.start, self.goal)
+        if self.render_mode == "rgb_array":
+            return render_rgb(self.blocked, self._visited_grid(), agent, self.start, self.goal, self.cell_px)
+        return None

@@ -1,0 +1,112 @@
+"""What the goal-conditioned environment shows its agent: image channels and the prior channels.
+
+The image is channel-first float32 in ``[0, 1]``: :data:`CHANNELS` always, then :data:`PRIOR_CHANNELS`
+when a prior is asked for. ``full`` shows the whole planning grid (padded with obstacle cells to a
+fixed side); ``ego`` shows a square window centred on the agent (cells off the grid are obstacles).
+
+The priors are the NDR model's region and guideline (or an oracle's: what a perfect model would
+predict, drawn from the grid's own shortest path), area-averaged onto the planning grid, the
+quantities Eqs. 3-7 of the paper turn into rewards and an initial Q-table.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ndrql.env.sources import EnvProblem
+from ndrql.errors import NdrqlError
+
+Cell = tuple[int, int]
+
+#: Image channels, in order.
+CHANNELS = ("obstacle", "visited", "agent", "goal")
+#: Channels added by a prior, in order.
+PRIOR_CHANNELS = ("region", "guideline")
+#: Views of the grid.
+VIEWS = ("full", "ego")
+#: Priors: none, the NDR model's predictions, or the oracle's (from the grid's shortest path).
+PRIORS = ("none", "ndr", "oracle")
+
+
+def grid_image(blocked: np.ndarray, visited: np.ndarray, agent: Cell, goal: Cell,
+               prior: np.ndarray | None = None) -> np.ndarray:
+    """The ``(C, h, w)`` float32 channels of the whole grid (``prior``: ``(2, h, w)`` region, guideline)."""
+    h, w = blocked.shape
+    n = len(CHANNELS) + (0 if prior is None else len(PRIOR_CHANNELS))
+    img = np.zeros((n, h, w), dtype=np.float32)
+    img[0] = blocked
+    img[1] = visited
+    img[2][agent] = 1.0
+    img[3][goal] = 1.0
+    if prior is not None:
+        img[len(CHANNELS):] = prior
+    return img
+
+
+def full_view(image: np.ndarray, side: int) -> np.ndarray:
+    """``image`` padded at the bottom and right to ``(C, side, side)``, padding = obstacle cells."""
+    c, h, w = image.shape
+    if h > side or w > side:
+        raise NdrqlError(f"a {h}x{w} planning grid does not fit this env's {side}x{side} view; "
+                         f"make the env with size >= {max(h, w)}")
+    out = np.zeros((c, side, side), dtype=np.float32)
+    out[0] = 1.0
+    out[:, :h, :w] = image
+    return out
+
+
+def ego_view(image: np.ndarray, agent: Cell, side: int) -> np.ndarray:
+    """The ``(C, side, side)`` window of ``image`` centred on ``agent`` (odd ``side``), off-grid = obstacle."""
+    c, h, w = image.shape
+    half = side // 2
+    out = np.zeros((c, side, side), dtype=np.float32)
+    out[0] = 1.0
+    r0, c0 = agent[0] - half, agent[1] - half
+    rs, re = max(0, r0), min(h, r0 + side)
+    cs, ce = max(0, c0), min(w, c0 + side)
+    out[:, rs - r0:re - r0, cs - c0:ce - c0] = image[:, rs:re, cs:ce]
+    return out
+
+
+def goal_vector(agent: Cell, goal: Cell, side: int) -> np.ndarray:
+    """``(goal - agent) / side``, float32 in ``[-1, 1]``: where the goal lies, for views that may not show it."""
+    d = (np.asarray(goal, dtype=np.float32) - np.asarray(agent, dtype=np.float32)) / float(side)
+    return np.clip(d, -1.0, 1.0).astype(np.float32)
+
+
+def oracle_prior(problem: EnvProblem) -> np.ndarray:
+    """``(2, h, w)`` region and guideline of the oracle (:func:`ndrql.synth.oracle.oracle_prediction`) on the grid."""
+    from ndrql.maps.grid import area_downscale
+    from ndrql.synth.oracle import oracle_prediction
+
+    region, guideline = oracle_prediction(problem.blocked, problem.start, problem.goal, px_per_cell=4)
+    shape = problem.blocked.shape
+    return np.stack([area_downscale(region, shape), area_downscale(guideline, shape)]).astype(np.float32)
+
+
+def _grid_area(values: np.ndarray, shape: tuple[int, int], rule: str, size: int) -> np.ndarray:
+    """Map-resolution ``values`` averaged onto the planning cells (the safe grid's square cells for ``safe``)."""
+    from ndrql.maps.grid import area_downscale
+
+    if rule != "safe":
+        return area_downscale(values, shape)
+    from ndrql.maps.safe import cell_size_px
+
+    cs = cell_size_px(values.shape, size)
+    rows, cols = int(round(shape[0] * cs)), int(round(shape[1] * cs))
+    canvas = np.zeros((max(rows, values.shape[0]), max(cols, values.shape[1])))
+    canvas[:values.shape[0], :values.shape[1]] = values
+    return area_downscale(canvas[:rows, :cols], shape)
+
+
+def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int) -> np.ndarray:
+    """``(2, h, w)`` region and guideline of the NDR model on the source map, averaged onto the grid."""
+    if problem.obstacles is None or problem.start_px is None or problem.goal_px is None:
+        raise NdrqlError("the NDR prior needs the map in pixels; this problem came as a planning grid (use prior='oracle')")
+    pred = predictor.predict(problem.obstacles, problem.start_px, problem.goal_px)
+    guideline = pred.guideline if pred.guideline is not None else pred.region
+    shape = problem.blocked.shape
+    return np.stack([_grid_area(np.asarray(pred.region, np.float64), shape, rule, size),
+                     _grid_area(np.asarray(guideline, np.float64), shape, rule, size)]).astype(np.float32)

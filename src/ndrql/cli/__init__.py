@@ -6,6 +6,7 @@ Each subcommand module exposes ``register(subparsers)`` which adds its parser an
 Every error is one line on stderr and exit code 2: bad flags (no usage dump), any
 :class:`~ndrql.errors.NdrqlError`, and a ``ValueError``/``OverflowError`` from the library (a value
 out of range). Messages are cut to :data:`MAX_MESSAGE` characters, so no input is echoed unbounded.
+Warnings from anywhere print as one ``ndrql: warning: ...`` line each.
 """
 
 from __future__ import annotations
@@ -69,8 +70,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _format_warning(message: object, category: type, filename: str, lineno: int, line: str | None = None) -> str:
+    return f"ndrql: warning: {one_line(message)}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; bad input gives one line on stderr and exit code 2."""
+    """Run the CLI; bad input gives one line on stderr and exit code 2, a warning one ``ndrql: warning:`` line."""
+    import warnings
+
+    warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

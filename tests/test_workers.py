@@ -1,0 +1,141 @@
+"""Worker processes die with their parent (ndrql.workers): a parent killed with SIGKILL leaves no orphans.
+
+Each test starts a parent in a subprocess, waits until its pool workers run, kills the parent with
+SIGKILL and checks that every worker is gone (a zombie waiting for init counts as gone).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc (Linux)")
+
+TESTS = Path(__file__).resolve().parent
+
+
+def _children(pid: int) -> set[int]:
+    out = set()
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            status = Path(f"/proc/{entry}/status").read_text()
+        except OSError:
+            continue
+        if f"\nPPid:\t{pid}\n" in status:
+            out.add(int(entry))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return "\nState:\tZ" not in status
+
+
+def _kill_parent_and_check(code: str, workers: int, tmp_path: Path, wait: float = 20) -> None:
+    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], cwd=tmp_path,
+                            env={**os.environ, "NDRQL_CACHE": str(tmp_path / "cache"), "PYTHONPATH": str(TESTS)},
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        kids: set[int] = set()
+        while time.monotonic() < deadline and len(kids) < workers:
+            assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
+            kids = {k for k in _children(proc.pid) if _alive(k)}
+            time.sleep(0.2)
+        assert len(kids) >= workers, f"workers did not start: {kids}"
+        time.sleep(1.0)  # let the workers pick up their (sleeping) tasks
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+        deadline = time.monotonic() + wait
+        while time.monotonic() < deadline and any(_alive(k) for k in kids):
+            time.sleep(0.2)
+        left = [k for k in kids if _alive(k)]
+        for k in left:  # clean up before failing
+            os.kill(k, signal.SIGKILL)
+        assert not left, f"orphaned workers still running: {left}"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
+POOL = """
+import time
+from ndrql.workers import process_pool
+{patch}
+with process_pool(2, start_method="{method}") as pool:
+    futures = [pool.submit(time.sleep, 300) for _ in range(2)]
+    time.sleep(300)
+"""
+
+
+@pytest.mark.parametrize("method", ["fork", "spawn"])
+def test_pool_workers_die_with_their_parent(tmp_path, method):
+    _kill_parent_and_check(POOL.format(method=method, patch=""), 2, tmp_path)
+
+
+def test_without_the_initializer_workers_are_orphaned(tmp_path):
+    """The check has teeth: with die_with_parent disabled, the same kill leaves the workers running."""
+    patch = "import ndrql.workers as w\nw.die_with_parent = lambda *a, **k: None"
+    with pytest.raises(AssertionError, match="orphaned workers still running"):
+        _kill_parent_and_check(POOL.format(method="fork", patch=patch), 2, tmp_path, wait=3)
+
+
+def test_watchdog_alone_ends_orphans(tmp_path):
+    """Without PR_SET_PDEATHSIG (other platforms) the parent-pid watchdog still ends the workers."""
+    patch = "import ndrql.workers as w\nw._set_pdeathsig = lambda: False"
+    _kill_parent_and_check(POOL.format(method="fork", patch=patch), 2, tmp_path)
+
+
+def test_sweep_workers_die_with_their_parent(tmp_path):
+    """The pool behind ``ndrql reproduce`` (experiments.sweep.run_sweep, executor 'process')."""
+    code = """
+    import time
+    from ndrql.experiments.sweep import Task, run_sweep
+    tasks = [Task(key=f"t{i}", fn=time.sleep, args=(300 + i,)) for i in range(4)]
+    run_sweep(tasks, "sweep", executor="process", workers=2, progress=False)
+    """
+    _kill_parent_and_check(code, 2, tmp_path)
+
+
+def test_dataset_decode_workers_die_with_their_parent(tmp_path):
+    """The pool that decodes the dataset into its cache (dataset.cache.build_split)."""
+    code = """
+    import time
+    import ndrql.dataset.cache as cache
+    from synthetic_dataset import make_tiny_dataset
+
+    def slow_decode(args):
+        time.sleep(300)
+
+    root = make_tiny_dataset(__import__("pathlib").Path("ds"), n_train=4, n_test=2)
+    cache._decode_map = slow_decode
+    cache.build_split(root, "seen", workers=2, progress=False)
+    """
+    _kill_parent_and_check(code, 2, tmp_path)
+
+
+def _set_env(key: str, value: str) -> None:
+    os.environ[key] = value
+
+
+def test_pool_results_are_unchanged(tmp_path):
+    """The initializer changes nothing else: results come back in order, a user initializer runs."""
+    from ndrql.workers import process_pool
+
+    with process_pool(2, start_method="fork", initializer=_set_env, initargs=("NDRQL_T", "1")) as pool:
+        assert list(pool.map(abs, [-1, -2, 3])) == [1, 2, 3]
+        assert pool.submit(os.getenv, "NDRQL_T").result() == "1"
+    with pytest.raises(ValueError, match="workers must be >= 1"):
+        process_pool(0)

@@ -30,6 +30,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "eval_cmd",
     "predict_cmd",
     "reproduce_cmd",
+    "tune_cmd",
     "export_cmd",
 )
 

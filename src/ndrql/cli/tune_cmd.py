@@ -1,0 +1,165 @@
+"""``ndrql tune``: search a method's constants on held-out TRAIN maps (Optuna, seeded TPE), or
+collect the searches into a preset."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+EXAMPLES = """examples:
+  ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 3 seeds -> results/tune/
+  ndrql tune --method QL --trials 20 --samples 10     # a small search
+  ndrql tune --method IQL --storage sqlite:////shared/studies.db   # several processes or machines, one study
+  ndrql tune --export-preset tuned.json --methods QL,O-QL,IQL,NDR-QL   # best trials -> a preset file
+
+Only the TRAIN maps the shipped model did not train on (its validation split) are used; TEST is
+never read. A killed search continues where it stopped when run again with the same settings.
+Use the result with --preset FILE on plan, demo and reproduce.
+"""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("tune", help="search a planner's constants on validation maps (needs ndrql[tune])",
+                       description=__doc__, epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--method", metavar="NAME", help="method to tune (QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL)")
+    p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the SPEC "
+                   "point included (default: 200)")
+    p.add_argument("--samples", type=int, default=100, metavar="K", help="validation maps per evaluation (default: 100)")
+    p.add_argument("--seeds", type=int, default=3, metavar="S", help="Q-learning seeds per map, 0..S-1 (default: 3)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the TPE sampler (default: 0)")
+    p.add_argument("--order-seed", type=int, default=0, metavar="N",
+                   help="seed of the order validation maps are drawn in (default: 0)")
+    p.add_argument("--max-episodes", type=int, default=3000, metavar="N",
+                   help="episode cap of a run during the search; a trial with a run over it is pruned (default: 3000)")
+    p.add_argument("--chunk", type=int, default=10, metavar="N", help="maps between pruning checks (default: 10)")
+    p.add_argument("--storage", metavar="URL", help="Optuna storage URL shared by several processes or machines "
+                   "(default: sqlite under --out)")
+    p.add_argument("--study-name", metavar="NAME", help="study name (default: METHOD-<digest of the settings>)")
+    p.add_argument("--out", metavar="DIR", default="results/tune", help="results directory (default: results/tune)")
+    p.add_argument("--data", metavar="DIR", help="dataset root (default: ../shared/data/path-planning-dataset)")
+    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
+    p.add_argument("--workers", type=int, default=2, metavar="N", help="processes running a trial's maps (default: 2)")
+    p.add_argument("--export-preset", metavar="FILE", help="instead of searching: write the best trials of the "
+                   "--methods' studies as a preset file, after checking them against SPEC on fresh seeds")
+    p.add_argument("--methods", metavar="LIST", default="QL,O-QL,IQL,NDR-QL",
+                   help="--export-preset: methods to collect (default: QL,O-QL,IQL,NDR-QL)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.set_defaults(func=run)
+
+
+def _tune_config(args: argparse.Namespace, method: str):
+    from ndrql.limits import MAX_RUNS, SEED_LIMIT, check_int
+    from ndrql.tuning.study import TuneConfig
+
+    check_int(args.trials, "--trials", 1, 100_000)
+    check_int(args.samples, "--samples", 1, 12_000)
+    check_int(args.seeds, "--seeds", 1, MAX_RUNS)
+    check_int(args.seed, "--seed", 0, SEED_LIMIT - 1)
+    check_int(args.order_seed, "--order-seed", 0, SEED_LIMIT - 1)
+    check_int(args.max_episodes, "--max-episodes", 1, 1_000_000)
+    check_int(args.chunk, "--chunk", 1, 12_000)
+    return TuneConfig(method, trials=args.trials, samples=args.samples, seeds=args.seeds, seed=args.seed,
+                      order_seed=args.order_seed, chunk=args.chunk, max_episodes=args.max_episodes)
+
+
+def _need_optuna() -> None:
+    from ndrql.errors import NdrqlError
+
+    try:
+        import optuna  # noqa: F401
+    except ImportError:
+        raise NdrqlError("ndrql tune needs Optuna: pip install 'ndrql[tune]' (or pip install optuna)") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    from ndrql.errors import NdrqlError
+    from ndrql.experiments.problems import resolve_root
+    from ndrql.limits import MAX_WORKERS, check_int
+    from ndrql.planning.methods import get_method
+
+    check_int(args.workers, "--workers", 1, MAX_WORKERS)
+    if args.export_preset is None and not args.method:
+        raise NdrqlError("give --method NAME (or --export-preset FILE)")
+    methods = [get_method(m.strip()).name for m in args.methods.split(",") if m.strip()] if args.export_preset \
+        else [get_method(args.method).name]
+    if not methods:
+        raise NdrqlError("--methods is empty")
+    cfgs = [_tune_config(args, m) for m in methods]
+    if args.export_preset:
+        from ndrql.cli.common import check_outputs
+
+        check_outputs(args.export_preset)
+    _need_optuna()
+    root = resolve_root(args.data)
+    from ndrql.tuning.objective import tuning_problems
+    from ndrql.tuning.study import default_storage
+
+    storage = args.storage or default_storage(args.out)
+    problems, skipped, digest = tuning_problems(root, args.samples, args.order_seed, args.weights,
+                                                progress=not args.no_progress)
+    log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
+    log(f"validation maps: {len(problems)} TRAIN samples of the model's validation split "
+        f"({len(skipped)} skipped as disconnected on the planning grid); seeds 0..{args.seeds - 1}")
+    if args.export_preset:
+        return _export(args, cfgs, problems, storage, digest, log)
+    from ndrql.tuning.report import write_study_outputs
+    from ndrql.tuning.study import best_trial, run_study
+
+    cfg = cfgs[0]
+    study = run_study(cfg, problems, storage, digest, workers=args.workers, progress=not args.no_progress,
+                      name=args.study_name)
+    folder = write_study_outputs(study, cfg, args.out)
+    bt = best_trial(study)
+    base = study.user_attrs["baseline"]
+    print(f"{cfg.method}: study {study.study_name} in {storage}")
+    print(f"SPEC constants: {base['steps']:,.0f} steps per run, greedy path / A* {base['ratio']:.3f}")
+    if bt is not None:
+        print(f"best trial {bt.number}: {bt.value:,.0f} steps ({1 - bt.value / base['steps']:.0%} fewer), "
+              f"greedy path / A* {bt.user_attrs.get('ratio', float('nan')):.3f}")
+        print("constants: " + ", ".join(f"{k} {v:.4g}" for k, v in bt.params.items()))
+    print(f"wrote {folder}/best.json, trials.json, history.png, importance.png")
+    return 0
+
+
+def _export(args, cfgs, problems, storage, digest, log) -> int:
+    import optuna
+
+    from ndrql.errors import NdrqlError
+    from ndrql.planning.preset import write_preset
+    from ndrql.tuning.report import best_setting, check_presets, tuned_preset
+    from ndrql.tuning.study import _storage, finished, study_name
+    from ndrql.workers import process_pool
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    settings, studies = {}, {}
+    for cfg in cfgs:
+        name = study_name(cfg, [p.key for p in problems], digest)
+        try:
+            study = optuna.load_study(study_name=name, storage=_storage(storage, cfg))
+        except KeyError:
+            raise NdrqlError(f"no study {name} for {cfg.method} in {storage}: run ndrql tune --method "
+                             f"{cfg.method} with the same settings first") from None
+        settings[cfg.method], bt = best_setting(study, cfg.method)
+        studies[cfg.method] = {"study": name, "finished_trials": finished(study), "best_trial": bt.number if bt else None,
+                               "best_steps": bt.value if bt else None, "baseline": study.user_attrs.get("baseline")}
+        log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}")
+    cfg = cfgs[0]
+    check_seeds = list(range(cfg.seeds, 2 * cfg.seeds))
+    from ndrql.planning import kernel
+
+    kernel.warm_up()
+    with process_pool(args.workers, start_method="fork") as pool:
+        check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool)
+    for m, c in check.items():
+        log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: SPEC {c['spec']['steps']:,.0f} steps "
+            f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned']['steps']:,.0f} ({c['tuned']['ratio']:.3f}); "
+            f"{'tuned wins' if c['tuned_wins'] else 'tuned does not win'}")
+    meta = {"search": {"samples": len(problems), "seeds": cfg.seed_list, "trials": cfg.trials,
+                       "max_episodes": cfg.max_episodes, "sampler_seed": cfg.seed, "order_seed": cfg.order_seed,
+                       "weights_sha256_16": digest, "problems": [p.key for p in problems]},
+            "studies": studies, "check_seeds": check_seeds}
+    preset = tuned_preset(settings, check, meta)
+    path = write_preset(args.export_preset, preset)
+    print(f"wrote {path} (plan default: {'tuned' if preset.plan_default else 'spec'})")
+    return 0

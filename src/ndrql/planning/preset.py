@@ -1,0 +1,243 @@
+"""Presets: named, versioned sets of Q-learning and prior constants, per method.
+
+A preset is a JSON file (format ``ndrql-preset``, ``version`` 1) holding, for each method, the
+values that differ from the frozen configs' defaults (:class:`~ndrql.planning.config.QLConfig`,
+:class:`~ndrql.planning.config.PriorConfig`). Two ship with the package, in
+``ndrql/planning/presets/``:
+
+- ``spec``: the paper-reproduction constants (alpha 0.1, epsilon 0.2, gamma 0.95; r_max 5, G 10,
+  omega 0.5, mask -10, threshold from 0.99 in steps of 0.01) for every method; the reproduction
+  commands use it by default.
+- ``tuned``: each method's constants from a hyper-parameter search on held-out training maps
+  (``ndrql tune``), with the search's budget and a check on fresh seeds recorded beside them.
+
+A preset file looks like (every constant of :data:`PRESET_FIELDS` is written out; a missing one
+takes the config's default)::
+
+    {"format": "ndrql-preset", "version": 1, "name": "tuned",
+     "default": {"ql": {}, "priors": {}},
+     "methods": {"NDR-QL": {"ql": {"alpha": 0.3}, "priors": {"r_max": 9.0}}},
+     "fallback": "NDR-QL", "plan_default": true, "meta": {...}}
+
+A method missing from ``methods`` uses the entry named by ``fallback`` (when given), else
+``default``. Only the search's constants may appear (:data:`PRESET_FIELDS`); anything else is a
+:class:`PresetError`. Explicit flags or arguments override a preset's values.
+
+Layering: depends on :mod:`ndrql.planning.config`, :mod:`ndrql.planning.methods` and
+:mod:`ndrql.io` only.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any, Mapping
+
+from ndrql.errors import NdrqlError, brief
+from ndrql.planning.config import PriorConfig, QLConfig
+
+FORMAT = "ndrql-preset"
+#: Version of the preset file format this module reads and writes.
+VERSION = 1
+#: Presets shipped with the package, by name.
+BUILTIN = ("spec", "tuned")
+#: The constants a preset may set, per config: what the search explores and nothing else.
+PRESET_FIELDS: dict[str, tuple[str, ...]] = {
+    "ql": ("alpha", "epsilon", "gamma"),
+    "priors": ("r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step"),
+}
+
+
+class PresetError(NdrqlError):
+    """A preset name is unknown, or a preset file is missing, malformed or of another version."""
+
+
+@dataclass(frozen=True)
+class MethodSetting:
+    """The constants one method runs with."""
+
+    ql: QLConfig = field(default_factory=QLConfig)
+    """Q-learning constants (Eq. 1's update; SPEC-style defaults where the preset is silent)."""
+    priors: PriorConfig = field(default_factory=PriorConfig)
+    """Prior constants (Eqs. 2-7)."""
+
+    def values(self) -> dict[str, dict[str, float]]:
+        """Every constant a preset sets (:data:`PRESET_FIELDS`), as stored in a preset file."""
+        return configs_dict(self.ql, self.priors)
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named set of constants per method (module docstring)."""
+
+    name: str
+    """``spec``, ``tuned`` or the file's own name."""
+    default: MethodSetting = field(default_factory=MethodSetting)
+    """Constants of a method the preset does not list (and no fallback)."""
+    methods: Mapping[str, MethodSetting] = field(default_factory=dict)
+    """Constants per method name."""
+    fallback: str | None = None
+    """Entry of ``methods`` used for a method not listed (e.g. the ablation rows of Table 2)."""
+    plan_default: bool = False
+    """Whether ``ndrql plan`` uses this preset when no ``--preset`` is given (it won on validation maps)."""
+    meta: Mapping[str, Any] = field(default_factory=dict)
+    """Provenance: search budget, study, validation check (free-form, JSON)."""
+    source: str = ""
+    """Where it was read from."""
+
+    def setting(self, method: str) -> MethodSetting:
+        """The constants of ``method`` (its entry, else the fallback entry, else ``default``)."""
+        from ndrql.planning.methods import get_method
+
+        try:
+            name = get_method(method).name
+        except NdrqlError:  # a table's own row (e.g. Table 2's D-C+N-C) is not a registry method
+            name = method
+        if name in self.methods:
+            return self.methods[name]
+        if self.fallback is not None:
+            return self.methods[self.fallback]
+        return self.default
+
+    def configs(self, method: str, ql: Mapping[str, Any] | None = None,
+                priors: Mapping[str, Any] | None = None) -> tuple[QLConfig, PriorConfig]:
+        """``(QLConfig, PriorConfig)`` of ``method``, with explicit ``ql``/``priors`` values on top."""
+        s = self.setting(method)
+        try:
+            return replace(s.ql, **dict(ql or {})), replace(s.priors, **dict(priors or {}))
+        except ValueError as exc:
+            raise NdrqlError(f"bad option: {exc}") from None
+
+    def describe(self) -> str:
+        """One line: name, where from, and how many methods it sets."""
+        listed = ", ".join(self.methods) or "every method alike"
+        return f"preset {self.name} ({listed})"
+
+
+def _setting(obj: Any, where: str) -> MethodSetting:
+    if not isinstance(obj, dict):
+        raise PresetError(f"{where}: expected a mapping with 'ql' and 'priors', got {brief(obj)}")
+    unknown = set(obj) - set(PRESET_FIELDS)
+    if unknown:
+        raise PresetError(f"{where}: unknown part {brief(sorted(unknown)[0])}; valid: ql, priors")
+    parts = {}
+    for part, cls in (("ql", QLConfig), ("priors", PriorConfig)):
+        values = obj.get(part, {})
+        if not isinstance(values, dict):
+            raise PresetError(f"{where}.{part}: expected a mapping, got {brief(values)}")
+        for k, v in values.items():
+            if k not in PRESET_FIELDS[part]:
+                raise PresetError(f"{where}.{part}: {brief(k)} cannot be set by a preset; valid: "
+                                  f"{', '.join(PRESET_FIELDS[part])}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise PresetError(f"{where}.{part}.{k}: expected a finite number, got {brief(v)}")
+        try:
+            parts[part] = cls(**{k: float(v) for k, v in values.items()})
+        except ValueError as exc:
+            raise PresetError(f"{where}.{part}: {exc}") from None
+    return MethodSetting(parts["ql"], parts["priors"])
+
+
+def preset_from_dict(data: Any, source: str = "") -> Preset:
+    """Validate a parsed preset file (module docstring) and build the :class:`Preset`."""
+    where = source or "preset"
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise PresetError(f"{where}: not an ndrql preset (expected \"format\": \"{FORMAT}\")")
+    if data.get("version") != VERSION:
+        raise PresetError(f"{where}: preset version {brief(data.get('version'))}; this ndrql reads version {VERSION}")
+    name = data.get("name", Path(source).stem if source else "preset")
+    if not isinstance(name, str) or not name:
+        raise PresetError(f"{where}: 'name' must be a non-empty string")
+    methods_in = data.get("methods", {})
+    if not isinstance(methods_in, dict):
+        raise PresetError(f"{where}: 'methods' must be a mapping of method name to constants")
+    from ndrql.planning.methods import get_method
+
+    methods = {}
+    for key, val in methods_in.items():
+        try:
+            m = get_method(key).name
+        except NdrqlError as exc:
+            raise PresetError(f"{where}: {exc}") from None
+        methods[m] = _setting(val, f"{where}: methods.{m}")
+    fallback = data.get("fallback")
+    if fallback is not None and fallback not in methods:
+        raise PresetError(f"{where}: fallback {brief(fallback)} is not one of the preset's methods")
+    plan_default = data.get("plan_default", False)
+    if not isinstance(plan_default, bool):
+        raise PresetError(f"{where}: 'plan_default' must be true or false")
+    meta = data.get("meta", {})
+    return Preset(name=name, default=_setting(data.get("default", {}), f"{where}: default"), methods=methods,
+                  fallback=fallback, plan_default=plan_default, meta=meta if isinstance(meta, dict) else {},
+                  source=source)
+
+
+def preset_to_dict(p: Preset) -> dict[str, Any]:
+    """The JSON form of ``p`` (what :func:`preset_from_dict` reads)."""
+    return {"format": FORMAT, "version": VERSION, "name": p.name, "default": p.default.values(),
+            "methods": {m: s.values() for m, s in p.methods.items()}, "fallback": p.fallback,
+            "plan_default": p.plan_default, "meta": dict(p.meta)}
+
+
+def write_preset(path: str | os.PathLike, p: Preset) -> Path:
+    """Write ``p`` as a preset file (atomically, :mod:`ndrql.io`)."""
+    from ndrql.io import write_json
+
+    return write_json(path, preset_to_dict(p), indent=2)
+
+
+def builtin_path(name: str) -> Path:
+    """File of a shipped preset (``spec`` or ``tuned``)."""
+    return Path(str(resources.files("ndrql.planning").joinpath("presets", f"{name}.json")))
+
+
+def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Preset:
+    """``spec``, ``tuned``, a preset file, or a :class:`Preset` as is; ``None`` gives ``spec``.
+
+    A name that is neither a shipped preset nor an existing file raises :class:`PresetError`.
+    """
+    if isinstance(name_or_path, Preset):
+        return name_or_path
+    key = "spec" if name_or_path is None else os.fspath(name_or_path)
+    if key in BUILTIN:
+        path = builtin_path(key)
+    else:
+        path = Path(key)
+        if not path.is_file():
+            raise PresetError(f"unknown preset {brief(key)}: give spec, tuned or a preset JSON file")
+    try:
+        text = path.read_text(encoding="utf-8")
+        data = json.loads(text)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PresetError(f"cannot read preset {brief(str(path))}: {exc.__class__.__name__}") from None
+    except json.JSONDecodeError as exc:
+        raise PresetError(f"preset {brief(str(path))} is not valid JSON (line {exc.lineno})") from None
+    return preset_from_dict(data, source=str(path) if key not in BUILTIN else key)
+
+
+def plan_default_preset() -> str:
+    """The preset ``ndrql plan`` uses without ``--preset``: ``tuned`` if it won on validation maps, else ``spec``."""
+    try:
+        return "tuned" if load_preset("tuned").plan_default else "spec"
+    except PresetError:
+        return "spec"
+
+
+def spec_preset() -> Preset:
+    """The paper-reproduction constants for every method (what ``spec.json`` holds)."""
+    return Preset(name="spec", meta={"description": "the paper-reproduction constants for every method"})
+
+
+def configs_dict(ql: QLConfig, priors: PriorConfig) -> dict[str, dict[str, Any]]:
+    """The searchable constants of a config pair, for reports."""
+    return {"ql": {k: getattr(ql, k) for k in PRESET_FIELDS["ql"]},
+            "priors": {k: getattr(priors, k) for k in PRESET_FIELDS["priors"]}}
+
+
+__all__ = ["BUILTIN", "FORMAT", "MethodSetting", "PRESET_FIELDS", "Preset", "PresetError", "VERSION", "builtin_path",
+           "configs_dict", "load_preset", "plan_default_preset", "preset_from_dict", "preset_to_dict", "spec_preset",
+           "write_preset"]

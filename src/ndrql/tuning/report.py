@@ -1,0 +1,108 @@
+"""What a finished search leaves behind: per-method outputs, figures and the ``tuned`` preset.
+
+- :func:`write_study_outputs`: ``<out>/<method>/best.json`` (best feasible trial and the SPEC
+  point), ``trials.json`` (every trial), ``history.png`` and ``importance.png`` (Optuna's own
+  optimisation-history and parameter-importance plots, matplotlib backend).
+- :func:`check_presets`: the SPEC constants against the tuned ones on the same validation maps
+  with *fresh* seeds (not the ones the search saw) and the SPEC's full 20,000-episode budget, so
+  the comparison is not biased by selecting the best of many noisy trials.
+- :func:`tuned_preset`: the preset of the best trials; ``plan_default`` is true only if the
+  tuned constants win that check for every method (fewer pooled steps, greedy path / A* no worse).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+from ndrql.io import make_folder, save_figure, write_json
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.preset import MethodSetting, Preset, configs_dict
+from ndrql.tuning import space as S
+from ndrql.tuning.objective import Problem, evaluate
+from ndrql.tuning.study import TuneConfig, best_trial
+
+
+def trial_rows(study: Any) -> list[dict[str, Any]]:
+    """Every trial: number, state, value, params, the evaluation's numbers and constraints."""
+    rows = []
+    for t in study.get_trials(deepcopy=False):
+        rows.append({"number": t.number, "state": t.state.name, "value": t.value, "params": dict(t.params),
+                     "user_attrs": dict(t.user_attrs)})
+    return rows
+
+
+def best_setting(study: Any, method: str) -> tuple[MethodSetting, Any]:
+    """The best feasible trial's constants as a :class:`MethodSetting` (SPEC if no trial beat it)."""
+    bt = best_trial(study)
+    params = dict(bt.params) if bt is not None else {}
+    ql, pc = S.configs_from_params(params)
+    return MethodSetting(ql, pc), bt
+
+
+def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Path:
+    """Write the method's best trial, all trials and Optuna's two plots; returns the folder."""
+    import warnings
+
+    folder = make_folder(Path(out_dir) / cfg.method)
+    setting, bt = best_setting(study, cfg.method)
+    base = study.user_attrs.get("baseline", {})
+    from optuna.trial import TrialState
+
+    states = [t.state for t in study.get_trials(deepcopy=False)]
+    write_json(folder / "best.json", {
+        "method": cfg.method, "study": study.study_name, "config": study.user_attrs.get("config"),
+        "problems": study.user_attrs.get("problems"), "baseline_spec": base,
+        "best_trial": None if bt is None else {"number": bt.number, "value": bt.value, "params": bt.params,
+                                                "user_attrs": dict(bt.user_attrs)},
+        "best_constants": configs_dict(setting.ql, setting.priors),
+        "improvement_over_spec": None if bt is None or not base else 1.0 - bt.value / base["steps"],
+        "trials": {s.name: sum(1 for x in states if x == s) for s in TrialState},
+    }, strict=False)
+    write_json(folder / "trials.json", trial_rows(study), indent=None, strict=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # Optuna marks its matplotlib plots "experimental"
+        from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
+
+        ax = plot_optimization_history(study, target_name="pooled convergence steps")
+        ax.set_title(f"{cfg.method}: optimisation history ({len(states)} trials)", loc="left")
+        save_figure(ax.figure, folder / "history.png", dpi=110, bbox_inches="tight")
+        if len(S.search_space(cfg.method)) > 1 and sum(1 for s in states if s == TrialState.COMPLETE) > 2:
+            ax = plot_param_importances(study, target_name="pooled convergence steps")
+            ax.set_title(f"{cfg.method}: parameter importance", loc="left")
+            save_figure(ax.figure, folder / "importance.png", dpi=110, bbox_inches="tight")
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+    return folder
+
+
+def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings: dict[str, MethodSetting],
+                  seeds: Sequence[int], pool: Any = None) -> dict[str, dict[str, Any]]:
+    """SPEC vs tuned constants per method on ``problems`` x ``seeds`` (full SPEC episode budget)."""
+    out = {}
+    for m in methods:
+        spec_ev, _ = evaluate(problems, m, seeds, QLConfig(), PriorConfig(), pool=pool)
+        s = settings[m]
+        tuned_ev, _ = evaluate(problems, m, seeds, s.ql, s.priors, pool=pool)
+        a, b = spec_ev.summary(), tuned_ev.summary()
+        wins = (b["steps"] < a["steps"] and b["ratio"] <= a["ratio"] + 1e-12
+                and b["not_converged"] <= a["not_converged"])
+        out[m] = {"spec": a, "tuned": b, "improvement": 1.0 - b["steps"] / a["steps"], "tuned_wins": bool(wins)}
+    return out
+
+
+def tuned_preset(settings: dict[str, MethodSetting], check: dict[str, dict[str, Any]], meta: dict[str, Any],
+                 fallback: str | None = "NDR-QL") -> Preset:
+    """The ``tuned`` preset (module docstring)."""
+    wins = bool(check) and all(c["tuned_wins"] for c in check.values())
+    return Preset(name="tuned", methods=dict(settings), fallback=fallback if fallback in settings else None,
+                  plan_default=wins, meta={**meta, "validation_check": check})
+
+
+def improvement(a: float | None, b: float | None) -> float | None:
+    """``1 - a / b`` (fewer steps = positive), ``None`` when undefined."""
+    if a is None or b is None or not b or not math.isfinite(a) or not math.isfinite(b):
+        return None
+    return 1.0 - a / b

@@ -1,0 +1,283 @@
+"""``ndrql tune``'s search: an Optuna study per method, stored so that it resumes and can be shared.
+
+- **Sampler**: TPE, seeded (:attr:`TuneConfig.seed`); with one process the same seed gives the
+  same trials, so the same best trial.
+- **Storage**: any Optuna storage URL, by default SQLite under the results directory. A killed
+  search restarted with the same settings continues the same study: finished trials are kept, a
+  trial that was running is failed after the heartbeat's grace period and retried once with the
+  same constants. Several processes or machines may share one study through a common ``--storage``
+  URL (Optuna's distributed mode); the trials then depend on timing.
+- **Budget**: ``trials`` finished trials per study (completed or pruned), the SPEC point included
+  as trial 0, the same for every method.
+- **Objective**: pooled convergence steps (:mod:`ndrql.tuning.objective`), minimised, under two
+  constraints (Optuna's constrained TPE): the mean greedy path / A* is no worse than with the SPEC
+  constants, and no more runs fail to converge than with them. During a search a run may take at
+  most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not converge within
+  that is pruned on the spot (it already breaks the second constraint), and a trial whose running
+  mean after a chunk of maps is worse than the median of earlier trials at the same point is
+  pruned too (median pruner).
+- **Name**: the study's name holds the method and a digest of everything that defines the
+  objective (maps, seeds, caps, search space), so changing any of them starts a new study.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from ndrql.errors import NdrqlError
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.tuning import space as S
+from ndrql.tuning.objective import Evaluation, Problem, evaluate
+
+
+@dataclass(frozen=True)
+class TuneConfig:
+    """Settings of one search (the CLI's flags)."""
+
+    method: str
+    """Method whose constants are searched (``ndrql.planning.methods``)."""
+    trials: int = 200
+    """Finished trials (completed or pruned) per study, the SPEC point included."""
+    samples: int = 100
+    """K: validation maps per evaluation."""
+    seeds: int = 3
+    """S: Q-learning seeds per map (``0 .. S-1``)."""
+    seed: int = 0
+    """Seed of the TPE sampler."""
+    order_seed: int = 0
+    """Seed of the order in which validation samples are drawn."""
+    chunk: int = 10
+    """Maps per pruning step (the running mean is reported after each chunk)."""
+    max_episodes: int = 2000
+    """Episode cap of a run during the search (the SPEC's 20,000 is kept everywhere else)."""
+    startup_trials: int = 20
+    """Random trials before TPE starts modelling (the SPEC point counts as one)."""
+    prune_warmup: int = 2
+    """Chunks before the median pruner may stop a trial."""
+    heartbeat: int = 30
+    """Seconds between a running trial's heartbeats (SQL storages)."""
+    grace: int = 120
+    """A running trial without a heartbeat for this long is failed and retried."""
+
+    def __post_init__(self) -> None:
+        from ndrql.planning.methods import get_method
+
+        object.__setattr__(self, "method", get_method(self.method).name)
+        for name, low in (("trials", 1), ("samples", 1), ("seeds", 1), ("chunk", 1), ("max_episodes", 1),
+                          ("startup_trials", 1), ("prune_warmup", 0), ("heartbeat", 1), ("grace", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < low:
+                raise NdrqlError(f"{name.replace('_', '-')} must be an integer >= {low}, got {v!r}")
+        if self.grace <= self.heartbeat:
+            raise NdrqlError("the grace period must be longer than the heartbeat interval")
+
+    @property
+    def seed_list(self) -> list[int]:
+        return list(range(self.seeds))
+
+    def base_configs(self) -> tuple[QLConfig, PriorConfig]:
+        """The SPEC constants with the search's episode cap."""
+        return QLConfig(max_episodes=self.max_episodes), PriorConfig()
+
+
+def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str | None) -> str:
+    """``<method>-<digest>``: the digest covers everything that defines the objective."""
+    blob = json.dumps([S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
+                       weights_digest], sort_keys=True)
+    return f"{cfg.method}-{hashlib.sha256(blob.encode()).hexdigest()[:10]}"
+
+
+def default_storage(out_dir: str | Path) -> str:
+    """SQLite file ``<out_dir>/studies.db`` as an Optuna storage URL (the folder is created)."""
+    from ndrql.io import make_folder
+
+    folder = make_folder(out_dir)
+    return f"sqlite:///{(folder / 'studies.db').resolve()}"
+
+
+def _storage(url: str, cfg: TuneConfig) -> Any:
+    """An Optuna storage for ``url``; SQL ones with heartbeats, a stale trial retried once."""
+    import warnings
+
+    import optuna
+
+    if not isinstance(url, str) or not url.startswith(("sqlite:", "postgresql", "mysql")):
+        return url  # Optuna's own handling (and its error) for anything else
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # heartbeats and the retry callback are "experimental" in Optuna
+        retry_cls = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None)
+        kw: dict[str, Any] = {"heartbeat_interval": cfg.heartbeat, "grace_period": cfg.grace}
+        try:
+            if retry_cls is not None:
+                return optuna.storages.RDBStorage(url, heartbeat_stale_trial_callback=retry_cls(max_retry=1), **kw)
+            retry = optuna.storages.RetryFailedTrialCallback(max_retry=1)
+            return optuna.storages.RDBStorage(url, failed_trial_callback=retry, **kw)
+        except Exception as exc:  # sqlalchemy's errors: a bad URL, a folder that does not exist
+            raise NdrqlError(f"cannot open the study storage {url[:120]}: {exc.__class__.__name__}") from None
+
+
+def _has_set_constraint() -> bool:
+    import optuna
+
+    return hasattr(optuna.trial.Trial, "set_constraint")
+
+
+def _constraints_func(t: Any) -> list[float]:
+    return [float(t.user_attrs.get("c_ratio", math.inf)), float(t.user_attrs.get("c_not_converged", math.inf))]
+
+
+def open_study(cfg: TuneConfig, name: str, storage: Any) -> Any:
+    """Create or load the study ``name`` with the seeded TPE sampler and the median pruner."""
+    import optuna
+
+    sampler = optuna.samplers.TPESampler(
+        seed=cfg.seed, n_startup_trials=cfg.startup_trials,
+        constraints_func=None if _has_set_constraint() else _constraints_func)
+    pruner = optuna.pruners.MedianPruner(n_startup_trials=cfg.startup_trials, n_warmup_steps=cfg.prune_warmup)
+    return optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=pruner,
+                               direction="minimize", load_if_exists=True)
+
+
+def _constraint_values(ev: Evaluation, baseline: dict[str, Any]) -> dict[str, float]:
+    ratio = ev.ratio if math.isfinite(ev.ratio) else 1e9
+    return {"c_ratio": ratio - float(baseline["ratio"]),
+            "c_not_converged": float(ev.not_converged - int(baseline["not_converged"]))}
+
+
+def _set_constraints(trial: Any, values: dict[str, float]) -> None:
+    for k, v in values.items():
+        trial.set_user_attr(k, v)
+        if _has_set_constraint():
+            trial.set_constraint(k, v)
+
+
+def finished(study: Any) -> int:
+    """Trials that count against the budget: completed or pruned."""
+    from optuna.trial import TrialState
+
+    return sum(1 for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.PRUNED)))
+
+
+def _add_spec_trial(study: Any, cfg: TuneConfig, ev: Evaluation) -> None:
+    """Trial 0: the SPEC constants, evaluated once (it is also the constraints' reference)."""
+    import optuna
+
+    ql, pc = cfg.base_configs()
+    params = S.params_of(cfg.method, ql, pc)
+    attrs = {"spec": True, **{k: v for k, v in ev.summary().items()}, "c_ratio": 0.0, "c_not_converged": 0.0}
+    kw: dict[str, Any] = {"params": params, "distributions": S.distributions(cfg.method), "value": ev.steps,
+                          "user_attrs": attrs}
+    if _has_set_constraint():
+        kw["constraints"] = {"c_ratio": 0.0, "c_not_converged": 0.0}
+    else:
+        kw["system_attrs"] = {"constraints": [0.0, 0.0]}
+    study.add_trial(optuna.trial.create_trial(**kw))
+
+
+def baseline(study: Any, cfg: TuneConfig, problems: Sequence[Problem], pool: Any) -> dict[str, Any]:
+    """The SPEC constants' evaluation, stored with the study (computed by the first process to need it)."""
+    stored = study.user_attrs.get("baseline")
+    if stored is not None:
+        return stored
+    ql, pc = cfg.base_configs()
+    ev, _ = evaluate(problems, cfg.method, cfg.seed_list, ql, pc, pool=pool, chunk=cfg.chunk)
+    summary = ev.summary()
+    study.set_user_attr("baseline", summary)
+    study.set_user_attr("problems", [p.key for p in problems])
+    study.set_user_attr("config", asdict(cfg))
+    if not study.trials:
+        _add_spec_trial(study, cfg, ev)
+    return summary
+
+
+def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str, Any], pool: Any) -> Callable[[Any], float]:
+    """The function Optuna minimises (module docstring)."""
+    import optuna
+
+    def objective(trial: Any) -> float:
+        params = S.suggest(trial, cfg.method)
+        ql, pc = S.configs_from_params(params, *cfg.base_configs())
+        reason: list[str] = []
+
+        def after_chunk(i: int, ev: Evaluation) -> bool:
+            trial.report(ev.steps, i)
+            if trial.should_prune():
+                reason.append("median pruner")
+                return True
+            return False
+
+        ev, stopped = evaluate(problems, cfg.method, cfg.seed_list, ql, pc, pool=pool, chunk=cfg.chunk,
+                               after_chunk=after_chunk, stop_on_failure=int(base["not_converged"]) == 0)
+        if stopped == "not converged":
+            # Infeasible whatever else happens; the recorded values must not depend on which other
+            # runs the workers had finished, so the constraints are fixed and nothing is reported.
+            trial.set_user_attr("pruned_because", f"a run did not converge within {cfg.max_episodes} episodes")
+            _set_constraints(trial, {"c_ratio": 0.0, "c_not_converged": 1.0})
+            raise optuna.TrialPruned("a run did not converge")
+        for k, v in ev.summary().items():
+            trial.set_user_attr(k, v)
+        _set_constraints(trial, _constraint_values(ev, base))
+        if stopped:
+            trial.set_user_attr("pruned_because", reason[0])
+            raise optuna.TrialPruned(reason[0])
+        return ev.steps
+
+    return objective
+
+
+def best_trial(study: Any) -> Any:
+    """The completed feasible trial with the fewest pooled steps (ties: the earliest); ``None`` if none."""
+    from optuna.trial import TrialState
+
+    ok = [t for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
+          if t.value is not None and all(v <= 0 for v in _constraints_func(t))]
+    return min(ok, key=lambda t: (t.value, t.number)) if ok else None
+
+
+def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weights_digest: str | None = None,
+              workers: int = 1, progress: bool = True, name: str | None = None) -> Any:
+    """Run (or continue) the study of ``cfg.method`` on ``problems`` until it has ``cfg.trials``
+    finished trials; returns the Optuna study. ``workers`` processes run each trial's maps."""
+    import optuna
+    from tqdm import tqdm
+
+    from ndrql.planning import kernel
+    from ndrql.workers import process_pool
+
+    if not problems:
+        raise NdrqlError("no planning problems to tune on")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    name = name or study_name(cfg, [p.key for p in problems], weights_digest)
+    study = open_study(cfg, name, _storage(storage, cfg))
+    kernel.warm_up()  # compile once before forking workers
+    pool = process_pool(workers, start_method="fork") if workers > 1 else None
+    try:
+        base = baseline(study, cfg, problems, pool)
+        objective = make_objective(cfg, problems, base, pool)
+        done = finished(study)
+        bar = tqdm(total=cfg.trials, initial=min(done, cfg.trials), desc=f"tune {cfg.method}", unit="trial",
+                   disable=not progress, file=sys.stderr, dynamic_ncols=True)
+
+        def show_best(st: Any, _t: Any) -> None:
+            bt = best_trial(st)
+            bar.n = min(finished(st), cfg.trials)
+            if bt is not None:
+                bar.set_postfix_str(f"best {bt.value:,.0f} steps (trial {bt.number}; SPEC {base['steps']:,.0f})",
+                                    refresh=False)
+            bar.refresh()
+
+        try:
+            while finished(study) < cfg.trials:
+                study.optimize(objective, n_trials=1, callbacks=[show_best], catch=())
+        finally:
+            bar.close()
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    return study

@@ -32,185 +32,19 @@ import os
 import time
 import warnings
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from typing import Any, Iterator, Sequence
 
 import numpy as np
 
 from ndrql.errors import NdrqlError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid
-from ndrql.pipeline.problem import GridSetup, check_map_size, check_points, read_map, scenario_points
+from ndrql.pipeline.problem import check_map_size, check_points, read_map, scenario_points
+from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport
 from ndrql.pipeline.route import Route
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.results import PlanResult
 
 Point = tuple[int, int]
-
-#: Stages timed by :func:`solve`, in order. ``startup`` is per-process (numba kernel load from its
-#: disk cache); ``load`` is the model's, once per process (with the torch import on the torch backend
-#: or when ONNX Runtime's export is not cached yet); ``grid`` is inflation, the size search and the
-#: planning grid; ``route`` the paths' check and shortcut on the full map; the others the work for one map.
-STAGES: tuple[str, ...] = ("startup", "map", "grid", "load", "predict", "priors", "learn", "route")
-#: The stages that make up the work for one map after start-up (the 0.5 s budget of issue 6).
-WORK_STAGES: tuple[str, ...] = ("load", "predict", "priors", "learn")
-
-
-@dataclass(frozen=True)
-class PlannedRun(PlanResult):
-    """A :class:`PlanResult` with its path on the map: :attr:`route` (checked, shortcut, world poses)."""
-
-    route: Route | None = field(default=None, compare=False, repr=False)
-    """The learned path on the full map (``None`` when the run found no path)."""
-
-    def to_dict(self, include_records: bool = False) -> dict[str, Any]:
-        """The run's JSON form (the route is added by :meth:`PlanReport.to_dict`)."""
-        out = super().to_dict(include_records=include_records)
-        out.pop("route", None)
-        return out
-
-    @property
-    def success(self) -> bool:
-        """Converged, and the final path crosses no obstacle of the (inflated) map."""
-        return bool(self.converged and self.route is not None and not self.route.collides)
-
-    @property
-    def path_pixels(self) -> np.ndarray | None:
-        """The final path in map pixels ``(M, 2)`` (``(row, col)``)."""
-        return None if self.route is None else self.route.pixels
-
-    @property
-    def poses(self) -> np.ndarray | None:
-        """The final path as map-frame poses ``(M, 3)``: x, y in metres, yaw in radians (ROS maps only)."""
-        return None if self.route is None else self.route.poses
-
-    @property
-    def collisions(self) -> list[tuple[int, tuple[int, int]]]:
-        """Segments of the final path that cross an obstacle: ``(segment, first blocked pixel)``."""
-        return [] if self.route is None else list(self.route.final_collisions)
-
-
-@dataclass(frozen=True)
-class PlanReport:
-    """Everything :func:`solve` computed: problem, predictions, runs, their paths on the map and timings."""
-
-    grid_map: GridMap
-    """The map as read (``True`` = obstacle)."""
-    start: Point
-    """Start in map pixels ``(row, col)``."""
-    goal: Point
-    """Goal in map pixels ``(row, col)``."""
-    grid: PlanningGrid
-    """The planning grid with start and goal cells (snapped, connected)."""
-    methods: tuple[str, ...]
-    """Method names, in run order."""
-    seeds: tuple[int, ...]
-    """Seeds, the same for every method."""
-    results: tuple[PlannedRun, ...]
-    """One result per (method, seed), methods outer, each with its route on the map."""
-    region: np.ndarray | None
-    """NDR region probabilities at the map's resolution (``None`` if no method needed the model)."""
-    guideline: np.ndarray | None
-    """NDR guideline probabilities at the map's resolution (``None`` as above, or no guideline decoder)."""
-    thresholds: dict[str, float | None]
-    """NDR-QI threshold (Eq. 7) per method that uses it; ``None`` = none connected, mask 0 everywhere."""
-    timings: dict[str, float]
-    """Wall-clock seconds per stage (:data:`STAGES`)."""
-    cpu_times: dict[str, float]
-    """CPU seconds of this process per stage (learning in worker processes is not included)."""
-    weights: str | None
-    """Model weights used (``None`` without the model or with given predictions)."""
-    info: dict[str, Any] = field(default_factory=dict)
-    """Where the problem came from (map file, dataset sample, MovingAI scenario)."""
-    config: QLConfig = QLConfig()
-    """Q-learning settings the runs used."""
-    prior_config: PriorConfig = PriorConfig()
-    """Prior settings the runs used."""
-    setup: GridSetup | None = None
-    """How the map became the planning grid (rule, size, robot radius) and the map paths were checked on."""
-    settings: PlanSettings = PlanSettings()
-    """The settings of this plan."""
-
-    @property
-    def astar_length(self) -> int:
-        """Optimal 4-connected path length on the planning grid."""
-        return self.results[0].astar_length
-
-    @property
-    def work_time(self) -> float:
-        """Wall seconds of load + predict + priors + learn."""
-        return sum(self.timings.get(s, 0.0) for s in WORK_STAGES)
-
-    def runs(self, method: str) -> list[PlannedRun]:
-        """The results of one method, in seed order."""
-        return [r for r in self.results if r.method == method]
-
-    def _run_dict(self, r: PlannedRun, include_records: bool) -> dict[str, Any]:
-        out = r.to_dict(include_records=include_records)
-        out["success"] = r.success
-        if r.path:
-            out["path_pixels"] = [[round(a, 3), round(b, 3)] for a, b in (self.grid.centre(c) for c in r.path)]
-        if r.route is not None:
-            route = r.route.to_dict(self.grid_map)
-            out["collisions"] = route["final_collisions"]
-            if "poses" in route:
-                out["path_world"] = route["poses"]
-            out["route"] = route
-        else:
-            out["collisions"] = []
-        return out
-
-    def to_dict(self, include_records: bool = False) -> dict[str, Any]:
-        """The JSON form written by ``ndrql plan --json`` (plain types only)."""
-        from ndrql.planning.results import summarize
-
-        gm = self.grid_map
-        map_info: dict[str, Any] = {"source": gm.source, "height": gm.height, "width": gm.width,
-                                    "obstacle_ratio": round(gm.obstacle_ratio, 6)}
-        if gm.resolution is not None:
-            map_info["resolution"] = gm.resolution
-        if gm.origin is not None:
-            map_info["origin"] = list(gm.origin)
-        pg = self.grid
-        first = self.results[0]
-        out = {
-            "map": map_info,
-            **{k: v for k, v in self.info.items() if k != "source"},
-            "planning_size": list(pg.shape),
-            "grid": pg.to_strings(),
-            "start": list(pg.start),
-            "goal": list(pg.goal),
-            "source_start": list(pg.source_start),
-            "source_goal": list(pg.source_goal),
-            "snapped": {"start": pg.snapped[0], "goal": pg.snapped[1]},
-            "astar_length": self.astar_length,
-            "methods": list(self.methods),
-            "seeds": list(self.seeds),
-            "config": dataclasses.asdict(self.config),
-            "prior_config": dataclasses.asdict(self.prior_config),
-            "weights": self.weights,
-            "prior_from": self.info.get("prior_from"),
-            "ndr_qi_threshold": dict(self.thresholds),
-            "timings": {"wall": dict(self.timings), "cpu": dict(self.cpu_times), "work_wall": self.work_time},
-            "summary": {
-                m: {
-                    "runs": len(self.runs(m)),
-                    "not_converged": sum(not r.converged for r in self.runs(m)),
-                    "success": sum(r.success for r in self.runs(m)),
-                    "collide": sum(bool(r.collisions) for r in self.runs(m)),
-                    "convergence_steps": summarize([r.convergence_steps for r in self.runs(m) if r.converged]),
-                    "convergence_episode": summarize([r.convergence_episode for r in self.runs(m) if r.converged]),
-                    "length_ratio": summarize([r.length_ratio for r in self.runs(m) if r.converged]),
-                }
-                for m in self.methods
-            },
-            "runs": [self._run_dict(r, include_records) for r in self.results],
-            "first": {"method": first.method, "seed": first.seed},
-        }
-        if self.setup is not None:
-            out["planning_grid"] = self.setup.to_dict(pg, gm.resolution)
-        return out
-
 
 # ------------------------------------------------------------------------------------------ helpers
 
@@ -242,6 +76,29 @@ def _world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) ->
     if len(vals) not in (2, 3):
         raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {tuple(given)!r}")
     return world_to_pixel(grid_map, vals[0], vals[1], name), (vals[2] if len(vals) == 3 else None)
+
+
+def _fall_back(ms: list, region: np.ndarray, guideline_map: np.ndarray | None, grid_map: GridMap, pg: PlanningGrid,
+               prior_config: PriorConfig, settings: PlanSettings, info: dict[str, Any]) -> list:
+    """Judge the prediction (``info["prediction_quality"]``); when it is uninformative and ``settings.fallback``
+    is set, each NDR method is replaced by the fallback (``info["fallback"]``), unless that one runs anyway."""
+    from ndrql.pipeline.predictions import prediction_quality
+    from ndrql.planning.methods import get_method
+
+    quality = prediction_quality(region, guideline_map, grid_map.obstacles, pg, prior_config)
+    info["prediction_quality"] = quality
+    if quality["informative"] or settings.fallback is None:
+        return ms
+    fb = get_method(settings.fallback)
+    if any(m.name == fb.name for m in ms):
+        return ms
+    info["fallback"] = {"requested": [m.name for m in ms if m.needs_ndr], "ran": fb.name, "reasons": quality["reasons"]}
+    out = []
+    for m in ms:
+        m2 = fb if m.needs_ndr else m
+        if all(x.name != m2.name for x in out):
+            out.append(m2)
+    return out
 
 
 # --------------------------------------------------------------------------------------------- API
@@ -349,6 +206,7 @@ def solve(
                              f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
         with clock.stage("predict"):
             region, guideline = downscale_priors(region_map, guideline_map, pg.shape)
+            ms = _fall_back(ms, region, guideline_map, grid_map, pg, prior_config, settings, info)
 
     priors = {}
     thresholds: dict[str, float | None] = {}

@@ -90,6 +90,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=None,
                    help="shortcut the learned path by line of sight on the full map (default: on for a map file, "
                    "off for --sample)")
+    g.add_argument("--fallback", metavar="NAME|none", default=None,
+                   help="when the model's prediction is uninformative (no region threshold >= 0.5 joins start and "
+                   "goal, or the guideline lies mostly on obstacles), plan with this method instead of the NDR one "
+                   "(default: IQL for a map file with one method, none for --sample and --compare)")
     g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
                    "(ROS maps), instead of --start; write --start-world=-1.5,2 when x is negative")
     g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
@@ -286,7 +290,12 @@ def _settings(args: argparse.Namespace, sample: bool) -> Any:
 
     rule = args.grid or ("area" if sample else "safe")
     smooth = args.smooth if args.smooth is not None else not sample
-    return PlanSettings(grid=rule, size=args.size, robot_radius=args.robot_radius, smooth=smooth,
+    fallback = args.fallback
+    if fallback is None:
+        fallback = None if sample or args.compare else "IQL"
+    elif fallback.strip().lower() == "none":
+        fallback = None
+    return PlanSettings(grid=rule, size=args.size, robot_radius=args.robot_radius, smooth=smooth, fallback=fallback,
                         max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads,
                         backend=args.backend)
 

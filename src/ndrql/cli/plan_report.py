@@ -88,6 +88,29 @@ def route_lines(report: Any) -> list[str]:
     return lines
 
 
+def prediction_lines(report: Any) -> list[str]:
+    """Whether the model's prediction could guide planning, and which method ran when it could not.
+
+    Shown when the prediction is uninformative or a fallback ran, and on the safe grid; the paper's
+    setting keeps its output (the JSON always has ``prediction_quality``)."""
+    q = report.info.get("prediction_quality")
+    if q is None:
+        return []
+    fb = report.info.get("fallback")
+    if q["informative"]:
+        if report.setup is None or report.setup.rule != "safe":
+            return []
+        thd = q["threshold"]
+        share = q.get("guideline_on_obstacles")
+        on = f", {share:.0%} of the guideline on obstacles" if share is not None else ""
+        return [f"prediction: informative (region threshold {thd:.2f}{on})"]
+    why = "; ".join(q["reasons"])
+    if fb:
+        return [f"prediction: uninformative ({why}); {', '.join(fb['requested'])} fell back to {fb['ran']} "
+                f"(distance priors; --fallback none keeps the model's priors)"]
+    return [f"prediction: uninformative ({why}); the model's priors were used anyway"]
+
+
 def _vs_full(report: Any, length: float) -> str:
     a = report.setup.auto if report.setup is not None else None
     if a is None or a.full_length <= 0:
@@ -120,6 +143,7 @@ def summary_lines(report: Any) -> list[str]:
     not_conv = sum(not r.converged for r in report.results)
     if not_conv:
         lines.append(f"{not_conv} of {len(report.results)} runs did not converge (reported, not dropped)")
+    lines += prediction_lines(report)
     lines += route_lines(report)
     t = report.timings
     stages = ", ".join(f"{s} {t[s]:.3f}" for s in WORK_STAGES)

@@ -65,3 +65,39 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
     region = np.asarray(pred.region, dtype=np.float64)
     guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
     return ModelView(region=region, guideline=guideline, info=info)
+
+
+#: The region threshold (Eq. 7) below which the prediction is called uninformative: the model is not
+#: even 50 % sure of any band of cells that joins start and goal.
+MIN_THRESHOLD = 0.5
+#: Largest share of the guideline's probability mass that may lie on obstacle pixels.
+MAX_GUIDE_ON_OBSTACLES = 0.5
+
+
+def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
+                       grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
+    """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
+
+    Uninformative when no region threshold >= :data:`MIN_THRESHOLD` makes the region connect start
+    and goal on the planning grid (Eq. 7's search, ``cfg`` a :class:`~ndrql.planning.config.PriorConfig`),
+    or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
+    the map (the model draws its path through walls).
+    """
+    from ndrql.planning.priors import adaptive_threshold
+
+    thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
+    reasons = []
+    if thd is None or thd < MIN_THRESHOLD:
+        shown = "none" if thd is None else f"{thd:.2f}"
+        reasons.append(f"no region threshold >= {MIN_THRESHOLD} connects start and goal (Eq. 7 threshold {shown})")
+    on_obstacles = None
+    if guideline is not None:
+        mass = float(np.sum(guideline))
+        if mass > 0:
+            on_obstacles = float(np.sum(guideline, where=np.asarray(obstacles, dtype=bool))) / mass
+            if on_obstacles > MAX_GUIDE_ON_OBSTACLES:
+                reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
+        else:
+            reasons.append("the guideline is empty")
+    return {"informative": not reasons, "threshold": thd, "guideline_on_obstacles": on_obstacles,
+            "reasons": reasons}

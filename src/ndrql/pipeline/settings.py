@@ -31,6 +31,8 @@ class PlanSettings:
     """Robot radius: obstacles are inflated by it before planning (metres on maps with a resolution, else pixels)."""
     smooth: bool | None = None
     """Shortcut the learned path by line of sight on the full map (default: on for the safe grid, off for area)."""
+    fallback: str | None = "IQL"
+    """Method to plan with instead of an NDR method when the model's prediction is uninformative (None: keep it)."""
     tolerance: float = 0.08
     """size auto: how much longer than the map's own shortest route the grid's route may be."""
     max_map_pixels: int = 4096 * 4096
@@ -71,6 +73,13 @@ class PlanSettings:
             raise NdrqlError(f"the size auto tolerance must be in [0, 10), got {self.tolerance}")
         if self.max_map_pixels < 1:
             raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
+        if self.fallback is not None:
+            from ndrql.planning.methods import get_method
+
+            fb = get_method(self.fallback)
+            if fb.needs_ndr:
+                raise NdrqlError(f"the fallback {fb.name} uses the model itself; give a method without it (QL, IQL, ...)")
+            object.__setattr__(self, "fallback", fb.name)
         from ndrql.limits import MAX_GRID_SIZE
 
         if not 2 <= self.max_size <= MAX_GRID_SIZE:
@@ -82,8 +91,8 @@ class PlanSettings:
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":
-        """The paper's setting (SPEC section 1): area rule, 50 cells, no smoothing; used on the dataset."""
-        kw = {"grid": "area", "size": PAPER_SIZE, "smooth": False}
+        """The paper's setting (SPEC section 1): area rule, 50 cells, no smoothing, no fallback; used on the dataset."""
+        kw = {"grid": "area", "size": PAPER_SIZE, "smooth": False, "fallback": None}
         kw.update(overrides)
         return cls(**kw)
 

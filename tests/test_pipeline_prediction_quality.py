@@ -1,0 +1,90 @@
+"""Honest heuristics: an uninformative prediction is named, and --fallback plans with distance priors instead."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import ndrql
+from ndrql.maps.grid import PlanningGrid
+from ndrql.pipeline.predictions import prediction_quality
+from ndrql.pipeline.settings import PlanSettings
+from ndrql.planning.config import PriorConfig
+
+
+def corridor_map() -> np.ndarray:
+    """200x200: a wall across row 100 with a gap at cols 150..189."""
+    m = np.zeros((200, 200), dtype=bool)
+    m[98:102, :150] = True
+    m[98:102, 190:] = True
+    return m
+
+
+def good_prediction(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Region: a band round the gap; guideline: a polyline through it on free pixels."""
+    region = np.zeros(m.shape)
+    region[:, 120:200] = 0.9
+    guide = np.zeros(m.shape)
+    guide[20:180, 170] = 1.0
+    return region, guide
+
+
+def test_quality_of_hand_made_predictions():
+    m = corridor_map()
+    grid = PlanningGrid.from_map(m, (20, 170), (180, 170), size=50)
+    region, guide = good_prediction(m)
+    from ndrql.maps.grid import area_downscale
+
+    q = prediction_quality(area_downscale(region), guide, m, grid, PriorConfig())
+    assert q["informative"] and q["threshold"] == pytest.approx(0.89) and q["guideline_on_obstacles"] == 0.0
+    q = prediction_quality(np.full((50, 50), 0.3), guide, m, grid, PriorConfig())  # never above 0.3
+    assert not q["informative"] and "no region threshold >= 0.5" in q["reasons"][0]
+    through_wall = np.zeros(m.shape)
+    through_wall[97:103, 0:100] = 1.0  # rows 98..101 are wall: 4 of 6 rows on obstacles
+    q = prediction_quality(area_downscale(region), through_wall, m, grid, PriorConfig())
+    assert not q["informative"] and q["guideline_on_obstacles"] == pytest.approx(4 / 6)
+    assert q["reasons"] == ["67% of the guideline lies on obstacles"]
+
+
+def test_fallback_runs_iql_and_says_so():
+    m = corridor_map()
+    flat = (np.full(m.shape, 0.2), np.full(m.shape, 0.2))
+    report = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1)
+    assert report.methods == ("IQL",) and report.results[0].method == "IQL"
+    assert report.info["fallback"]["requested"] == ["NDR-QL"] and report.info["fallback"]["ran"] == "IQL"
+    assert report.to_dict()["prediction_quality"]["informative"] is False
+    kept = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1,
+                       settings=PlanSettings(fallback=None))
+    assert kept.methods == ("NDR-QL",) and "fallback" not in kept.info
+    good = ndrql.solve(m, (20, 170), (180, 170), "NDR-QL", 1, predictions=good_prediction(m), workers=1)
+    assert good.methods == ("NDR-QL",) and good.info["prediction_quality"]["informative"]
+    both = ndrql.solve(m, (20, 20), (180, 20), ["IQL", "NDR-QL"], 1, predictions=flat, workers=1)
+    assert both.methods == ("IQL", "NDR-QL")  # a comparison that runs the fallback anyway keeps every method
+
+
+def test_fallback_setting_is_checked():
+    with pytest.raises(ndrql.api.NdrqlError, match="uses the model itself"):
+        PlanSettings(fallback="NDR-QL")
+    with pytest.raises(ndrql.api.NdrqlError, match="unknown method"):
+        PlanSettings(fallback="DQN")
+    assert PlanSettings(fallback="iql").fallback == "IQL" and PlanSettings.paper().fallback is None
+
+
+def test_cli_prints_one_line_and_the_json_says_which_ran(ndrql_exe, tmp_path):
+    m = corridor_map()
+    np.save(tmp_path / "m.npy", m)
+    np.savez(tmp_path / "flat.npz", region=np.full(m.shape, 0.2), guideline=np.full(m.shape, 0.2))
+    base = [*ndrql_exe, "plan", str(tmp_path / "m.npy"), "--start", "20,20", "--goal", "180,20", "--prior-from",
+            str(tmp_path / "flat.npz"), "--json", str(tmp_path / "p.json")]
+    r = subprocess.run(base, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    line = [x for x in r.stdout.splitlines() if x.startswith("prediction:")]
+    assert len(line) == 1 and "uninformative" in line[0] and "NDR-QL fell back to IQL" in line[0]
+    data = json.loads((tmp_path / "p.json").read_text())
+    assert data["fallback"]["ran"] == "IQL" and data["runs"][0]["method"] == "IQL"
+    r = subprocess.run(base + ["--fallback", "none"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and "the model's priors were used anyway" in r.stdout
+    assert json.loads((tmp_path / "p.json").read_text())["runs"][0]["method"] == "NDR-QL"

@@ -72,8 +72,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{DOC} is out of date: run .venv/bin/python tools/gen_cli_docs.py", file=sys.stderr)
             return 1
         return 0
-    DOC.parent.mkdir(parents=True, exist_ok=True)
-    DOC.write_text(text, encoding="utf-8")
+    from ndrql.io import write_text
+
+    write_text(DOC, text)
     print(f"wrote {DOC}")
     return 0
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
 import subprocess
 import sys
 import textwrap
@@ -48,7 +47,9 @@ def replace(text: str, tag: str, body: str) -> str:
 
 def main() -> int:
     run(["demo", "--out", "out/demo"])
-    shutil.copyfile(ROOT / "out" / "demo" / "compare.png", ROOT / "docs" / "demo.png")
+    from ndrql.io import write_bytes
+
+    write_bytes(ROOT / "docs" / "demo.png", (ROOT / "out" / "demo" / "compare.png").read_bytes())
     data = json.loads((ROOT / "out" / "demo" / "results.json").read_text())
     table = (ROOT / "out" / "demo" / "table.md").read_text().split("\n\n", 1)[1].strip()
     mean = {m: data["summary"][m]["convergence_steps"]["mean"] for m in data["methods"]}
@@ -66,7 +67,9 @@ def main() -> int:
     plan = (f"```\n$ ndrql {' '.join(PLAN)}\n{out.rstrip()}\n```\n\n"
             f"(weights of commit {commit}; the numbers move with the weights and the seed.)\n")
     text = replace(replace(README.read_text(encoding="utf-8"), "demo", demo), "plan", plan)
-    README.write_text(text, encoding="utf-8")
+    from ndrql.io import write_text
+
+    write_text(README, text)
     print(f"updated {README} and docs/demo.png (weights of commit {commit})")
     return 0
 

@@ -101,8 +101,8 @@ class GridPathEnv(gym.Env):
     cells); points not given are kept.
 
     ``info`` holds ``cell`` (row, col), ``outcome`` (``reset``, ``move``, ``collision``,
-    ``revisit``, ``goal``) and ``steps``; after a reset also ``start``, ``goal`` and
-    ``astar_length`` (moves of a shortest path from the start cell).
+    ``revisit``, ``goal``) and ``steps``; after a reset also ``start`` (this episode's start cell),
+    ``goal`` and ``astar_length`` (moves of a shortest path from it).
     """
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
@@ -181,6 +181,7 @@ class GridPathEnv(gym.Env):
         self.goal = problem.goal
         self.nxt = rules.next_table(self.blocked)
         self._start_choices: np.ndarray | None = None
+        self._goal_dist: np.ndarray | None = None
         self._s = rules.cell_index(self.start, self.width)
 
     @property
@@ -196,6 +197,14 @@ class GridPathEnv(gym.Env):
             same[rules.cell_index(self.goal, self.width)] = False
             self._start_choices = np.flatnonzero(same)
         return self._start_choices
+
+    def _astar_length(self) -> int:
+        """Moves of a shortest path from the agent's cell to the goal (4-connected BFS from the goal, cached)."""
+        if self._goal_dist is None:
+            from ndrql.maps.grid import bfs_distances
+
+            self._goal_dist = bfs_distances(self.blocked, self.goal)
+        return int(self._goal_dist[rules.index_cell(self._s, self.width)])
 
     def _info(self, outcome: str) -> dict[str, Any]:
         return {"cell": rules.index_cell(self._s, self.width), "outcome": outcome, "steps": self._steps}
@@ -224,7 +233,7 @@ class GridPathEnv(gym.Env):
         self._visited[self._s] = self._mark
         self._steps = 0
         info = self._info("reset")
-        info.update(start=self.start, goal=self.goal, astar_length=self.problem.astar_length)
+        info.update(start=rules.index_cell(self._s, self.width), goal=self.goal, astar_length=self._astar_length())
         return int(self._s), info
 
     def step(self, action):

@@ -137,3 +137,14 @@ def test_radius_units():
         radius_to_px(-1, None)
     with pytest.raises(NdrqlError):
         radius_to_px(float("nan"), 0.05)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_inflation_equals_the_distance_transform(seed):
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(3, 90, 2)
+    m = rng.random((h, w)) < rng.uniform(0.001, 0.2)
+    for r in (1.0, 1.5, 2.0, 2.9, 3.0, 4.2, 5.0, 7.07, 12.5, 60.0):
+        np.testing.assert_array_equal(inflate(m, r), m | (ndimage.distance_transform_edt(~m) <= r), err_msg=str(r))

@@ -56,7 +56,7 @@ def grid_lines(report: Any) -> list[str]:
     if a is not None:
         lost = [str(t.size) for t in a.trials if t.ratio is None]
         over = [f"{t.size} ({t.ratio:.2f}x)" for t in a.trials if t.ratio is not None and t.size != a.size]
-        tail = "; ".join(x for x in (f"{', '.join(lost)}: not connected" if lost else "",
+        tail = "; ".join(x for x in (f"{', '.join(lost)}: no route" if lost else "",
                                      f"too long: {', '.join(over)}" if over else "") if x)
         lines.append(f"size auto: route on the grid {a.chosen.ratio:.3f} x the map's shortest "
                      f"({length_text(a.full_length, res)}), tolerance {a.tolerance:.0%}" + (f" ({tail})" if tail else ""))

@@ -113,13 +113,35 @@ def conservative_grid(obstacles: np.ndarray, size: int) -> np.ndarray:
     return _any_along(_any_along(arr, r0, r1, 0), c0, c1, 1)
 
 
+#: Radii (px) up to which :func:`inflate` uses the row-distance form; larger ones use the EDT.
+ROW_FORM_MAX_RADIUS = 48
+
+
+def _row_distance(obstacles: np.ndarray) -> np.ndarray:
+    """Per pixel, the distance in columns to the nearest obstacle pixel of the same row (huge when none), int32."""
+    w = obstacles.shape[1]
+    idx = np.arange(w, dtype=np.int32)
+    far = np.int32(1 << 29)
+    left = np.where(obstacles, idx, -far)
+    np.maximum.accumulate(left, axis=1, out=left)
+    right = np.where(obstacles[:, ::-1], idx, -far)
+    np.maximum.accumulate(right, axis=1, out=right)
+    out = idx - left
+    np.minimum(out, (idx - right)[:, ::-1], out=out)
+    return out
+
+
 def inflate(obstacles: np.ndarray, radius_px: float) -> np.ndarray:
     """Obstacles grown by a disc robot's radius: every pixel whose centre lies within ``radius_px`` of an
-    obstacle pixel's centre becomes an obstacle (Euclidean distance transform, ``scipy.ndimage``).
+    obstacle pixel's centre becomes an obstacle.
 
     This is the configuration space of a robot of that radius, with the cell-centre distances of
-    Nav2's inflation layer (its "inscribed radius"); ``radius_px <= 0`` returns a copy. The map's
-    border is not an obstacle. O(pixels) time and memory.
+    Nav2's inflation layer (its "inscribed radius"); ``radius_px < 1`` changes nothing (pixel centres
+    are at least 1 apart). The map's border is not an obstacle. It is the Euclidean distance transform
+    (``scipy.ndimage.distance_transform_edt``) thresholded at the radius; up to
+    :data:`ROW_FORM_MAX_RADIUS` px the same set is computed exactly and about 5x faster from each
+    row's distance to its nearest obstacle (a pixel is inflated when some row ``dy`` away has an
+    obstacle within ``sqrt(r^2 - dy^2)`` columns). O(pixels x radius) time, O(pixels) memory.
     """
     arr = np.asarray(obstacles).astype(bool, copy=True)
     if arr.ndim != 2:
@@ -127,14 +149,29 @@ def inflate(obstacles: np.ndarray, radius_px: float) -> np.ndarray:
     r = float(radius_px)
     if not np.isfinite(r):
         raise NdrqlError(f"the robot radius must be a finite number of pixels, got {radius_px}")
-    if r <= 0 or not arr.any():
+    if r < 1.0 or not arr.any():
         return arr
-    if r < 1.0:  # no pixel centre is closer than 1 to another: nothing grows
-        return arr
-    from scipy import ndimage  # imported here: it costs ~0.1 s and most plans need no inflation
+    if r > ROW_FORM_MAX_RADIUS:
+        from scipy import ndimage  # imported here: it costs ~0.1 s and most plans need no inflation
 
-    dist = ndimage.distance_transform_edt(~arr)
-    return arr | (dist <= r)
+        return arr | (ndimage.distance_transform_edt(~arr) <= r)
+    g = _row_distance(arr)
+    out = arr.copy()
+    for dy in range(int(np.floor(r)) + 1):
+        k = int(np.floor(np.sqrt(max(0.0, r * r - dy * dy))))
+        while (k + 1) ** 2 + dy * dy <= r * r:  # exact integer bound despite sqrt rounding
+            k += 1
+        while k >= 0 and k * k + dy * dy > r * r:
+            k -= 1
+        if k < 0:
+            continue
+        near = g <= k
+        if dy == 0:
+            out |= near
+        elif dy < arr.shape[0]:
+            out[dy:] |= near[:-dy]
+            out[:-dy] |= near[dy:]
+    return out
 
 
 def radius_to_px(radius: float, resolution: float | None) -> float:

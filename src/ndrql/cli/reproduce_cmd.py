@@ -17,6 +17,7 @@ EXAMPLES = """examples:
   ndrql reproduce sizing                       # validation F1 per training hour by width and precision
   ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
   ndrql reproduce dynamic
+  ndrql reproduce scale --preset tuned         # only the tuned constants (default for table2/3, scale: spec,tuned)
 
 Results go to results/<target>/ (markdown table, summary.json, PNG figures, one JSON per finished
 task under tasks/). Re-running resumes: finished tasks are read back, not recomputed; a change of
@@ -65,6 +66,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
+    p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
+                   "separated by commas, each run into its own folder and compared side by side (default: spec,tuned "
+                   "for table2, table3 and scale; spec for dynamic); flags below override a preset's values")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
@@ -91,6 +95,23 @@ def _options(args: argparse.Namespace):
                         data=args.data, weights=args.weights, command=command)
 
 
+def _presets(args: argparse.Namespace, target: str) -> list:
+    """The presets to run ``target`` with (``--preset``, else the default), with explicit flags on top."""
+    from ndrql.planning.preset import builtin_path, load_preset
+
+    names = args.preset
+    if names is None:
+        names = "spec,tuned" if target in ("table2", "table3", "scale") and builtin_path("tuned").is_file() else "spec"
+    ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
+    pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
+    out = [load_preset(n.strip()).with_overrides(ql, pri) for n in names.split(",") if n.strip()]
+    if not out:
+        from ndrql.errors import NdrqlError
+
+        raise NdrqlError("--preset is empty; give spec, tuned or a preset file")
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -104,24 +125,21 @@ def run(args: argparse.Namespace) -> int:
     if args.per_category < 1 or args.per_category > 300:
         raise NdrqlError(f"--per-category must be in 1..300, got {args.per_category}")
     opts = _options(args)
+    from ndrql.experiments.presets import run_presets
     targets = ["table1", "table3", "table2", "dynamic", "scale", "table4", "sizing", "labels"] if args.target == "all" else [args.target]
     log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
     for target in targets:
         out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
-        if target == "table3":
-            from ndrql.experiments.planning_tables import table3 as fn
-            path = fn(opts, out, log=log)
-        elif target == "table2":
-            from ndrql.experiments.planning_tables import table2 as fn
-            path = fn(opts, out, log=log)
-        elif target == "scale":
-            from ndrql.experiments.planning_tables import scale
-
-            path = scale(opts, out, per_category=args.per_category, log=log)
-        elif target == "dynamic":
+        if target in ("table3", "table2", "scale", "dynamic"):
+            from ndrql.experiments import planning_tables as T
             from ndrql.experiments.dynamic import dynamic
 
-            path = dynamic(opts, out, log=log)
+            fns = {"table3": lambda o, d: T.table3(o, d, log=log), "table2": lambda o, d: T.table2(o, d, log=log),
+                   "scale": lambda o, d: T.scale(o, d, per_category=args.per_category, log=log),
+                   "dynamic": lambda o, d: dynamic(o, d, log=log)}
+            paths = run_presets(target, fns[target], opts, out,
+                                _presets(args, target), log=log)
+            path = ", ".join(str(x) for x in paths)
         elif target == "table1":
             from ndrql.experiments.model_tables import table1
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from ndrql.errors import NoPathError
 from ndrql.experiments import stats
+from ndrql.experiments.presets import method_configs, preset_line
 from ndrql.experiments.planning_tables import SweepOptions, Variant, registry_variant, variant_priors
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, resolve_root, table3_maps
 from ndrql.experiments.report import machine, machine_line, md_table, save_figure
@@ -148,7 +149,7 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     b0 = preds.attach(base)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r0 = plan(b0.blocked, b0.start, b0.goal, "NDR-QL", opts.seed0, opts.ql, opts.priors,
+        r0 = plan(b0.blocked, b0.start, b0.goal, "NDR-QL", opts.seed0, *method_configs(opts, "NDR-QL"),
                   region=b0.region, guideline=b0.guideline)
     scen_b = advance_stages(base, r0.path or [])
     scenarios = {"a": scen_a, "b": scen_b}
@@ -167,10 +168,11 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     for name, stages in attached.items():
         for v in variants:
             st = [_stage_tuple(p, v.needs_ndr) for _, p in stages]
+            ql, pc = method_configs(opts, v.name)
             for s in opts.seed_list:
                 fp = fingerprint(DYNAMIC_VERSION, name, [(p.key, p.start, p.goal, int(p.blocked.sum())) for _, p in stages],
-                                 asdict(v), s, asdict(opts.ql), asdict(opts.priors), preds.digest if v.needs_ndr else None)
-                tasks.append(Task(f"{name}__{v.name}__{s}", chain_task, (st, v, s, opts.ql, opts.priors), fp))
+                                 asdict(v), s, asdict(ql), asdict(pc), preds.digest if v.needs_ndr else None)
+                tasks.append(Task(f"{name}__{v.name}__{s}", chain_task, (st, v, s, ql, pc), fp))
     rep = run_sweep(tasks, out_dir / "tasks", executor=opts.executor, workers=opts.workers, progress=opts.progress,
                     desc="dynamic", ray_address=opts.ray_address)
     res = rep.results
@@ -180,6 +182,8 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
           "Steps = environment steps until the greedy path is stable for W = 20 episodes (SPEC 3); "
           "warm = Q-table of the previous stage's (warm) run as Q0, rewards of the new stage; "
           "scratch = the method's own priors on the new stage."]
+    if opts.preset is not None:
+        md += ["", preset_line(opts, list(METHODS))]
     summary: dict[str, Any] = {"machine": info, "map": ref.key, "scenarios": {}}
     titles = {"a": "(a) obstacles added and removed, start and goal fixed",
               "b": "(b) the agent advances along its path, goal fixed"}

@@ -18,6 +18,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ndrql.experiments import stats
+from ndrql.experiments.presets import method_configs, preset_line
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, load_problems, resolve_root, table3_maps
 from ndrql.experiments.report import machine, machine_line, md_table, save_figure
 from ndrql.experiments.sweep import Task, fingerprint, run_sweep
@@ -118,6 +119,8 @@ class SweepOptions:
     """NDR weights (default: ``$NDRQL_WEIGHTS`` or the shipped ones)."""
     command: str = ""
     """The command line, recorded in the report."""
+    preset: Any = None
+    """A :class:`~ndrql.planning.preset.Preset` giving each row its constants (``None``: ``ql`` and ``priors``)."""
 
     @property
     def seed_list(self) -> list[int]:
@@ -157,6 +160,12 @@ def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int]
             "runs": runs}
 
 
+def _preset_json(opts: SweepOptions) -> dict | None:
+    from ndrql.planning.preset import preset_to_dict
+
+    return None if opts.preset is None else preset_to_dict(opts.preset)
+
+
 def _array_digest(a: np.ndarray | None) -> str | None:
     if a is None:
         return None
@@ -173,12 +182,12 @@ def make_tasks(problems: Sequence[Problem], variants: Sequence[Variant], opts: S
             if v.needs_ndr and (region is None or guideline is None):
                 raise ValueError(f"{p.key}: variant {v.name} needs predictions; attach them first")
             rec = opts.seed0 if records else None
+            ql, pc = method_configs(opts, v.name)
             fp = fingerprint(TASK_VERSION, p.key, _array_digest(p.blocked), p.start, p.goal, asdict(v),
-                             opts.seed_list, asdict(opts.ql), asdict(opts.priors),
-                             weights_digest if v.needs_ndr else None, rec)
+                             opts.seed_list, asdict(ql), asdict(pc), weights_digest if v.needs_ndr else None, rec)
             key = f"{p.key}__{v.name}".replace(" ", "_")
-            tasks.append(Task(key, plan_task, (p.blocked, p.start, p.goal, v, opts.seed_list, opts.ql,
-                                               opts.priors, region, guideline, rec), fp))
+            tasks.append(Task(key, plan_task, (p.blocked, p.start, p.goal, v, opts.seed_list, ql,
+                                               pc, region, guideline, rec), fp))
     return tasks
 
 
@@ -291,10 +300,11 @@ def _curves_figure(p: Problem, label: str, variants: Sequence[Variant], results:
             plot_training_curves(axes[0, j], axes[1, j], run0["records"], convergence_episode=run0["convergence_episode"],
                                  color=color)
         axes[0, j].set_title(f"{v.name}: {stats.fmt(run0['convergence_steps'])} steps", fontsize=9)
+        ql, pc = method_configs(opts, v.name)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            pri = variant_priors(v, p.blocked, p.start, p.goal, p.region, p.guideline, opts.priors)
-        r = plan(p.blocked, p.start, p.goal, v.method(), run0["seed"], opts.ql, opts.priors, priors=pri, keep_q=True)
+            pri = variant_priors(v, p.blocked, p.start, p.goal, p.region, p.guideline, pc)
+        r = plan(p.blocked, p.start, p.goal, v.method(), run0["seed"], ql, pc, priors=pri, keep_q=True)
         ax = axes[2, j]
         plot_qtable(ax, r.q_table, p.blocked.shape, blocked=p.blocked)
         if r.path:
@@ -334,13 +344,17 @@ def _maps_figure(problems: Sequence[Problem], labels: Sequence[str], variants: S
 # ------------------------------------------------------------------------------------- tables
 
 
-def _header(title: str, opts: SweepOptions, info: dict, predictions: PredictionCache | None, extra: str = "") -> str:
+def _header(title: str, opts: SweepOptions, info: dict, predictions: PredictionCache | None, extra: str = "",
+            variants: Sequence[Variant] = ()) -> str:
     lines = [f"# {title}", "", f"Command: `{opts.command}`" if opts.command else "", "",
              f"Machine: {machine_line(info)}.", "",
              f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method; QLConfig {asdict(opts.ql)}; "
              f"PriorConfig {asdict(opts.priors)}."]
     if predictions is not None:
         lines += ["", f"NDR weights: `{predictions.weights}` (sha256 {predictions.digest})."]
+    if opts.preset is not None:
+        lines[6] = f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method."
+        lines += ["", preset_line(opts, [v.name for v in variants])]
     if extra:
         lines += ["", extra]
     return "\n".join(lines) + "\n"
@@ -378,7 +392,8 @@ def fixed_map_table(target: str, variants: Sequence[Variant], n_maps: int, opts:
     cells = {(p.key, v.name): summarize_runs(results[(p.key, v.name)]["runs"]) for p in problems for v in variants}
     means = {k: c["steps"]["mean"] for k, c in cells.items()}
     # ---- markdown
-    md = [_header(f"{target}: convergence steps of Q-learning methods on fixed test maps", opts, info, predictions)]
+    md = [_header(f"{target}: convergence steps of Q-learning methods on fixed test maps", opts, info, predictions,
+                  variants=variants)]
     md.append("Maps (`src/ndrql/experiments/maps_table3.json`):\n")
     md.append(md_table(["map", "sample", "category", "A* moves (50x50)", "NDR-QI thd", "why"],
                        [[lab, f"{p.split} {p.index}", p.category, p.astar,
@@ -428,7 +443,7 @@ def fixed_map_table(target: str, variants: Sequence[Variant], n_maps: int, opts:
     md += [f"![{f.stem}]({f.name})" for f in figs]
     path = write_text(out_dir / f"{target}.md", "\n".join(md) + "\n")
     summary = {"target": target, "machine": info, "options": {"seeds": opts.seed_list, "ql": asdict(opts.ql),
-                                                             "priors": asdict(opts.priors)},
+                                                             "priors": asdict(opts.priors), "preset": _preset_json(opts)},
                "weights": predictions.describe() if predictions else None, "skipped": skipped,
                "maps": [{"label": lab, "key": p.key, "category": p.category, "astar": p.astar} for lab, p in zip(labels, problems)],
                "cells": {f"{k[0]}|{k[1]}": v for k, v in cells.items()}}
@@ -490,7 +505,7 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
     md = [_header(f"scale: {', '.join(names)} and A* on {len(refs)} test samples", opts, info, predictions,
                   f"Samples: {per_category} per category, evenly spaced in each block of 300 "
                   f"(`scale_refs({per_category})`); {len(skipped)} skipped as disconnected on the planning grid "
-                  f"({', '.join(s['split'] + ' ' + str(s['index']) for s in skipped) or 'none'}).")]
+                  f"({', '.join(s['split'] + ' ' + str(s['index']) for s in skipped) or 'none'}).", variants)]
     agg: dict[str, dict] = {}
     for gname, ps in groups.items():
         if not ps:
@@ -540,7 +555,7 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
     md.append("\n## Figures\n")
     md += [f"![{f.stem}]({f.name})" for f in figs]
     path = write_text(out_dir / "scale.md", "\n".join(md) + "\n")
-    write_json(out_dir / "summary.json", {"machine": info, "skipped": skipped, "groups": agg,
+    write_json(out_dir / "summary.json", {"machine": info, "skipped": skipped, "groups": agg, "preset": _preset_json(opts),
                                           "weights": predictions.describe() if predictions else None},
                indent=1, strict=False)
     log(f"scale: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")

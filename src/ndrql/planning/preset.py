@@ -112,6 +112,18 @@ class Preset:
         except ValueError as exc:
             raise NdrqlError(f"bad option: {exc}") from None
 
+    def with_overrides(self, ql: Mapping[str, Any] | None = None, priors: Mapping[str, Any] | None = None) -> "Preset":
+        """This preset with ``ql``/``priors`` values set on every entry (explicit flags win over a preset)."""
+        if not ql and not priors:
+            return self
+        try:
+            def over(s: MethodSetting) -> MethodSetting:
+                return MethodSetting(replace(s.ql, **dict(ql or {})), replace(s.priors, **dict(priors or {})))
+
+            return replace(self, default=over(self.default), methods={m: over(s) for m, s in self.methods.items()})
+        except ValueError as exc:
+            raise NdrqlError(f"bad option: {exc}") from None
+
     def describe(self) -> str:
         """One line: name, where from, and how many methods it sets."""
         listed = ", ".join(self.methods) or "every method alike"

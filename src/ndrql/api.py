@@ -115,6 +115,7 @@ def solve(
     predictions: tuple[np.ndarray, np.ndarray | None] | None = None,
     config: QLConfig = QLConfig(),
     prior_config: PriorConfig = PriorConfig(),
+    preset: Any = None,
     settings: PlanSettings = PlanSettings(),
     scen: str | os.PathLike | None = None,
     scen_index: int = 0,
@@ -138,8 +139,13 @@ def solve(
     resolution instead of the model. ``settings``: grid rule, size, robot radius, smoothing
     (default: the safe grid for a user's map; :meth:`PlanSettings.paper` for the paper's).
     ``workers``: processes for many runs (default: all cores; results do not depend on it).
+    ``preset``: ``"spec"``, ``"tuned"``, a preset file or a :class:`~ndrql.planning.preset.Preset`:
+    each method runs with its own constants from it, and the fields of ``config``/``prior_config``
+    that differ from their defaults win over the preset's (default ``None``: ``config`` and
+    ``prior_config`` for every method, which by default are the paper-reproduction constants).
     """
     from ndrql.pipeline.problem import build_grid
+    from ndrql.planning.preset import load_preset, method_configs
     from ndrql.pipeline.route import make_route
     from ndrql.planning.methods import build_priors, downscale_priors, get_method
 
@@ -154,6 +160,10 @@ def solve(
     if not seed_list:
         raise NdrqlError("no seed given")
     info = dict(info or {})
+    preset_obj = None if preset is None else load_preset(preset)
+    consts = lambda name: method_configs(preset_obj, name, config, prior_config)  # noqa: E731
+    if preset_obj is not None:
+        info["preset"] = preset_obj.name
 
     with clock.stage("map"):
         grid_map = read_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
@@ -206,13 +216,14 @@ def solve(
                              f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
         with clock.stage("predict"):
             region, guideline = downscale_priors(region_map, guideline_map, pg.shape)
-            ms = _fall_back(ms, region, guideline_map, grid_map, pg, prior_config, settings, info)
+            ndr = next((m for m in ms if m.needs_ndr), ms[0])
+            ms = _fall_back(ms, region, guideline_map, grid_map, pg, consts(ndr.name)[1], settings, info)
 
     priors = {}
     thresholds: dict[str, float | None] = {}
     with clock.stage("priors"):
         for m in ms:
-            priors[m.name] = build_priors(m, pg.blocked, pg.start, pg.goal, region, guideline, prior_config)
+            priors[m.name] = build_priors(m, pg.blocked, pg.start, pg.goal, region, guideline, consts(m.name)[1])
             if m.n_qi:
                 thresholds[m.name] = priors[m.name].threshold
 
@@ -229,10 +240,10 @@ def solve(
     with clock.stage("learn"), warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
         if n_workers == 1 or len(jobs) == 1:
-            results = [run_one(pg.blocked, pg.start, pg.goal, m.name, s, config, prior_config,
+            results = [run_one(pg.blocked, pg.start, pg.goal, m.name, s, *consts(m.name),
                                priors=priors[m.name], keep_records=keep_records) for m, s in jobs]
         else:
-            results = run_many([PlanJob(pg.blocked, pg.start, pg.goal, m.name, s, config, prior_config, region, guideline,
+            results = run_many([PlanJob(pg.blocked, pg.start, pg.goal, m.name, s, *consts(m.name), region, guideline,
                                         keep_records) for m, s in jobs], workers=n_workers)
 
     with clock.stage("route"):
@@ -253,7 +264,7 @@ def solve(
         grid_map=grid_map, start=start, goal=goal, grid=pg, methods=tuple(m.name for m in ms),
         seeds=tuple(seed_list), results=tuple(runs), region=region_map, guideline=guideline_map,
         thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=used_weights,
-        info=info, config=config, prior_config=prior_config, setup=setup, settings=settings,
+        info=info, config=consts(ms[0].name)[0], prior_config=consts(ms[0].name)[1], setup=setup, settings=settings,
     )
 
 

@@ -27,6 +27,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=10, metavar="N", help="seeds 0..N-1 for every method (default: 10)")
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
+    p.add_argument("--preset", default="spec", metavar="NAME", help="constants per method: spec (the paper's; "
+                   "default), tuned (searched on validation maps with ndrql tune) or a preset FILE")
     p.set_defaults(func=run)
 
 
@@ -69,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with warnings_to_stderr():
         report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
-                       workers=args.workers, info={"source": sample.description},
+                       workers=args.workers, info={"source": sample.description}, preset=args.preset,
                        settings=PlanSettings.paper())  # a dataset map: the paper's 50x50 area grid
     pg = report.grid
     print(f"demo map: {sample.description}")
@@ -78,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
     print("\n".join(_summary(report)))
     table = table_markdown(report)
     head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.description}); seeds 0..{args.seeds - 1}; "
-            f"A* optimum {report.astar_length} moves; NDR-QI threshold {report.thresholds.get('NDR-QL')}.")
+            f"A* optimum {report.astar_length} moves; NDR-QI threshold {report.thresholds.get('NDR-QL')}; "
+            f"constants: preset {args.preset}.")
     written = [
         _save(compare_figure(report), str(out / "compare.png")),
         _save(plan_figure(report, method="NDR-QL"), str(out / "ndr-ql.png")),

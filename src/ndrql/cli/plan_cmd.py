@@ -109,9 +109,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
                    "(one panel per method with --compare)")
+    p.add_argument("--preset", metavar="NAME", help="constants per method: spec (the paper's), tuned (searched on "
+                   "validation maps with ndrql tune) or a preset FILE; the flags below override its values "
+                   "(default: tuned when it won on the validation maps, else spec)")
     add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
+
+
+def _preset(args: argparse.Namespace):
+    """``--preset`` (default: :func:`ndrql.planning.preset.plan_default_preset`) with explicit flags on top."""
+    from ndrql.planning.preset import load_preset, plan_default_preset
+
+    ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
+    pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
+    return load_preset(args.preset or plan_default_preset()).with_overrides(ql, pri)
 
 
 def _configs(args: argparse.Namespace):
@@ -167,7 +179,8 @@ def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg:
     with warnings_to_stderr():
         return run_batch(loaded, scen_path, args.index, args.all, method=methods[0], seed=args.seed,
                          settings=_settings(args, sample=False), jsonl=args.jsonl, echo=print,
-                         solve_kw={"weights": args.weights, "config": ql_cfg, "prior_config": prior_cfg, "workers": 1})
+                         solve_kw={"weights": args.weights, "config": ql_cfg, "prior_config": prior_cfg, "workers": 1,
+                                   "preset": _preset(args)})
 
 
 def _summary(report: Any) -> list[str]:
@@ -259,7 +272,7 @@ def run(args: argparse.Namespace) -> int:
     with warnings_to_stderr():
         report = solve(grid_map, start, goal, methods, list(seeds),
                        weights=args.weights, predictions=predictions, config=ql_cfg, prior_config=prior_cfg,
-                       settings=settings, scen=scen, scen_index=index, workers=args.workers,
+                       preset=_preset(args), settings=settings, scen=scen, scen_index=index, workers=args.workers,
                        keep_records=args.records, info=info, start_world=_xyyaw(start_world),
                        goal_world=_xyyaw(goal_world))
     pg = report.grid

@@ -239,6 +239,20 @@ def plan_default_preset() -> str:
         return "spec"
 
 
+def method_configs(preset: Preset | None, method: str, ql: QLConfig = QLConfig(),
+                   priors: PriorConfig = PriorConfig()) -> tuple[QLConfig, PriorConfig]:
+    """Constants of ``method``: ``ql``/``priors`` without a preset; with one, its entry for the
+    method, on which the fields of ``ql``/``priors`` that differ from the defaults win (the API's rule)."""
+    if preset is None:
+        return ql, priors
+    from dataclasses import fields
+
+    q_over = {f.name: getattr(ql, f.name) for f in fields(QLConfig) if getattr(ql, f.name) != getattr(QLConfig(), f.name)}
+    p_over = {f.name: getattr(priors, f.name) for f in fields(PriorConfig)
+              if getattr(priors, f.name) != getattr(PriorConfig(), f.name)}
+    return preset.configs(method, q_over, p_over)
+
+
 def spec_preset() -> Preset:
     """The paper-reproduction constants for every method (what ``spec.json`` holds)."""
     return Preset(name="spec", meta={"description": "the paper-reproduction constants for every method"})
@@ -251,5 +265,5 @@ def configs_dict(ql: QLConfig, priors: PriorConfig) -> dict[str, dict[str, Any]]
 
 
 __all__ = ["BUILTIN", "FORMAT", "MethodSetting", "PRESET_FIELDS", "Preset", "PresetError", "VERSION", "builtin_path",
-           "configs_dict", "load_preset", "plan_default_preset", "preset_from_dict", "preset_to_dict", "spec_preset",
+           "configs_dict", "load_preset", "method_configs", "plan_default_preset", "preset_from_dict", "preset_to_dict", "spec_preset",
            "write_preset"]

@@ -122,7 +122,7 @@ def test_inflation_closes_a_gap_narrower_than_the_robot():
     assert not inflate(m, 0)[30, 100:110].any()
     open4 = inflate(m, 4)  # pixels within 4 px of the wall: cols 100..103 and 106..109
     assert open4[30, 100:104].all() and open4[30, 106:110].all() and not open4[30, 104:106].any()
-    assert inflate(m, 5)[30, 100:110].all()  # a 10 px gap needs a radius below 5 (2 r + 1 <= 10)
+    assert not inflate(m, 4.9)[30, 104:106].all() and inflate(m, 5)[30, 100:110].all()  # closes at r = g / 2
     grown = inflate(m, 3)
     assert grown[27, 50] and grown[33, 50] and not grown[26, 50]  # the wall grows 3 px on both sides
     assert grown[28, 112] and not grown[27, 108]  # round corners: (27, 108) is sqrt(13) > 3 from (30, 110)

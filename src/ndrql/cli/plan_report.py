@@ -76,7 +76,7 @@ def route_lines(report: Any) -> list[str]:
             r = bad[0]
             seg, (pr, pc) = r.route.final_collisions[0]
             who = f"{m} seed {r.seed}" if single or len(bad) == 1 else f"{m}: {len(bad)} of {len(runs)} runs; seed {r.seed}"
-            hint = " (the paper's area grid cuts thin walls: --grid safe)" if area else ""
+            hint = " (the paper's area grid lets paths clip obstacles; --grid safe does not)" if area else ""
             lines.append(f"{who}: path collides: {len(r.route.final_collisions)} of {len(r.route.pixels) - 1} segments "
                          f"cross obstacles on the full map (first at pixel ({pr}, {pc})); not a success{hint}")
         elif runs and not area:

@@ -84,7 +84,8 @@ def _record(index: int, scen: Any, key: dict[str, Any], report: Any, seconds: fl
 
     run = report.results[0]
     rec: dict[str, Any] = {**key, "scenario": index, "start": list(scen.start), "goal": list(scen.goal),
-                           "optimal": scen.optimal_length, "converged": run.converged, "success": run.success,
+                           "optimal": scen.optimal_length, "ran": run.method, "converged": run.converged,
+                           "success": run.success,
                            "grid": list(report.grid.shape), "seconds": round(seconds, 3)}
     if run.route is not None:
         cost = octile_cost(run.route.pixels)
@@ -102,7 +103,8 @@ def _line(rec: dict[str, Any]) -> str:
         return f"{head}: no path ({'converged' if rec['converged'] else 'not converged'})"
     state = "ok" if rec["success"] else ("COLLIDES" if rec.get("collisions") else "not converged")
     ratio = f"{rec['ratio']:.3f}x" if rec.get("ratio") is not None else "-"
-    return (f"{head}; path {rec['octile']:.2f} ({ratio}) on a {rec['grid'][0]}x{rec['grid'][1]} grid, {state}, "
+    ran = f" ({rec['ran']} ran)" if rec.get("ran") not in (None, rec.get("method")) else ""
+    return (f"{head}; path {rec['octile']:.2f} ({ratio}) on a {rec['grid'][0]}x{rec['grid'][1]} grid, {state}{ran}, "
             f"{rec['seconds']:.2f} s")
 
 

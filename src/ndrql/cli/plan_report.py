@@ -18,12 +18,16 @@ def length_text(px: float, resolution: float | None) -> str:
 
 
 def table(methods: list[str], results: list[Any]) -> list[str]:
-    """Per-method table: converged runs, steps (mean, median, 95% CI), episodes, path / A*, short/long episodes."""
+    """Per-method table: converged runs, steps (mean, median, 95% CI), episodes, path / A*, short/long episodes.
+
+    Columns are as wide as their widest cell (:func:`ndrql.cli.text.text_table`); a note under the
+    table says what ``short/long`` means.
+    """
+    from ndrql.cli.text import text_table
     from ndrql.planning.results import summarize
 
-    head = (f"{'method':<8} {'conv':>6} {'steps mean':>11} {'median':>9} {'95% CI':>21} {'episodes':>9} "
-            f"{'path/A*':>8} {'short/long':>12}")
-    lines = [head, "-" * len(head)]
+    header = ("method", "conv", "steps mean", "median", "95% CI", "episodes", "path/A*", "short/long")
+    rows = []
     for m in methods:
         rs = [r for r in results if r.method == m]
         conv = [r for r in rs if r.converged]
@@ -33,11 +37,11 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
         short = summarize([r.shortest_success_length for r in conv])
         long_ = summarize([r.longest_success_length for r in conv])
         ci = f"[{fmt(st['ci95_low'])}, {fmt(st['ci95_high'])}]" if st["ci95_low"] is not None else "-"
-        lines.append(
-            f"{m:<8} {len(conv):>3}/{len(rs):<2} {fmt(st['mean']):>11} {fmt(st['median']):>9} {ci:>21} "
-            f"{fmt(ep['mean']):>9} {fmt(ratio['mean'], 3):>8} {fmt(short['mean']) + '/' + fmt(long_['mean']):>12}"
-        )
-    return lines
+        rows.append((m, f"{len(conv)}/{len(rs)}", fmt(st["mean"]), fmt(st["median"]), ci, fmt(ep["mean"]),
+                     fmt(ratio["mean"], 3), fmt(short["mean"]) + "/" + fmt(long_["mean"])))
+    note = ("short/long: moves of the shortest and the longest training episode that reached the goal "
+            "before convergence (means over the converged runs)")
+    return text_table(header, rows) + [note]
 
 
 def grid_lines(report: Any) -> list[str]:
@@ -55,7 +59,7 @@ def grid_lines(report: Any) -> list[str]:
     a = setup.auto
     if a is not None:
         lost = [str(t.size) for t in a.trials if t.ratio is None]
-        over = [f"{t.size} ({t.ratio:.2f}x)" for t in a.trials if t.ratio is not None and t.size != a.size]
+        over = [f"{t.size} ({t.ratio:.3f}x)" for t in a.trials if t.ratio is not None and t.size != a.size]
         tail = "; ".join(x for x in (f"{', '.join(lost)}: no route" if lost else "",
                                      f"too long: {', '.join(over)}" if over else "") if x)
         lines.append(f"size auto: route on the grid {a.chosen.ratio:.3f} x the map's shortest "

@@ -58,7 +58,7 @@ class PlanSettings:
                 size = "auto"
             object.__setattr__(self, "size", size)
         if size == "auto" and self.grid != "safe":
-            raise NdrqlError("size auto needs the safe grid (the area rule has no route check); give a size such as 50")
+            raise NdrqlError("size auto needs the safe grid (--grid safe); the area rule takes a size such as 50")
         if isinstance(size, bool) or (size not in (None, "auto") and not isinstance(size, int)):
             raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}")
         if isinstance(size, int):

@@ -1,0 +1,328 @@
+"""ndrql tune: search spaces, the objective on hand-made maps, the study (seeded, resumable), presets."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ndrql.errors import NdrqlError
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import method_names
+from ndrql.planning.preset import (PRESET_FIELDS, MethodSetting, Preset, PresetError, builtin_path, load_preset,
+                                   method_configs, preset_from_dict, preset_to_dict, write_preset)
+from ndrql.tuning import space as S
+from ndrql.tuning.objective import Evaluation, Problem, chunks, evaluate, run_problem
+
+optuna = pytest.importorskip("optuna")
+
+
+def make_problem(key: str, n: int = 14, gap_col: int = 11) -> Problem:
+    """An n x n grid with a wall across row n // 2 and one gap; region/guideline on the A* path."""
+    from ndrql.maps.astar import astar4
+
+    blocked = np.zeros((n, n), dtype=bool)
+    blocked[n // 2, :] = True
+    blocked[n // 2, gap_col] = False
+    start, goal = (1, 1), (n - 2, 1)
+    res = astar4(blocked, start, goal)
+    guide = np.zeros((n, n))
+    for r, c in res.path:
+        guide[r, c] = 1.0
+    region = np.clip(guide + np.roll(guide, 1, 0) + np.roll(guide, -1, 1), 0, 1)
+    return Problem(key, blocked, start, goal, int(res.moves), region, guide)
+
+
+PROBLEMS = [make_problem("a", 14, 11), make_problem("b", 12, 9), make_problem("c", 14, 4)]
+
+
+# ------------------------------------------------------------------------------------------- spaces
+
+
+def test_search_spaces_per_method():
+    names = {m: [p.name for p in S.search_space(m)] for m in method_names()}
+    base = ["alpha", "epsilon", "gamma"]
+    assert names["QL"] == base and names["O-QL"] == base and names["D-Q"] == base  # D-QI has no constant
+    assert names["D-C"] == base + ["r_max", "G"]
+    assert names["N-C"] == base + ["r_max"]
+    assert names["IQL"] == base + ["r_max", "G"]
+    assert names["N-Q"] == base + ["omega_qi", "mask_low", "thd_start", "thd_step"]
+    assert names["NDR-QL"] == base + ["r_max", "G", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step"]
+
+
+@pytest.mark.parametrize("method", method_names())
+def test_spec_point_inside_every_space_and_round_trips(method):
+    params = S.params_of(method, QLConfig(), PriorConfig())
+    for p in S.search_space(method):
+        assert p.low <= params[p.name] <= p.high
+        assert set(p.fields) <= set(PRESET_FIELDS[p.part])
+    ql, pc = S.configs_from_params(params)
+    assert (ql, pc) == (QLConfig(), PriorConfig())
+
+
+def test_g_sets_both_decay_lengths():
+    ql, pc = S.configs_from_params({"G": 3.5, "alpha": 0.4})
+    assert pc.g_row == pc.g_col == 3.5 and ql.alpha == 0.4 and ql.epsilon == QLConfig().epsilon
+
+
+# ---------------------------------------------------------------------------------------- objective
+
+
+def test_evaluation_known_answers():
+    ev = Evaluation()
+    ev.add("x", [(True, 100, 1.0), (True, 300, 1.2)])
+    ev.add("y", [(False, 1000, math.nan)])
+    assert ev.steps == pytest.approx(1400 / 3)  # pooled over runs, failed runs count their steps
+    assert ev.ratio == pytest.approx(1.1)  # converged runs only
+    assert ev.not_converged == 1 and ev.n_runs == 3
+    assert [len(c) for c in chunks(list(range(7)), 3)] == [3, 3, 1]
+
+
+def test_evaluate_matches_single_runs_and_ignores_chunking_and_workers():
+    from ndrql.planning.runner import plan
+    from ndrql.workers import process_pool
+
+    seeds = [0, 1]
+    ql, pc = QLConfig(max_episodes=3000), PriorConfig()
+    one, stopped = evaluate(PROBLEMS, "NDR-QL", seeds, ql, pc)
+    assert stopped == ""
+    for p in PROBLEMS:
+        for s, (conv, steps, ratio) in zip(seeds, one.runs[p.key]):
+            r = plan(p.blocked, p.start, p.goal, "NDR-QL", s, ql, pc, region=p.region, guideline=p.guideline)
+            assert conv == r.converged and steps == r.convergence_steps
+            assert ratio == pytest.approx(r.path_length / p.astar) and ratio >= 1.0  # never shorter than A*
+    chunked, _ = evaluate(PROBLEMS, "NDR-QL", seeds, ql, pc, chunk=1)
+    with process_pool(2, start_method="fork") as pool:
+        pooled, _ = evaluate(PROBLEMS, "NDR-QL", seeds, ql, pc, pool=pool, chunk=2)
+    assert one.runs == chunked.runs == pooled.runs
+    assert list(pooled.runs) == [p.key for p in PROBLEMS]
+
+
+def test_evaluate_stops_at_the_first_run_that_does_not_converge():
+    ql = QLConfig(max_episodes=3)  # nothing converges in 3 episodes (W = 20)
+    ev, stopped = evaluate(PROBLEMS, "QL", [0, 1, 2], ql, PriorConfig(), stop_on_failure=True)
+    assert stopped == "not converged" and list(ev.runs) == ["a"] and len(ev.runs["a"]) == 1
+    assert run_problem(PROBLEMS[0], "QL", [0, 1], ql, PriorConfig()) == run_problem(PROBLEMS[0], "QL", [0, 1], ql,
+                                                                                      PriorConfig())
+
+
+def test_after_chunk_can_stop_an_evaluation():
+    seen = []
+
+    def after(i, ev):
+        seen.append((i, len(ev.runs)))
+        return i == 1
+
+    ev, stopped = evaluate(PROBLEMS, "QL", [0], QLConfig(), PriorConfig(), chunk=1, after_chunk=after)
+    assert stopped == "after_chunk" and seen == [(0, 1), (1, 2)] and len(ev.runs) == 2
+
+
+# -------------------------------------------------------------------------------------------- study
+
+
+def _cfg(method="IQL", trials=6, seed=0, **kw):
+    from ndrql.tuning.study import TuneConfig
+
+    return TuneConfig(method, trials=trials, samples=len(PROBLEMS), seeds=2, seed=seed, chunk=1, max_episodes=3000,
+                      startup_trials=3, prune_warmup=1, **kw)
+
+
+def _trials(study):
+    return [(t.number, t.state.name, t.value, dict(t.params)) for t in study.get_trials(deepcopy=False)]
+
+
+def test_study_is_deterministic_per_seed_and_keeps_the_spec_point(tmp_path):
+    from ndrql.tuning.study import best_trial, run_study
+
+    runs = []
+    for i, seed in enumerate((0, 0, 1)):
+        st = run_study(_cfg(seed=seed), PROBLEMS, f"sqlite:///{tmp_path}/s{i}.db", progress=False)
+        runs.append(st)
+    a, b, c = (_trials(s) for s in runs)
+    assert a == b  # same seed, one worker: the same trials, so the same best trial
+    assert best_trial(runs[0]).number == best_trial(runs[1]).number
+    assert [t[3] for t in a[1:]] != [t[3] for t in c[1:]]  # seed + 1: other constants
+    t0 = runs[0].trials[0]
+    assert t0.user_attrs["spec"] and t0.params == S.params_of("IQL", QLConfig(), PriorConfig())
+    base = runs[0].user_attrs["baseline"]
+    assert t0.value == base["steps"] and base["runs"] == 2 * len(PROBLEMS)
+    bt = best_trial(runs[0])
+    assert bt.value <= t0.value  # the SPEC point is feasible, so the best is never worse
+    assert bt.user_attrs["c_ratio"] <= 0 and bt.user_attrs["c_not_converged"] <= 0
+    assert runs[0].user_attrs["problems"] == [p.key for p in PROBLEMS]
+
+
+def test_study_resumes_with_the_same_settings(tmp_path):
+    from ndrql.tuning.study import finished, run_study
+
+    url = f"sqlite:///{tmp_path}/s.db"
+    first = _trials(run_study(_cfg(trials=3), PROBLEMS, url, progress=False))
+    st = run_study(_cfg(trials=6), PROBLEMS, url, progress=False)
+    assert finished(st) == 6 and _trials(st)[:3] == first  # continued: earlier trials kept as they were
+    assert len(optuna.get_all_study_names(url)) == 1
+    run_study(_cfg(trials=6, seed=0), PROBLEMS[:2], url, progress=False)  # other maps: another study
+    assert len(optuna.get_all_study_names(url)) == 2
+
+
+_KILL_SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+from test_tuning import PROBLEMS, _cfg
+from ndrql.tuning.study import run_study
+run_study(_cfg(trials=int(sys.argv[1]), heartbeat=1, grace=2), PROBLEMS, sys.argv[2], progress=False)
+"""
+
+
+@pytest.mark.slow
+def test_killed_search_continues_the_same_study(tmp_path):
+    """kill -9 in the middle of a search, run it again: the finished trials stay, the budget completes."""
+    from ndrql.tuning.study import finished, run_study
+
+    url = f"sqlite:///{tmp_path}/s.db"
+    script = tmp_path / "run.py"
+    script.write_text(_KILL_SCRIPT.format(tests=str(Path(__file__).parent)))
+    proc = subprocess.Popen([sys.executable, str(script), "500", url], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        done_before = 0
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                names = optuna.get_all_study_names(url)
+                if names:
+                    done_before = finished(optuna.load_study(study_name=names[0], storage=url))
+            except Exception:
+                pass
+            if done_before >= 3:
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
+        os.killpg(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    name = optuna.get_all_study_names(url)[0]
+    before = _trials(optuna.load_study(study_name=name, storage=url))
+    done_before = sum(1 for t in before if t[1] in ("COMPLETE", "PRUNED"))
+    time.sleep(2.5)  # past the grace period: a trial left running is failed and retried
+    st = run_study(_cfg(trials=done_before + 2, heartbeat=1, grace=2), PROBLEMS, url, progress=False)
+    assert st.study_name == name and optuna.get_all_study_names(url) == [name]
+    after = _trials(st)
+    assert finished(st) == done_before + 2
+    kept = [t for t in before if t[1] in ("COMPLETE", "PRUNED")]
+    assert [t for t in after if t[0] in {k[0] for k in kept}] == kept
+    assert not any(t[1] == "RUNNING" for t in after)
+
+
+def test_tune_config_rejects_bad_values():
+    from ndrql.tuning.study import TuneConfig
+
+    with pytest.raises(NdrqlError, match="unknown method"):
+        TuneConfig("QQL")
+    with pytest.raises(NdrqlError, match="trials must be an integer >= 1"):
+        TuneConfig("QL", trials=0)
+    assert TuneConfig("ndr-ql").method == "NDR-QL"
+
+
+def test_outputs_and_preset_from_a_study(tmp_path):
+    from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
+    from ndrql.tuning.study import best_trial, run_study
+
+    st = run_study(_cfg(method="NDR-QL", trials=5), PROBLEMS, f"sqlite:///{tmp_path}/s.db", progress=False)
+    folder = write_study_outputs(st, _cfg(method="NDR-QL", trials=5), tmp_path / "out")
+    best = json.loads((folder / "best.json").read_text())
+    assert best["best_trial"]["number"] == best_trial(st).number and (folder / "history.png").stat().st_size > 0
+    assert len(json.loads((folder / "trials.json").read_text())) == 5
+    setting, _ = best_setting(st, "NDR-QL")
+    check = check_presets(PROBLEMS, ["NDR-QL"], {"NDR-QL": setting}, [5, 6])
+    preset = tuned_preset({"NDR-QL": setting}, check, {"search": {"trials": 5}})
+    assert preset.plan_default == check["NDR-QL"]["tuned_wins"]
+    back = load_preset(write_preset(tmp_path / "p.json", preset))
+    assert back.configs("NDR-QL") == (setting.ql, setting.priors)
+    assert back.configs("D-C+N-C") == back.configs("NDR-QL")  # fallback for rows the search did not cover
+
+
+# ------------------------------------------------------------------------------------------ presets
+
+
+def test_spec_preset_is_the_config_defaults():
+    spec = load_preset("spec")
+    for m in method_names():
+        assert spec.configs(m) == (QLConfig(), PriorConfig())
+    data = json.loads(builtin_path("spec").read_text())
+    assert data["default"] == {"ql": {"alpha": 0.1, "epsilon": 0.2, "gamma": 0.95},
+                               "priors": {"r_max": 5.0, "g_row": 10.0, "g_col": 10.0, "omega_crf": 0.5, "omega_qi": 0.5,
+                                          "mask_low": -10.0, "thd_start": 0.99, "thd_step": 0.01}}
+    assert load_preset(None).name == "spec"
+
+
+def test_shipped_tuned_preset_is_valid_when_present():
+    if not builtin_path("tuned").is_file():
+        pytest.skip("no tuned preset shipped yet")
+    tuned = load_preset("tuned")
+    assert {"QL", "O-QL", "IQL", "NDR-QL"} <= set(tuned.methods)
+    for m, s in tuned.methods.items():
+        params = S.params_of(m, s.ql, s.priors)
+        for p in S.search_space(m):
+            assert p.low <= params[p.name] <= p.high
+        assert s.ql.max_episodes == QLConfig().max_episodes  # the search's cap never leaks into a preset
+    assert tuned.meta["search"]["problems"] and all(k.startswith("train-") for k in tuned.meta["search"]["problems"])
+
+
+def test_preset_overrides_and_method_configs():
+    p = Preset("x", methods={"QL": MethodSetting(QLConfig(alpha=0.5), PriorConfig()),
+                             "NDR-QL": MethodSetting(QLConfig(gamma=0.9), PriorConfig(r_max=9.0))}, fallback="NDR-QL")
+    assert p.configs("QL")[0].alpha == 0.5 and p.configs("ql")[0].alpha == 0.5
+    assert p.configs("IQL")[1].r_max == 9.0  # not listed: the fallback entry
+    q = p.with_overrides({"alpha": 0.2}, {"r_max": 3.0})
+    assert q.configs("QL")[0].alpha == 0.2 and q.configs("NDR-QL") == (QLConfig(alpha=0.2, gamma=0.9),
+                                                                        PriorConfig(r_max=3.0))
+    assert method_configs(None, "QL", QLConfig(alpha=0.3)) == (QLConfig(alpha=0.3), PriorConfig())
+    assert method_configs(p, "QL", QLConfig(epsilon=0.1)) == (QLConfig(alpha=0.5, epsilon=0.1), PriorConfig())
+    assert preset_from_dict(preset_to_dict(p)).configs("NDR-QL") == p.configs("NDR-QL")
+
+
+@pytest.mark.parametrize("data, message", [
+    ([], "not an ndrql preset"),
+    ({"format": "ndrql-preset", "version": 2}, "preset version 2"),
+    ({"format": "ndrql-preset", "version": 1, "methods": {"XQL": {}}}, "unknown method 'XQL'"),
+    ({"format": "ndrql-preset", "version": 1, "methods": {"QL": {"ql": {"max_episodes": 5}}}}, "cannot be set by a preset"),
+    ({"format": "ndrql-preset", "version": 1, "methods": {"QL": {"ql": {"alpha": "x"}}}}, "expected a finite number"),
+    ({"format": "ndrql-preset", "version": 1, "methods": {"QL": {"ql": {"alpha": 7.0}}}}, "alpha must be in"),
+    ({"format": "ndrql-preset", "version": 1, "fallback": "IQL"}, "fallback 'IQL' is not one of"),
+])
+def test_bad_presets_are_one_line_errors(data, message):
+    with pytest.raises(PresetError, match=message) as exc:
+        preset_from_dict(data, "p.json")
+    assert "\n" not in str(exc.value)
+
+
+def test_load_preset_errors(tmp_path):
+    with pytest.raises(PresetError, match="unknown preset 'nope'"):
+        load_preset("nope")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(PresetError, match="not valid JSON"):
+        load_preset(bad)
+
+
+def test_cli_preset_and_tune_errors(ndrql_exe, tmp_path):
+    r = subprocess.run(ndrql_exe + ["plan", "src/ndrql/data/sample_map.png", "--start", "25,179", "--goal", "167,5",
+                                    "--preset", "nope"], capture_output=True, text=True, cwd=Path(__file__).parents[1])
+    assert r.returncode == 2 and r.stderr.strip() == ("ndrql: error: unknown preset 'nope': give spec, tuned or a "
+                                                      "preset JSON file")
+    r = subprocess.run(ndrql_exe + ["tune"], capture_output=True, text=True)
+    assert r.returncode == 2 and "give --method NAME" in r.stderr
+    r = subprocess.run(ndrql_exe + ["tune", "--method", "QQL"], capture_output=True, text=True)
+    assert r.returncode == 2 and "unknown method 'QQL'" in r.stderr
+    r = subprocess.run(ndrql_exe + ["tune", "--method", "QL", "--trials", "0"], capture_output=True, text=True)
+    assert r.returncode == 2 and "--trials must be an integer" in r.stderr
+    r = subprocess.run(ndrql_exe + ["tune", "--help"], capture_output=True, text=True)
+    assert r.returncode == 0 and "ndrql tune --method NDR-QL" in r.stdout

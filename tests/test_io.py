@@ -314,3 +314,20 @@ def test_non_strict_json_round_trips_nan(tmp_path):
     nio.write_json(tmp_path / "n.json", {"x": float("nan"), "y": [float("inf"), 1.5]}, indent=None, strict=False)
     back = json.loads((tmp_path / "n.json").read_text())
     assert np.isnan(back["x"]) and back["y"] == [float("inf"), 1.5]
+
+
+def test_process_substitution_path_is_written_through(tmp_path):
+    """``--json >(gzip > x.gz)`` hands over /dev/fd/N: a magic link to a pipe that realpath cannot resolve."""
+    r, w = os.pipe()
+    try:
+        nio.write_json(f"/proc/self/fd/{w}", {"via": "fd"})
+        os.close(w)
+        w = -1
+        with os.fdopen(r, "rb") as fh:
+            r = -1
+            assert json.loads(fh.read()) == {"via": "fd"}
+    finally:
+        for fd in (r, w):
+            if fd >= 0:
+                os.close(fd)
+    assert _listing(tmp_path) == []

@@ -284,11 +284,12 @@ def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode
 def _inspect(given: Path) -> tuple[Path, os.stat_result | None]:
     """The file ``given`` names (symlinks followed) and its status (``None`` if it does not exist yet).
 
-    A folder or socket in the way is an :class:`OutputError`.
+    An existing non-regular file is returned as given (the kernel follows ``/dev/fd/N`` and other
+    magic links that :func:`os.path.realpath` cannot). A folder or socket in the way is an
+    :class:`OutputError`.
     """
-    target = Path(os.path.realpath(given))
     try:
-        st: os.stat_result | None = os.stat(target)
+        st: os.stat_result | None = os.stat(given)
     except (FileNotFoundError, NotADirectoryError):  # a missing folder or a file in the way: make_folder says
         st = None
     except OSError as exc:
@@ -297,7 +298,9 @@ def _inspect(given: Path) -> tuple[Path, os.stat_result | None]:
         raise OutputError(f"cannot write {_shown(given)}: it is a folder")
     if st is not None and stat.S_ISSOCK(st.st_mode):
         raise OutputError(f"cannot write {_shown(given)}: it is a socket")
-    return target, st
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        return given, st
+    return Path(os.path.realpath(given)), st
 
 
 @contextmanager

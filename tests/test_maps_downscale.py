@@ -94,3 +94,17 @@ def test_model_input_resize_is_unchanged(shape):
     arr[0, 0] = arr[-1, -1] = False
     out, _, _, _ = to_model_input(arr, (0, 0), (shape[0] - 1, shape[1] - 1))
     np.testing.assert_array_equal(out, _old_to_model_input_map(arr))
+
+
+@pytest.mark.parametrize("width", [1, 7, 8, 9, 64, 1001])
+@pytest.mark.parametrize("group", [1, 3, 255, 256, 300])
+def test_packed_group_sums_equal_reduceat(width, group):
+    from ndrql.maps.area import group_sums
+
+    rng = np.random.default_rng(width * 7 + group)
+    x = (rng.random((3 * group + 5, width)) < 0.9).view(np.uint8)  # dense ones: byte lanes near their limit
+    starts = np.array([0, group, 2 * group, 3 * group])
+    np.testing.assert_array_equal(group_sums(x, starts, 0, np.int32), np.add.reduceat(x, starts, axis=0, dtype=np.int32))
+    sliced = x[:, ::2] if width > 1 else x  # not contiguous along the row: the plain path
+    np.testing.assert_array_equal(group_sums(sliced, starts, 0, np.int64),
+                                  np.add.reduceat(sliced, starts, axis=0, dtype=np.int64))

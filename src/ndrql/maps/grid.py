@@ -17,6 +17,7 @@ from typing import Sequence, Tuple
 import numpy as np
 
 from ndrql.errors import NoPathError, PointError
+from ndrql.maps.area import DENSE_AREA_MAX_MACS, _overlap_matrix, _overlap_sums, area_sums  # noqa: F401 (re-exported)
 
 Cell = Tuple[int, int]
 
@@ -94,81 +95,7 @@ class GridMap:
 
 
 # ---------------------------------------------------------------------------------------------
-# Area averaging
-#
-# Output cell ``i`` of an axis of ``n_in`` pixels resized to ``n_out`` cells covers the input interval
-# ``[i * n_in / n_out, (i + 1) * n_in / n_out)``. Scaled by ``n_out`` this is ``[i * n_in, (i + 1) * n_in)``
-# and pixel ``j`` is ``[j * n_out, (j + 1) * n_out)``: overlaps are integers in units of ``1 / n_out`` pixel,
-# so sums of integer inputs are exact. The resize is separable (rows, then columns) and each pass costs
-# O(input + output): when shrinking, a pixel overlaps at most two cells; when growing, a cell at most
-# two pixels.
-
-#: Largest dense product (multiply-adds) for which :func:`area_downscale` keeps the dense matrix form on
-#: float inputs: its BLAS summation order is what the paper-reproduction numbers were computed with
-#: (201 -> 50 is 2.5 M), so those stay bit-identical; larger inputs take the O(pixels) separable form.
-DENSE_AREA_MAX_MACS = 1 << 23
-
-
-def _overlap_matrix(n_in: int, n_out: int) -> np.ndarray:
-    """Integer overlaps, in units of ``1 / n_out`` input pixels, of input pixel ``j`` with output cell ``i``.
-
-    Dense ``(n_out, n_in)``: only for small sizes (see :data:`DENSE_AREA_MAX_MACS`). Every row sums to ``n_in``.
-    """
-    i = np.arange(n_out, dtype=np.int64)[:, None]
-    j = np.arange(n_in, dtype=np.int64)[None, :]
-    lo = np.maximum(i * n_in, j * n_out)
-    hi = np.minimum((i + 1) * n_in, (j + 1) * n_out)
-    return np.maximum(hi - lo, 0)
-
-
-def _overlap_sums(x: np.ndarray, n_out: int, axis: int, acc: type) -> np.ndarray:
-    """``sum_j overlap(i, j) * x[.., j, ..]`` along ``axis`` (units of ``1 / n_out`` px), in dtype ``acc``.
-
-    Equal to the dense product with :func:`_overlap_matrix` (exactly, for integer inputs) at O(x.size + output)
-    time and memory.
-    """
-    n_in = x.shape[axis]
-    i = np.arange(n_out, dtype=np.int64)
-    shape = [1] * x.ndim
-    shape[axis] = -1
-
-    def weights(w: np.ndarray) -> np.ndarray:
-        return w.astype(acc).reshape(shape)
-
-    if n_in >= n_out:  # shrink: pixel j lies in cell (j * n_out) // n_in, the last pixel of a cell may straddle
-        starts = -((-i * n_in) // n_out)  # first pixel starting inside cell i (every cell has one)
-        out = np.add.reduceat(x, starts, axis=axis, dtype=acc) * acc(n_out)
-        last = np.append(starts[1:], n_in) - 1
-        spill = (last + 1) * n_out - (i + 1) * n_in  # part of the last pixel that lies in cell i + 1
-        sel = np.nonzero(spill[:-1] > 0)[0]
-        if sel.size:
-            d = np.take(x, last[sel], axis=axis).astype(acc) * weights(spill[sel])
-            idx = [slice(None)] * x.ndim
-            idx[axis] = sel
-            out[tuple(idx)] -= d
-            idx[axis] = sel + 1
-            out[tuple(idx)] += d
-        return out
-    # grow: cell i starts in pixel b and may reach into pixel b + 1
-    b = (i * n_in) // n_out
-    first = np.minimum((b + 1) * n_out, (i + 1) * n_in) - i * n_in
-    out = np.take(x, b, axis=axis).astype(acc) * weights(first)
-    rest = n_in - first
-    sel = np.nonzero(rest > 0)[0]
-    if sel.size:
-        idx = [slice(None)] * x.ndim
-        idx[axis] = sel
-        out[tuple(idx)] += np.take(x, b[sel] + 1, axis=axis).astype(acc) * weights(rest[sel])
-    return out
-
-
-def area_sums(values: np.ndarray, shape: tuple[int, int], acc: type = np.int64) -> np.ndarray:
-    """Area-weighted sums of ``values`` over the cells of a ``shape`` resize, in units of
-    ``1 / (shape[0] * shape[1])`` pixel (divide by the input's pixel count for the mean). Exact for
-    integer or boolean inputs with ``acc=np.int64``; O(pixels) time and memory."""
-    rows = _overlap_sums(np.asarray(values), int(shape[0]), 0, acc)
-    return _overlap_sums(rows, int(shape[1]), 1, acc)
-
+# Area averaging (the exact O(pixels) arithmetic lives in ndrql.maps.area)
 
 def area_downscale(values: np.ndarray, shape: tuple[int, int] = (PLANNING_SIZE, PLANNING_SIZE)) -> np.ndarray:
     """Resize a 2-D array to ``shape`` by exact area averaging (each output = mean over its area).
@@ -201,7 +128,8 @@ def planning_grid(obstacles: np.ndarray | GridMap, size: int | tuple[int, int] =
     h_in, w_in = arr.shape
     # obstacle area in units of 1/(h_out*w_out) px; it is at most h_in * w_in, so int32 is exact below 2**30 px
     acc = np.int32 if h_in * w_in < 1 << 30 else np.int64
-    area = area_sums((arr != 0).view(np.uint8), (h_out, w_out), acc).astype(np.int64)
+    bits = (arr if arr.dtype == bool else arr != 0).view(np.uint8)  # 0/1 bytes: what group_sums packs
+    area = area_sums(bits, (h_out, w_out), acc).astype(np.int64)
     return 2 * area >= h_in * w_in
 
 

@@ -75,7 +75,10 @@ def to_model_input(obstacles: np.ndarray, start: Point, goal: Point, side: int =
     if h >= nh and w >= nw:
         r0 = np.searchsorted(rows, np.arange(nh))  # first pixel of each bin (every bin has one)
         c0 = np.searchsorted(cols, np.arange(nw))
-        sums = np.add.reduceat(np.add.reduceat(obstacles, r0, axis=0, dtype=np.int64), c0, axis=1).astype(np.float64)
+        from ndrql.maps.area import group_sums
+
+        rows_sum = group_sums(np.ascontiguousarray(obstacles).view(np.uint8), r0, 0, np.int64)
+        sums = np.add.reduceat(rows_sum, c0, axis=1).astype(np.float64)
         counts = np.outer(np.diff(np.append(r0, h)), np.diff(np.append(c0, w))).astype(np.float64)
         small = sums / np.maximum(counts, 1) >= 0.5
     else:  # upscaling: nearest source pixel

@@ -63,17 +63,19 @@ def plan(
     priors: Priors | None = None,
     keep_records: bool = False,
     keep_q: bool = False,
+    astar: int | None = None,
 ) -> PlanResult:
     """One Q-learning run of ``method`` with ``seed`` on a planning grid (SPEC sections 2-4).
 
     Raises :class:`PointError` for a start/goal off the grid or blocked and :class:`NoPathError`
     when they are not 4-connected. ``priors`` (from :func:`build_priors`) skips rebuilding them; a
     ``Priors`` whose ``q0`` is a previous run's final Q-table (``keep_q=True``) warm-starts the run.
+    ``astar``: the A* length when the caller knows it already (many runs on one grid skip the search).
     """
     t0 = time.perf_counter()
     m = get_method(method)
     blocked, start, goal = _check_problem(blocked, start, goal)
-    opt = astar_length(blocked, start, goal)
+    opt = int(astar) if astar is not None else astar_length(blocked, start, goal)
     if priors is None:
         priors = build_priors(m, blocked, start, goal, region, guideline, prior_config)
     h, w = blocked.shape

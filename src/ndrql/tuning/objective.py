@@ -117,7 +117,7 @@ def run_problem(p: Problem, method: str, seeds: Sequence[int], ql: QLConfig, pc:
                            p.guideline if m.needs_ndr else None, pc)
     out = []
     for s in seeds:
-        r = plan(p.blocked, p.start, p.goal, m, int(s), ql, pc, priors=pri)
+        r = plan(p.blocked, p.start, p.goal, m, int(s), ql, pc, priors=pri, astar=p.astar)
         ratio = float(r.length_ratio) if r.converged and r.length_ratio is not None else math.nan
         steps = r.convergence_steps if r.converged else r.total_steps  # a failed run counts every step it took
         out.append((bool(r.converged), int(steps), ratio))

@@ -152,9 +152,9 @@ def office(rng: np.random.Generator, height: int, width: int, *, wall: int | Non
     (a quarter of the rows) and up to about ``furniture`` (0-4) desks and cabinets per room-sized
     area. Doorways are kept clear.
     """
-    check_range("wall", wall, 1, max(height, width))
-    check_range("corridor", corridor, 1, max(height, width))
-    check_range("furniture", furniture, 0, 64)
+    check_range("wall", wall, 1, max(height, width), integer=True)
+    check_range("corridor", corridor, 1, max(height, width), integer=True)
+    check_range("furniture", furniture, 0, 64, integer=True)
     return redraw_until_open(lambda: orient(rng, height, width, lambda h, w: _office_plan(
         rng, h, w, wall, corridor, furniture)))
 
@@ -215,9 +215,9 @@ def warehouse(rng: np.random.Generator, height: int, width: int, *, aisle: int |
     the racks (1-2 aisles), an outer wall (70 %), the share of aisles blocked at one end (0-40 %)
     and pallets in the main aisle (half the maps).
     """
-    check_range("aisle", aisle, 1, max(height, width))
-    check_range("shelf", shelf, 1, max(height, width))
-    check_range("cross", cross, 0, 64)
+    check_range("aisle", aisle, 1, max(height, width), integer=True)
+    check_range("shelf", shelf, 1, max(height, width), integer=True)
+    check_range("cross", cross, 0, 64, integer=True)
     return redraw_until_open(lambda: orient(rng, height, width, lambda h, w: _warehouse_plan(
         rng, h, w, aisle, shelf, cross)))
 
@@ -276,6 +276,6 @@ def ros_scan(rng: np.random.Generator, height: int, width: int, *, outside: floa
     scan by up to 30 degrees.
     """
     check_range("outside", outside, 0.0, 0.85)
-    check_range("wall", wall, 1, max(height, width))
+    check_range("wall", wall, 1, max(height, width), integer=True)
     check_range("noise", noise, 0.0, 0.2)
     return redraw_until_open(lambda: _ros_once(rng, height, width, outside, wall, noise))

@@ -153,3 +153,31 @@ def test_same_seed_same_route_and_octile_cost():
     b = ndrql.plan(m, (100, 100), (300, 100), method="QL", seed=3, workers=1)
     assert np.array_equal(a.route.pixels, b.route.pixels) and a.success == b.success
     assert octile_cost([(0, 0), (3, 4)]) == pytest.approx(4 + 3 * (2 ** 0.5 - 1))
+
+
+def test_a_colliding_path_is_called_out_by_the_cli_and_marked_in_the_figure(ndrql_exe, office, tmp_path):
+    import json
+    import subprocess
+
+    from PIL import Image
+
+    Image.fromarray(np.where(office, 0, 255).astype(np.uint8)).save(tmp_path / "office.png")
+    r = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "office.png"), "--start", "300,200", "--goal", "1700,1800",
+                        "--method", "IQL", "--grid", "area", "--size", "50", "--json", str(tmp_path / "p.json"),
+                        "--png", str(tmp_path / "p.png")], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr  # the command worked; the answer is "this path does not hold"
+    assert "IQL seed 0: path collides:" in r.stdout and "not a success" in r.stdout
+    data = json.loads((tmp_path / "p.json").read_text())
+    assert data["runs"][0]["success"] is False and data["runs"][0]["collisions"]
+    assert data["summary"]["IQL"]["collide"] == 1 and (tmp_path / "p.png").stat().st_size > 0
+
+
+def test_plan_figure_marks_collisions(office):
+    from ndrql.viz.plan import plan_figure
+
+    report = ndrql.solve(office, OFFICE_START, OFFICE_GOAL, "IQL", 1, workers=1, settings=PlanSettings.paper())
+    fig = plan_figure(report)
+    labels = [c.get_label() for ax in fig.axes for c in ax.collections]
+    n = len(report.results[0].collisions)
+    assert n and f"collision ({n})" in labels
+    assert "PATH COLLIDES" in fig.axes[0].get_title()

@@ -46,10 +46,18 @@ def one_line(message: object) -> str:
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line (no usage dump); subcommand parsers inherit it."""
+    """An argument parser whose errors are one line (the error, then this parser's usage in short);
+    its help is plain text (no docstring markup). Subcommand parsers inherit it."""
 
     def error(self, message: str) -> "NoReturn":  # type: ignore[override]
-        self.exit(2, f"ndrql: error: {one_line(message)} (see {self.prog} --help)\n")
+        from ndrql.cli.text import short_usage
+
+        self.exit(2, f"ndrql: error: {one_line(message)} ({short_usage(self)}; see {self.prog} --help)\n")
+
+    def format_help(self) -> str:
+        from ndrql.cli.text import plain
+
+        return plain(super().format_help())
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -81,12 +89,20 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # the subcommand's parser reports flags it does not know, with its own usage
+        chosen = _chosen_parser(parser, args)
+        chosen.error(f"unrecognized arguments: {' '.join(extra)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:  # `ndrql ... | head`: the reader left; stop quietly like other Unix tools
+        _silence_stdout()
+        return 141
     except (NdrqlError, ValueError, OverflowError) as exc:
         print(f"ndrql: error: {one_line(exc)}", file=sys.stderr)
         return 2
@@ -96,6 +112,30 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("ndrql: interrupted", file=sys.stderr)
         return 130
+
+
+def _chosen_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The (sub)parser that parsed ``args``: follows ``command`` and nested subcommands, else ``parser``."""
+    current = parser
+    while True:
+        subs = [a for a in current._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs:
+            return current
+        chosen = getattr(args, subs[0].dest or "", None)
+        if chosen not in subs[0].choices:
+            return current
+        current = subs[0].choices[chosen]
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush cannot raise BrokenPipeError again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

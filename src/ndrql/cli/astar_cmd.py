@@ -14,7 +14,7 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_max_pixels_argument, add_problem_arguments
+    from ndrql.cli.common import add_dpi_argument, add_max_pixels_argument, add_problem_arguments
     from ndrql.limits import MAX_GRID_SIZE
 
     p = subparsers.add_parser(
@@ -36,6 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     p.add_argument("--png", metavar="FILE", help="write a picture of the map and the path")
     p.add_argument("--print-grid", action="store_true", help="print the planning grid with the path (S, G, *)")
+    add_dpi_argument(p)
     p.set_defaults(func=run)
 
 
@@ -63,10 +64,11 @@ def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import check_outputs, resolve_problem
+    from ndrql.cli.common import check_dpi, check_outputs, resolve_problem
     from ndrql.limits import MAX_GRID_SIZE, check_int
 
     check_int(args.size, "--size", 1, MAX_GRID_SIZE)
+    check_dpi(args)
     check_outputs(args.json, args.png)
     scen = None
     if args.scen:
@@ -81,7 +83,7 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
 
     ``args`` needs ``size``, ``octile``, ``json``, ``png`` and ``print_grid``.
     """
-    from ndrql.cli.common import map_info, save_figure, warnings_to_stderr, write_json
+    from ndrql.cli.common import check_dpi, map_info, save_figure, warnings_to_stderr, write_json
     from ndrql.maps.astar import astar4, astar8
     from ndrql.maps.grid import PlanningGrid, grid_to_strings
 
@@ -105,13 +107,16 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
         if args.png:
             def draw(ax: Any) -> None:
                 from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path
+                from ndrql.viz.style import ASTAR_COLOR, legend_below
 
                 plot_occupancy(ax, grid_map.obstacles)
-                plot_path(ax, res.path, label=f"octile A* ({res.cost:.1f})")
+                plot_path(ax, res.path, color=ASTAR_COLOR, label=f"octile A* ({res.cost:.1f})")[0].set_linestyle("--")
                 plot_endpoints(ax, problem.start, problem.goal)
                 ax.set_aspect("equal")
-                ax.legend(loc="upper right", fontsize=7)
-            print(f"wrote {save_figure(draw, args.png)}")
+                ax.set_xticks([])
+                ax.set_yticks([])
+                legend_below(ax)
+            print(f"wrote {save_figure(draw, args.png, dpi=check_dpi(args))}")
         return 0
 
     with warnings_to_stderr():
@@ -144,5 +149,5 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
         from ndrql.viz.maps import plot_planning_result
 
         title = f"{grid_map.source}\nA* on the {pg.shape[0]}x{pg.shape[1]} planning grid: {res.moves} moves"
-        print(f"wrote {save_figure(lambda ax: plot_planning_result(ax, grid_map.obstacles, pg.blocked, res.path, pg.source_start, pg.source_goal, title=title), args.png)}")
+        print(f"wrote {save_figure(lambda ax: plot_planning_result(ax, grid_map.obstacles, pg.blocked, res.path, pg.source_start, pg.source_goal, title=title), args.png, dpi=check_dpi(args))}")
     return 0

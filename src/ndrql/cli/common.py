@@ -187,7 +187,27 @@ def check_outputs(*paths: str | Path | None) -> None:
             check_writable(path)
 
 
-def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 120) -> Path:
+def add_dpi_argument(parser: argparse.ArgumentParser) -> None:
+    """``--dpi N``: the resolution of the command's figures (:data:`ndrql.viz.style.DEFAULT_DPI` by default)."""
+    from ndrql.viz.style import DEFAULT_DPI
+
+    parser.add_argument("--dpi", type=int, default=DEFAULT_DPI, metavar="N",
+                        help=f"figure resolution in dots per inch, {MIN_DPI}..{MAX_DPI} (default: {DEFAULT_DPI})")
+
+
+#: Range of ``--dpi``.
+MIN_DPI, MAX_DPI = 30, 600
+
+
+def check_dpi(args: argparse.Namespace) -> int:
+    """``args.dpi`` checked against :data:`MIN_DPI`..:data:`MAX_DPI` (the style's default when the command has no flag)."""
+    from ndrql.limits import check_int
+    from ndrql.viz.style import DEFAULT_DPI
+
+    return check_int(getattr(args, "dpi", DEFAULT_DPI), "--dpi", MIN_DPI, MAX_DPI)
+
+
+def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 110) -> Path:
     """Create an Agg figure, call ``draw(ax)``, save it through :func:`ndrql.io.save_figure` (format from the extension)."""
     from ndrql.io import save_figure as io_save_figure
     from ndrql.viz.maps import new_figure

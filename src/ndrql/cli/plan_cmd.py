@@ -40,7 +40,7 @@ _PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_
 def register(subparsers: argparse._SubParsersAction) -> None:
     from ndrql.cli.options import add_config_flags
     from ndrql.api import PlanSettings
-    from ndrql.cli.common import add_problem_arguments
+    from ndrql.cli.common import add_dpi_argument, add_problem_arguments
     from ndrql.planning.config import PriorConfig, QLConfig, field_docs
 
     p = subparsers.add_parser(
@@ -48,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
         description="Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a "
         "dataset sample): the NDR model predicts region and guideline, the method's priors (paper Eqs. 2-7) "
-        "guide tabular Q-learning on the planning grid (SPEC sections 1-4) until the greedy path is stable. "
+        "guide tabular Q-learning on the planning grid (docs/method.md) until the greedy path is stable. "
         "Prints convergence episode and steps, the greedy path length against the A* optimum, the NDR-QI "
         "threshold and the time of each stage. Start and goal map to planning cells as for `astar`.",
         epilog=EXAMPLES,
@@ -109,11 +109,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
                    "(one panel per method with --compare)")
+    add_dpi_argument(p)
     p.add_argument("--preset", metavar="NAME", help="constants per method: spec (the paper's), tuned (searched on "
                    "validation maps with ndrql tune) or a preset FILE; the flags below override its values "
                    "(default: tuned when it won on the validation maps, else spec)")
-    add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
-    add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
+    add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
+    add_config_flags(p.add_argument_group("priors, paper Eqs. 2-7 (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
 
 
@@ -220,8 +221,9 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 
     seeds = check_seeds(args.seed, args.seeds)  # a range: --seeds is bounded, every seed below 2**63
-    from ndrql.cli.common import check_outputs
+    from ndrql.cli.common import check_dpi, check_outputs
 
+    check_dpi(args)
     check_outputs(args.json, args.png)  # before the work: an unwritable output is one line now, not after planning
     if args.workers is not None:
         check_int(args.workers, "--workers", 1, MAX_WORKERS)
@@ -290,7 +292,8 @@ def run(args: argparse.Namespace) -> int:
     if args.png:
         from ndrql.viz.plan import compare_figure, plan_figure
 
-        fig = plan_figure(report) if len(methods) == 1 else compare_figure(report)
+        dpi = check_dpi(args)
+        fig = plan_figure(report, dpi=dpi) if len(methods) == 1 else compare_figure(report, dpi=dpi)
         echo(f"wrote {_save(fig, args.png)}")
     if args.path_out:
         echo(f"wrote {write_path(args.path_out, report.results[0])}")

@@ -11,7 +11,7 @@ EXAMPLES = """examples:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_max_pixels_argument, add_problem_arguments
+    from ndrql.cli.common import add_dpi_argument, add_max_pixels_argument, add_problem_arguments
     from ndrql.model.predict import BACKENDS
 
     p = sub.add_parser("predict", help="predict the path region and guideline with the NDR model",
@@ -25,6 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="threads for the forward pass (default: 1)")
+    add_dpi_argument(p)
     p.set_defaults(func=run)
 
 
@@ -33,13 +34,14 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ndrql.cli.common import resolve_problem, save_figure
+    from ndrql.cli.common import check_dpi, resolve_problem, save_figure
     from ndrql.io import make_folder, save_npz
     from ndrql.limits import MAX_THREADS, check_int
     from ndrql.model.predict import Predictor
     from ndrql.viz.prediction import plot_probability_overlay
 
     check_int(args.threads, "--threads", 1, MAX_THREADS)
+    dpi = check_dpi(args)
     problem = resolve_problem(args)
     out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
     obstacles = problem.grid_map.obstacles
@@ -55,11 +57,14 @@ def run(args: argparse.Namespace) -> int:
         arrays["guideline"] = pred.guideline.astype(np.float32)
     save_npz(npz, arrays)
     written = [npz]
-    for name, prob, cmap in (("region", pred.region, "viridis"), ("guideline", pred.guideline, "magma")):
+    h, w = obstacles.shape
+    size = (5.2, min(9.0, max(2.5, 4.4 * h / w)) + 1.0)  # room for the colour bar and the legend below
+    for name, prob in (("region", pred.region), ("guideline", pred.guideline)):
         if prob is None:
             continue
-        written.append(save_figure(lambda ax, prob=prob, name=name, cmap=cmap: plot_probability_overlay(
-            ax, obstacles, prob, cmap=cmap, start=problem.start, goal=problem.goal, title=f"NDR {name}"), out / f"{name}.png"))
+        written.append(save_figure(lambda ax, prob=prob, name=name: plot_probability_overlay(
+            ax, obstacles, prob, kind=name, start=problem.start, goal=problem.goal, title=f"NDR {name}"),
+            out / f"{name}.png", figsize=size, dpi=dpi))
     print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "
           f"region > 0.5: {int((pred.region >= 0.5).sum())} px" +
           (f", guideline > 0.5: {int((pred.guideline >= 0.5).sum())} px" if pred.guideline is not None else ""))

@@ -45,37 +45,44 @@ def plot_path(ax: Any, path: Sequence[Sequence[float]], *, color: str = "tab:red
 
 def plot_endpoints(ax: Any, start: Sequence[float], goal: Sequence[float], *, size: float = 80) -> list[Any]:
     """Mark start (green circle) and goal (blue star), points as ``(row, col)``; returns both artists."""
-    s = ax.scatter([start[1]], [start[0]], s=size, c="tab:green", marker="o", edgecolors="white", label="start", zorder=4)
-    g = ax.scatter([goal[1]], [goal[0]], s=size * 1.6, c="tab:blue", marker="*", edgecolors="white", label="goal", zorder=4)
+    from ndrql.viz.style import GOAL_COLOR, START_COLOR
+
+    s = ax.scatter([start[1]], [start[0]], s=size, c=START_COLOR, marker="o", edgecolors="white", label="start", zorder=4)
+    g = ax.scatter([goal[1]], [goal[0]], s=size * 1.6, c=GOAL_COLOR, marker="*", edgecolors="white", label="goal", zorder=4)
     return [s, g]
 
 
 def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, path_cells: Sequence[Sequence[int]],
                          source_start: Sequence[int], source_goal: Sequence[int], *, title: str | None = None) -> list[Any]:
-    """The source map, the planning grid's blocked cells (shaded) and a planning-grid path, in source pixels.
+    """The source map, the planning grid's blocked cells (shaded) and the A* path on the planning grid, in source
+    pixels, in the style of ``plan``'s figures (:mod:`ndrql.viz.style`: A* blue and dashed, legend below the map).
 
     Cell centres are converted with :func:`ndrql.maps.grid.cell_to_point`; returns every artist drawn.
     """
+    from matplotlib.patches import Patch
+
     from ndrql.maps.grid import cell_to_point
+    from ndrql.viz.style import ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, OBSTACLE_COLOR, legend_below
 
     obstacles = np.asarray(obstacles, dtype=bool)
     h, w = obstacles.shape
     artists: list[Any] = []
-    artists.append(plot_occupancy(ax, obstacles, color="black", zorder=1))
-    artists.append(plot_occupancy(ax, blocked, color="tab:orange", alpha=0.3, extent=(-0.5, w - 0.5, h - 0.5, -0.5), zorder=2))
+    artists.append(plot_occupancy(ax, obstacles, color=OBSTACLE_COLOR, zorder=1))
+    artists.append(plot_occupancy(ax, blocked, color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA,
+                                  extent=(-0.5, w - 0.5, h - 0.5, -0.5), zorder=2))
     pts = [cell_to_point(c, (h, w), blocked.shape) for c in path_cells]
-    artists += plot_path(ax, pts, label=f"A* path ({len(path_cells) - 1} moves)")
+    artists += plot_path(ax, pts, color=ASTAR_COLOR, linewidth=2.0, label=f"A* ({len(path_cells) - 1} moves)")
+    artists[-1].set_linestyle("--")
     artists += plot_endpoints(ax, source_start, source_goal)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)
     ax.set_aspect("equal")
-    ax.set_xlabel("col")
-    ax.set_ylabel("row")
+    ax.set_xticks([])
+    ax.set_yticks([])
     if title:
         artists.append(ax.set_title(title, fontsize=9))
-    from matplotlib.patches import Patch
-
-    handles, labels = ax.get_legend_handles_labels()
-    handles += [Patch(color="black", label="obstacle"), Patch(color="tab:orange", alpha=0.3, label="blocked planning cell")]
-    artists.append(ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=3, fontsize=7, frameon=False))
+    handles, _ = ax.get_legend_handles_labels()
+    handles += [Patch(color=OBSTACLE_COLOR, label="obstacle"),
+                Patch(color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA, label="blocked cell")]
+    artists.append(legend_below(ax, handles))
     return artists

@@ -9,11 +9,7 @@ import numpy as np
 
 from ndrql.viz.maps import plot_endpoints, plot_occupancy
 
-#: One colour per method, stable across figures.
-METHOD_COLORS: dict[str, str] = {
-    "QL": "tab:gray", "O-QL": "tab:orange", "IQL": "tab:purple", "NDR-QL": "tab:red",
-    "D-C": "tab:brown", "N-C": "tab:pink", "D-Q": "tab:olive", "N-Q": "tab:cyan", "A*": "tab:blue",
-}
+from ndrql.viz.style import METHOD_COLORS  # noqa: F401  (re-exported: one home, ndrql.viz.style)
 
 
 def _frame(ax: Any, shape: tuple[int, int]) -> None:

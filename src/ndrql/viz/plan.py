@@ -14,20 +14,8 @@ import numpy as np
 
 from ndrql.viz.maps import new_figure, plot_endpoints, plot_occupancy, plot_path
 
-#: One colour per method, stable across figures.
-METHOD_COLORS: dict[str, str] = {
-    "QL": "tab:gray", "O-QL": "tab:orange", "IQL": "tab:purple", "NDR-QL": "tab:red",
-    "D-C": "tab:brown", "N-C": "tab:pink", "D-Q": "tab:olive", "N-Q": "tab:cyan",
-}
-ASTAR_COLOR = "tab:blue"
-REGION_RGB = (0.15, 0.65, 0.25)
-GUIDELINE_RGB = (1.0, 0.55, 0.0)
-
-
-def method_color(name: str, i: int = 0) -> str:
-    """The colour of a method (a fallback cycle for names not in :data:`METHOD_COLORS`)."""
-    cycle = ("tab:green", "tab:pink", "tab:olive", "tab:cyan", "tab:brown")
-    return METHOD_COLORS.get(name, cycle[i % len(cycle)])
+from ndrql.viz.style import (ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, GUIDELINE_RGB, METHOD_COLORS,  # noqa: F401
+                              REGION_RGB, legend_below, method_color)
 
 
 def plot_probability(ax: Any, prob: np.ndarray, rgb: Sequence[float], *, max_alpha: float = 0.65, floor: float = 0.2,
@@ -81,8 +69,8 @@ def plot_plan(
         extent = (-0.5, blocked.shape[1] * cell_size[1] - 0.5, blocked.shape[0] * cell_size[0] - 0.5, -0.5)
     # predictions first, then the map on top of them so obstacles stay crisp
     artists: list[Any] = [plot_occupancy(ax, obstacles, color="black", zorder=2)]
-    artists.append(plot_occupancy(ax, blocked, color="0.55", alpha=0.25, extent=extent, zorder=2))
-    keys = [Patch(color="black", label="obstacle"), Patch(color="0.55", alpha=0.25, label="blocked cell")]
+    artists.append(plot_occupancy(ax, blocked, color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA, extent=extent, zorder=2))
+    keys = [Patch(color="black", label="obstacle"), Patch(color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA, label="blocked cell")]
     if region is not None:
         artists.append(plot_probability(ax, region, REGION_RGB, max_alpha=0.45))
         keys.append(Patch(color=REGION_RGB, alpha=0.45, label="NDR region"))
@@ -121,8 +109,7 @@ def plot_plan(
         artists.append(ax.set_title(title, fontsize=9))
     if legend:
         handles, _ = ax.get_legend_handles_labels()
-        artists.append(ax.legend(handles=handles + keys, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=3,
-                                 fontsize=7, frameon=False))
+        artists.append(legend_below(ax, handles + keys))
     return artists
 
 

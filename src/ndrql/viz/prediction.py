@@ -9,18 +9,31 @@ import numpy as np
 from ndrql.viz.maps import plot_endpoints, plot_occupancy
 
 
-def plot_probability_overlay(ax: Any, obstacles: np.ndarray, prob: np.ndarray, *, cmap: str = "viridis",
+def plot_probability_overlay(ax: Any, obstacles: np.ndarray, prob: np.ndarray, *, cmap: str | None = None,
                              start: Sequence[float] | None = None, goal: Sequence[float] | None = None,
-                             title: str | None = None, alpha: float = 0.75) -> list[Any]:
-    """The map in grey with ``prob`` (0..1) drawn on top; returns the artists."""
-    artists = [plot_occupancy(ax, obstacles)]
+                             title: str | None = None, alpha: float = 0.85, kind: str = "region",
+                             colorbar: bool = True) -> list[Any]:
+    """The map in black with ``prob`` (0..1) drawn on top, a colour bar beside it and start and goal
+    in a legend below (:mod:`ndrql.viz.style`); returns the artists.
+
+    ``kind`` (``region`` or ``guideline``) picks the colour map of ``plan``'s figures unless ``cmap`` is given.
+    """
+    from ndrql.viz.style import GUIDELINE_CMAP, REGION_CMAP, legend_below, probability_colorbar
+
+    cmap = cmap or (GUIDELINE_CMAP if kind == "guideline" else REGION_CMAP)
     masked = np.ma.masked_less(np.asarray(prob, float), 0.02)
-    artists.append(ax.imshow(masked, cmap=cmap, vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest"))
+    image = ax.imshow(masked, cmap=cmap, vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest", zorder=1)
+    artists = [image, plot_occupancy(ax, obstacles, zorder=2)]
     if start is not None and goal is not None:
         artists += list(plot_endpoints(ax, start, goal))
+        artists.append(legend_below(ax, ncol=2))
+    if colorbar:
+        artists.append(probability_colorbar(ax, image, f"{kind} probability"))
     if title:
-        ax.set_title(title)
-    ax.set_axis_off()
+        ax.set_title(title, fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_aspect("equal")
     return artists
 
 

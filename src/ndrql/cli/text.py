@@ -1,0 +1,65 @@
+"""Text for the terminal: help without docstring markup, a one-line usage for errors, aligned tables.
+
+Subcommand descriptions and flag help come from docstrings written for Sphinx-style rendering
+(``None``, ``:class:`~ndrql.x.Y```, ``Example::``). :func:`plain` turns that into plain text for
+``--help`` (and for ``docs/cli.md``, which is generated from it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from typing import Any, Sequence
+
+_ROLE = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj):`~?([^`<]+?)`")
+_LITERAL = re.compile(r"``([^`]+)``")
+_BLOCK = re.compile(r"(\S)::(\s*\n)")
+
+
+def plain(text: str) -> str:
+    """``text`` without reST markup: roles become their name, ````x```` becomes ``x``, ``Example::`` ``Example:``."""
+    text = _ROLE.sub(lambda m: m.group(1).rsplit(".", 1)[-1], text)
+    text = _LITERAL.sub(r"\1", text)
+    text = _BLOCK.sub(r"\1:\2", text)
+    return re.sub(r"(?m)^(\s*)::\s*$", "", text)
+
+
+def _positional_usage(action: argparse.Action) -> str:
+    name = action.metavar if isinstance(action.metavar, str) else action.dest.upper()
+    if action.nargs == "?":
+        return f"[{name}]"
+    if action.nargs == "*":
+        return f"[{name} ...]"
+    if action.nargs == "+":
+        return f"{name} [{name} ...]"
+    if action.nargs in (argparse.PARSER, argparse.REMAINDER):
+        return f"{name} ..."
+    return name
+
+
+def short_usage(parser: argparse.ArgumentParser) -> str:
+    """``usage: PROG [options] POSITIONALS`` in one short line (the full usage of ``plan`` runs to 20 lines)."""
+    positionals = [_positional_usage(a) for a in parser._actions if not a.option_strings]
+    return " ".join(["usage:", parser.prog, "[options]", *positionals])
+
+
+def text_table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: str | None = None, gap: int = 2) -> list[str]:
+    """Lines of a plain-text table whose columns are as wide as their widest cell, ``gap`` spaces apart.
+
+    ``align`` has one letter per column, ``l`` or ``r`` (default: first left, the rest right), so
+    numbers of any size (an 8-digit step count, a wide interval) never run into the next column.
+    A rule of ``-`` follows the header.
+    """
+    cells = [[str(h) for h in header]] + [[str(c) for c in row] for row in rows]
+    n = len(header)
+    if any(len(row) != n for row in cells):
+        raise ValueError(f"every row needs {n} cells like the header")
+    align = align or "l" + "r" * (n - 1)
+    widths = [max(len(row[i]) for row in cells) for i in range(n)]
+    sep = " " * gap
+
+    def line(row: list[str]) -> str:
+        return sep.join(c.ljust(w) if a == "l" else c.rjust(w) for c, w, a in zip(row, widths, align)).rstrip()
+
+    out = [line(cells[0]), "-" * (sum(widths) + gap * (n - 1))]
+    return out + [line(row) for row in cells[1:]]

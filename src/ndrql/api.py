@@ -4,7 +4,8 @@
     >>> result = ndrql.plan("map.png", start=(25, 179), goal=(167, 5))   # NDR-QL, seed 0
     >>> result.converged, result.path_length, result.length_ratio
 
-:func:`plan` runs one method with one seed and returns a :class:`~ndrql.planning.results.PlanResult`.
+:func:`plan` runs one method with one seed and returns a :class:`PlannedRun` (a
+:class:`~ndrql.planning.results.PlanResult` with its path on the map and whether that path holds).
 :func:`solve` runs several methods on the same seeds and returns a :class:`PlanReport` with the
 planning grid, the model's predictions, the NDR-QI thresholds and the time of every stage; the
 ``ndrql plan`` and ``ndrql demo`` commands are thin wrappers around it.

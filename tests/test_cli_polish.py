@@ -146,3 +146,16 @@ def test_dpi_flag_sets_the_figure_resolution(ndrql_exe, tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2 and r.stderr.strip() == "ndrql: error: --dpi must be an integer in 30..600, got 5"
     assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("workers, backend", [(1, "process"), (2, "process"), (2, "thread")])
+def test_run_many_progress_bar_does_not_change_results(workers, backend, capsys):
+    from ndrql.planning import PlanJob, run_many
+
+    blocked = np.zeros((8, 10), dtype=bool)
+    blocked[3, :8] = True
+    jobs = [PlanJob(blocked, (0, 0), (7, 0), m, s) for m in ("QL", "IQL") for s in range(3)]
+    plain_runs = run_many(jobs, workers=1)
+    shown = run_many(jobs, workers=workers, backend=backend, progress=True)
+    assert all(a.same_run(b) and (a.method, a.seed) == (j.method, j.seed) for a, b, j in zip(plain_runs, shown, jobs))
+    assert capsys.readouterr().out == ""  # the bar never writes to stdout (and hides itself off a terminal)

@@ -128,6 +128,7 @@ def solve(
     workers: int | None = None,
     keep_records: bool = False,
     info: dict[str, Any] | None = None,
+    progress: bool = False,
 ) -> PlanReport:
     """Plan on one map with every method in ``methods`` and every seed in ``seeds``.
 
@@ -241,11 +242,14 @@ def solve(
     with clock.stage("learn"), warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
         if n_workers == 1 or len(jobs) == 1:
+            from tqdm import tqdm  # progress: a bar of finished runs on stderr, on a terminal only
+
             results = [run_one(pg.blocked, pg.start, pg.goal, m.name, s, *consts(m.name),
-                               priors=priors[m.name], keep_records=keep_records) for m, s in jobs]
+                               priors=priors[m.name], keep_records=keep_records)
+                       for m, s in tqdm(jobs, desc="runs", unit="run", disable=None if progress else True, leave=False)]
         else:
             results = run_many([PlanJob(pg.blocked, pg.start, pg.goal, m.name, s, *consts(m.name), region, guideline,
-                                        keep_records) for m, s in jobs], workers=n_workers)
+                                        keep_records) for m, s in jobs], workers=n_workers, progress=progress)
 
     with clock.stage("route"):
         routes: dict[tuple[tuple[int, int], ...], Route] = {}  # seeds often agree on the path: check it once

@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     with warnings_to_stderr():
         report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
                        workers=args.workers, info={"source": sample.description}, preset=args.preset,
-                       settings=PlanSettings.paper())  # a dataset map: the paper's 50x50 area grid
+                       settings=PlanSettings.paper(), progress=True)  # a dataset map: the paper's 50x50 area grid
     pg = report.grid
     print(f"demo map: {sample.description}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "

@@ -276,7 +276,7 @@ def run(args: argparse.Namespace) -> int:
                        weights=args.weights, predictions=predictions, config=ql_cfg, prior_config=prior_cfg,
                        preset=_preset(args), settings=settings, scen=scen, scen_index=index, workers=args.workers,
                        keep_records=args.records, info=info, start_world=_xyyaw(start_world),
-                       goal_world=_xyyaw(goal_world))
+                       goal_world=_xyyaw(goal_world), progress=True)
     pg = report.grid
     # with --json - the JSON owns stdout; the summary goes to stderr
     echo = functools.partial(print, file=sys.stderr if args.json == "-" else sys.stdout)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -181,35 +181,50 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "process") -> list[PlanResult]:
+def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "process",
+             progress: bool = False) -> list[PlanResult]:
     """Run ``jobs`` on ``workers`` cores (default: all) and return results in job order.
 
     ``backend``: ``"process"`` (a process pool, forked where the platform allows so workers inherit
     the loaded kernel) or ``"thread"`` (the kernel releases the GIL). With one worker or one job, runs in this process.
-    Results do not depend on the backend or the number of workers.
+    Results do not depend on the backend or the number of workers. ``progress``: a progress bar of
+    finished runs on stderr (shown on a terminal only).
     """
+    from tqdm import tqdm
+
     jobs = list(jobs)
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    if workers == 1 or len(jobs) <= 1:
-        return [_run_job(j) for j in jobs]
-    from ndrql.planning import kernel
+    with tqdm(total=len(jobs), desc="runs", unit="run", disable=None if progress else True, leave=False) as bar:
+        if workers == 1 or len(jobs) <= 1:
+            out = []
+            for j in jobs:
+                out.append(_run_job(j))
+                bar.update()
+            return out
+        from ndrql.planning import kernel
 
-    kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
-    if backend == "thread":
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            return list(pool.map(_run_job, jobs))
-    if backend != "process":
-        raise ValueError(f"unknown backend {backend!r}; valid: process, thread")
-    n_chunks = min(len(jobs), workers * 4)
-    chunks = [jobs[i::n_chunks] for i in range(n_chunks)]
-    from ndrql.workers import process_pool
+        kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
+        if backend == "thread":
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                futures = [pool.submit(_run_job, j) for j in jobs]
+                for fut in as_completed(futures):
+                    bar.update()
+                return [f.result() for f in futures]
+        if backend != "process":
+            raise ValueError(f"unknown backend {backend!r}; valid: process, thread")
+        n_chunks = min(len(jobs), workers * 4)
+        chunks = [jobs[i::n_chunks] for i in range(n_chunks)]
+        from ndrql.workers import process_pool
 
-    with process_pool(min(workers, n_chunks), start_method="fork") as pool:  # workers die with this process
-        parts = list(pool.map(_run_chunk, chunks))
-    out: list[PlanResult | None] = [None] * len(jobs)
+        with process_pool(min(workers, n_chunks), start_method="fork") as pool:  # workers die with this process
+            futures = [pool.submit(_run_chunk, c) for c in chunks]
+            for fut in as_completed(futures):
+                bar.update(len(fut.result()))
+            parts = [f.result() for f in futures]
+    out_: list[PlanResult | None] = [None] * len(jobs)
     for i, part in enumerate(parts):
         for k, res in enumerate(part):
-            out[i + k * n_chunks] = res
-    return out  # type: ignore[return-value]
+            out_[i + k * n_chunks] = res
+    return out_  # type: ignore[return-value]

@@ -23,8 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("tune", help="search a planner's constants on validation maps (needs ndrql[tune])",
                        description=__doc__, epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--method", metavar="NAME", help="method to tune (QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL)")
-    p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the SPEC "
-                   "point included (default: 200)")
+    p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the spec "
+                   "preset's point included (default: 200)")
     p.add_argument("--samples", type=int, default=100, metavar="K", help="validation maps per evaluation (default: 100)")
     p.add_argument("--seeds", type=int, default=3, metavar="S", help="Q-learning seeds per map, 0..S-1 (default: 3)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the TPE sampler (default: 0)")
@@ -41,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
     p.add_argument("--workers", type=int, default=2, metavar="N", help="processes running a trial's maps (default: 2)")
     p.add_argument("--export-preset", metavar="FILE", help="instead of searching: write the best trials of the "
-                   "--methods' studies as a preset file, after checking them against SPEC on fresh seeds")
+                   "--methods' studies as a preset file, after checking them against spec on fresh seeds")
     p.add_argument("--methods", metavar="LIST", default="QL,O-QL,IQL,NDR-QL",
                    help="--export-preset: methods to collect (default: QL,O-QL,IQL,NDR-QL)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     bt = best_trial(study)
     base = study.user_attrs["baseline"]
     print(f"{cfg.method}: study {study.study_name} in {storage}")
-    print(f"SPEC constants: {base['steps']:,.0f} steps per run, greedy path / A* {base['ratio']:.3f}")
+    print(f"spec preset: {base['steps']:,.0f} steps per run, greedy path / A* {base['ratio']:.3f}")
     if bt is not None:
         print(f"best trial {bt.number}: {bt.value:,.0f} steps ({1 - bt.value / base['steps']:.0%} fewer), "
               f"greedy path / A* {bt.user_attrs.get('ratio', float('nan')):.3f}")
@@ -152,7 +152,7 @@ def _export(args, cfgs, problems, storage, digest, log) -> int:
     with process_pool(args.workers, start_method="fork") as pool:
         check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool)
     for m, c in check.items():
-        log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: SPEC {c['spec']['steps']:,.0f} steps "
+        log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: spec {c['spec']['steps']:,.0f} steps "
             f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned']['steps']:,.0f} ({c['tuned']['ratio']:.3f}); "
             f"{'tuned wins' if c['tuned_wins'] else 'tuned does not win'}")
     meta = {"search": {"samples": len(problems), "seeds": cfg.seed_list, "trials": cfg.trials,

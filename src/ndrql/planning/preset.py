@@ -233,10 +233,9 @@ def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Prese
 
 def plan_default_preset() -> str:
     """The preset ``ndrql plan`` uses without ``--preset``: ``tuned`` if it won on validation maps, else ``spec``."""
-    try:
-        return "tuned" if load_preset("tuned").plan_default else "spec"
-    except PresetError:
+    if not builtin_path("tuned").is_file():
         return "spec"
+    return "tuned" if load_preset("tuned").plan_default else "spec"
 
 
 def method_configs(preset: Preset | None, method: str, ql: QLConfig = QLConfig(),

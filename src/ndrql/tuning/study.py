@@ -268,7 +268,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
             bt = best_trial(st)
             bar.n = min(finished(st), cfg.trials)
             if bt is not None:
-                bar.set_postfix_str(f"best {bt.value:,.0f} steps (trial {bt.number}; SPEC {base['steps']:,.0f})",
+                bar.set_postfix_str(f"best {bt.value:,.0f} steps (trial {bt.number}; spec {base['steps']:,.0f})",
                                     refresh=False)
             bar.refresh()
 

@@ -8,7 +8,7 @@ from typing import Any
 
 EXAMPLES = """examples:
   ndrql astar map.png --start 25,179 --goal 167,5 --png out/path.png --json out/path.json
-  ndrql astar --sample ../shared/data/path-planning-dataset:seen:0 --png out.png --json out.json
+  ndrql astar --sample path-planning-dataset:seen:0 --png out.png --json out.json
   ndrql astar arena.map --scen arena.map.scen:3 --octile     # MovingAI scenario 3, 8-connected
 """
 

@@ -1,6 +1,6 @@
 """``ndrql eval``: region and guideline F1 of a model on TEST/SEEN, TEST/UNSEEN or the validation split.
 
-F1 per SPEC section 5: threshold 0.5, pixel-wise per image, mean over the split, also per category.
+F1 as in the paper (docs/method.md): threshold 0.5, pixel-wise per image, mean over the split, also per category.
 On UNSEEN the 300 NARROW PASSAGE region labels are broken upstream; the main column uses the labels
 regenerated from the guideline, and an extra column scores against the original (upstream) labels.
 """
@@ -22,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--split", choices=("seen", "unseen", "val"), default="seen", help="split to score (default: seen)")
     p.add_argument("--weights", metavar="FILE", help="checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
-    p.add_argument("--data", metavar="DIR", help="dataset root (default: ../shared/data/path-planning-dataset when present)")
+    p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default: 32)")
     p.add_argument("--limit", type=int, default=0, help="score only the first N samples (0 = all)")
     p.add_argument("--threads", type=int, default=0, help="torch threads (0 = all cores)")

@@ -6,7 +6,7 @@ import argparse
 
 EXAMPLES = """examples:
   ndrql map info warehouse.yaml --crop
-  ndrql map info --sample ../shared/data/path-planning-dataset:unseen:950
+  ndrql map info --sample path-planning-dataset:unseen:950
   ndrql map convert arena.map arena.png
 """
 

@@ -7,7 +7,7 @@ from typing import Any
 
 EXAMPLES = """examples:
   ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
-  ndrql plan --sample ../shared/data/path-planning-dataset:seen:0            # start and goal from the sample
+  ndrql plan --sample path-planning-dataset:seen:0                          # start and goal from the sample
   ndrql plan office.yaml --start 120,80 --goal 30,200                        # ROS map_server map
   ndrql plan arena.map --scen arena.map.scen --index 3                       # MovingAI map + scenario 3
   ndrql plan arena.map --scen arena.map.scen --all --jsonl arena.jsonl       # every scenario vs its optimal length

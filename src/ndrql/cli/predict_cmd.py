@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 EXAMPLES = """examples:
-  ndrql predict --sample ../shared/data/path-planning-dataset:unseen:600 --out out/pred
+  ndrql predict --sample path-planning-dataset:unseen:600 --out out/pred
   ndrql predict map.png --start 20,30 --goal 180,170 --out out/pred --weights my_model.pt
 """
 

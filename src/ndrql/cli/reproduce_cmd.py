@@ -46,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("target", choices=TARGETS, metavar="TARGET", help=f"one of: {', '.join(TARGETS)}")
     p.add_argument("--out", metavar="DIR", help="results directory (default: results/<target>)")
-    p.add_argument("--data", metavar="DIR", help="dataset root (default: ../shared/data/path-planning-dataset)")
+    p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
     p.add_argument("--seeds", type=int, default=10, metavar="N", help="runs per map and method (default: 10)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
@@ -70,8 +70,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "separated by commas, each run into its own folder and compared side by side (default: spec,tuned "
                    "for table2, table3 and scale; spec for dynamic); flags below override a preset's values")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    add_config_flags(p.add_argument_group("Q-learning (SPEC 2-3)"), QLConfig, _QL_FLAGS)
-    add_config_flags(p.add_argument_group("priors (SPEC 4)"), PriorConfig, _PRIOR_FLAGS)
+    add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
+    add_config_flags(p.add_argument_group("priors (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
 
 

@@ -2,7 +2,7 @@
 
 Example::
 
-    ndrql train --data ../shared/data/path-planning-dataset --run-dir ~/.cache/ndrql/runs/ndr --epochs 8
+    ndrql train --data path-planning-dataset --run-dir ~/.cache/ndrql/runs/ndr --epochs 8
     ndrql train --run-dir ~/.cache/ndrql/runs/ndr --resume      # continue after an interruption
     ndrql train --device cuda --model ndr-stdc1 --batch-size 32  # one GPU (auto picks CUDA when present)
     torchrun --standalone --nproc-per-node 4 -m ndrql train --model ndr-stdc1 --batch-size 8 --run-dir runs/ddp

@@ -37,7 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default: sqlite under --out)")
     p.add_argument("--study-name", metavar="NAME", help="study name (default: METHOD-<digest of the settings>)")
     p.add_argument("--out", metavar="DIR", default="results/tune", help="results directory (default: results/tune)")
-    p.add_argument("--data", metavar="DIR", help="dataset root (default: ../shared/data/path-planning-dataset)")
+    p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
     p.add_argument("--workers", type=int, default=2, metavar="N", help="processes running a trial's maps (default: 2)")
     p.add_argument("--export-preset", metavar="FILE", help="instead of searching: write the best trials of the "

@@ -1,4 +1,4 @@
-"""Input encodings of map, start and goal for the NDR model (SPEC section 5; paper Table 4).
+"""Input encodings of map, start and goal for the NDR model (docs/method.md; paper Table 4).
 
 All return float32 arrays (C, H, W). ``point`` (default) is the paper's NDR input: map (1 = obstacle),
 a single-pixel start channel and a single-pixel goal channel.

@@ -8,6 +8,7 @@ guideline by the generator's 30x30 dilation (:func:`ndrql.synth.labels.dilate_re
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -231,11 +232,24 @@ def load_sample(root: str | Path, split: str, index: int) -> Sample:
     )
 
 
+#: Environment variable naming the dataset root (the folder holding ``TRAIN`` and ``TEST``).
+DATASET_ENV = "NDRQL_DATASET"
+
+
 def default_root() -> Path | None:
-    """``../shared/data/path-planning-dataset`` next to the working directory or the repo, if present."""
+    """The dataset root used when ``--data`` is not given, or ``None``.
+
+    ``$NDRQL_DATASET`` when set; else the first ``path-planning-dataset`` folder (as ``git clone``
+    names it) found in the working directory, in ``data/`` below it, or in ``../shared/data/`` beside
+    it or beside the repository.
+    """
+    env = os.environ.get(DATASET_ENV)
+    if env:
+        return Path(env).expanduser().resolve()
     here = Path(__file__).resolve()
-    candidates = [Path.cwd() / "../shared/data/path-planning-dataset"]
-    candidates += [p / "../shared/data/path-planning-dataset" for p in here.parents[:5]]
+    name = "path-planning-dataset"
+    candidates = [Path.cwd() / name, Path.cwd() / "data" / name, Path.cwd() / "../shared/data" / name]
+    candidates += [p / "../shared/data" / name for p in here.parents[:5]]
     for cand in candidates:
         if (cand / "TRAIN").is_dir():
             return cand.resolve()

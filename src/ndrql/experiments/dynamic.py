@@ -9,7 +9,7 @@ Q-table the previous stage converged to, with the new stage's rewards).
 from each new position with the goal fixed, again from scratch and warm-started.
 
 Methods: QL and NDR-QL. Every seed is a chain of stages (one sweep task), so the table is the same
-whatever the executor; the numbers are steps to (re-)converge (SPEC 3).
+whatever the executor; the numbers are steps to (re-)converge (docs/method.md).
 """
 
 from __future__ import annotations
@@ -179,7 +179,7 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     md = [f"# dynamic: re-planning after changes ({map_label}: {base.split} {base.index}, {base.category})", "",
           f"Command: `{opts.command}`" if opts.command else "", "", f"Machine: {machine_line(info)}.", "",
           f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1}; NDR weights `{preds.weights}` (sha256 {preds.digest}). "
-          "Steps = environment steps until the greedy path is stable for W = 20 episodes (SPEC 3); "
+          "Steps = environment steps until the greedy path is stable for W = 20 episodes (docs/method.md); "
           "warm = Q-table of the previous stage's (warm) run as Q0, rewards of the new stage; "
           "scratch = the method's own priors on the new stage."]
     if opts.preset is not None:

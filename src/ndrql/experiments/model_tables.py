@@ -1,6 +1,6 @@
 """Tables 1 and 4 and the model-sizing comparison: F1 of trained NDR models (and the RGP-style peer).
 
-Every score is the lead's evaluation (:func:`ndrql.training.evaluate.evaluate`, SPEC 5: threshold
+Every score is the lead's evaluation (:func:`ndrql.training.evaluate.evaluate`, docs/method.md: threshold
 0.5, per-image pixel F1, mean over the split) on TEST/SEEN and TEST/UNSEEN, cached per checkpoint
 digest so a re-run only evaluates what changed. Training state lives in run directories under
 ``$NDRQL_CACHE/runs`` (outside git): ``rgp`` for Table 1's peer, ``table4/<variant>`` for Table 4,
@@ -25,7 +25,7 @@ PAPER_TABLE1 = {"RGP": (92.81, 58.16, 59.74, 35.82), "NEED": (92.34, None, 59.16
                 "MPT": (87.70, None, 49.75, None), "NDR": (93.02, 61.22, 71.96, 37.31)}
 
 UNSEEN_NOTE = ("unseen R scores the 300 NARROW PASSAGE samples against region labels regenerated from the guideline "
-               "(the upstream ones are broken, ../shared/data/README.md); 'original labels' scores the same predictions "
+               "(the upstream ones are broken: docs/dataset.md); 'original labels' scores the same predictions "
                "against the upstream labels resized to 201 px, as the paper presumably did.")
 
 
@@ -151,7 +151,7 @@ def _write(out_dir: Path, name: str, lines: list[str], numbers: dict) -> Path:
 
 def _header(title: str, command: str, limit: int | None) -> list[str]:
     return [f"# {title}", "", f"Command: `{command}`", "", f"Machine: {machine_line(machine())}.", "",
-            f"Samples per split: {limit or 'all (1,200)'}; F1 per SPEC 5 via ndrql.training.evaluate.", ""]
+            f"Samples per split: {limit or 'all (1,200)'}; F1 per docs/method.md via ndrql.training.evaluate.", ""]
 
 
 def default_rgp_weights() -> Path:

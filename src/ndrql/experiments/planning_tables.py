@@ -32,7 +32,7 @@ TASK_VERSION = 1
 
 @dataclass(frozen=True)
 class Variant:
-    """A row of a table: a combination of priors (SPEC 4), possibly beyond the registry's names."""
+    """A row of a table: a combination of priors (docs/method.md), possibly beyond the registry's names."""
 
     name: str
     d_crf: bool = False
@@ -114,7 +114,7 @@ class SweepOptions:
     ql: QLConfig = field(default_factory=QLConfig)
     priors: PriorConfig = field(default_factory=PriorConfig)
     data: str | None = None
-    """Dataset root (default: ``../shared/data/path-planning-dataset``)."""
+    """Dataset root (default: :func:`ndrql.dataset.layout.default_root`, ``$NDRQL_DATASET`` first)."""
     weights: str | None = None
     """NDR weights (default: ``$NDRQL_WEIGHTS`` or the shipped ones)."""
     command: str = ""
@@ -213,7 +213,7 @@ def run_grid(problems: Sequence[Problem], variants: Sequence[Variant], opts: Swe
 
 
 def summarize_runs(runs: list[dict]) -> dict[str, Any]:
-    """Statistics of one (map, method) cell over its seeds (SPEC 3)."""
+    """Statistics of one (map, method) cell over its seeds (docs/method.md)."""
     conv = [r for r in runs if r["converged"]]
     n = len(runs)
     ratio = [r["length_ratio"] for r in conv]
@@ -546,7 +546,7 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
         rows.append([gname, "A*", len(groups[gname]), "100%", "-", "-", "-", "-", "0", "0", "100%"])
     md.append("\n## Results\n")
     md.append(md_table(header, rows, ["l", "l"] + ["r"] * (len(header) - 2)))
-    md.append("\nSuccess = runs that converged (SPEC 3) within the episode budget; steps over converged runs "
+    md.append("\nSuccess = runs that converged (docs/method.md) within the episode budget; steps over converged runs "
               "(pooled over maps and seeds, Student-t 95% CI); optimality gap = converged greedy path / A* - 1 "
               "on the same 50x50 grid (A* is optimal by construction: gap 0 on every connected sample).\n")
     # ---- figures

@@ -78,7 +78,7 @@ class Problem:
 
 def load_problem(root: str | Path, split: str, index: int, size: int = 50) -> Problem:
     """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
-    4-connected on the planning grid (SPEC 1: experiments skip such samples and count them)."""
+    4-connected on the planning grid (docs/method.md: experiments skip such samples and count them)."""
     from ndrql.dataset.layout import load_sample
     from ndrql.maps.astar import astar4
     from ndrql.maps.grid import PlanningGrid
@@ -167,7 +167,7 @@ class PredictionCache:
         return pred.region.astype(np.float16).astype(np.float32), pred.guideline.astype(np.float16).astype(np.float32)
 
     def attach(self, p: Problem) -> Problem:
-        """``p`` with region and guideline downscaled to its planning grid (area averaging, SPEC 1)."""
+        """``p`` with region and guideline downscaled to its planning grid (area averaging, docs/method.md)."""
         from dataclasses import replace
 
         from ndrql.planning.methods import downscale_priors

@@ -1,4 +1,4 @@
-"""Statistics of the experiment tables (SPEC section 3: mean, median, 95% CI, non-converged runs).
+"""Statistics of the experiment tables (docs/method.md: mean, median, 95% CI, non-converged runs).
 
 The confidence interval is the Student-t interval of the mean, as in
 :func:`ndrql.planning.results.summarize` (which this module reuses).

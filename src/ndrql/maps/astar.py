@@ -1,6 +1,6 @@
 """A* search: the optimality reference for every path metric.
 
-- :func:`astar4`: 4-connected, unit cost, Manhattan heuristic, on the planning grid (SPEC section 3:
+- :func:`astar4`: 4-connected, unit cost, Manhattan heuristic, on the planning grid (docs/method.md:
   the optimal path length that Q-learning paths are compared against).
 - :func:`astar8`: 8-connected with octile costs (diagonal = sqrt(2)) and no corner cutting (a
   diagonal move needs both orthogonal neighbours free), as in the MovingAI benchmarks.

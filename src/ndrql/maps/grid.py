@@ -1,4 +1,4 @@
-"""Occupancy maps and the 50x50 planning grid (SPEC section 1).
+"""Occupancy maps and the 50x50 planning grid (docs/method.md).
 
 A map is a boolean occupancy array, ``True`` = obstacle, addressed ``(row, col)``. The planning
 grid is the map downscaled by exact area averaging; a cell is blocked when at least half of its
@@ -100,7 +100,7 @@ class GridMap:
 def area_downscale(values: np.ndarray, shape: tuple[int, int] = (PLANNING_SIZE, PLANNING_SIZE)) -> np.ndarray:
     """Resize a 2-D array to ``shape`` by exact area averaging (each output = mean over its area).
 
-    Used for the planning grid and for model outputs (SPEC section 1). Works for any input size and
+    Used for the planning grid and for model outputs (docs/method.md). Works for any input size and
     aspect ratio, including non-integer ratios such as 201 -> 50, in O(pixels) time and memory (small
     inputs use the dense matrix form, see :data:`DENSE_AREA_MAX_MACS`; both agree to rounding).
     """

@@ -2,7 +2,7 @@
 
 STDC1 = stem (32, 64) + stages of (2, 2, 2) blocks at 256, 512, 1024 channels; STDC2 = (4, 5, 3).
 A width multiplier scales every channel count (the CPU default uses 0.5). Stages 3, 4, 5 come out
-at strides 8, 16, 32 (SPEC section 5).
+at strides 8, 16, 32 (docs/method.md).
 """
 
 from __future__ import annotations

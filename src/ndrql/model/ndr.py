@@ -1,4 +1,4 @@
-"""The NDR model (paper, Network Structure; SPEC section 5).
+"""The NDR model (paper, Network Structure; docs/method.md).
 
 STDC backbone -> simplified pyramid pooling on stage 5 -> two attention fusion modules (with stage 4,
 then stage 3) -> region head; the region probability concatenated with the input channels feeds a

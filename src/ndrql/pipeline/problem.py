@@ -2,7 +2,7 @@
 
 Two grid rules (:data:`~ndrql.pipeline.settings.GRID_RULES`):
 
-- ``area``, the paper's (SPEC section 1): the map area-averaged to ``size x size`` cells, a cell
+- ``area``, the paper's (docs/method.md): the map area-averaged to ``size x size`` cells, a cell
   blocked when at least half of it is obstacle (:class:`~ndrql.maps.grid.PlanningGrid`);
 - ``safe``, the default on a user's map: square cells, a cell blocked when any pixel is an obstacle
   (:mod:`ndrql.maps.safe`), at a given size or the coarsest size that keeps the route

@@ -91,7 +91,7 @@ class PlanSettings:
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":
-        """The paper's setting (SPEC section 1): area rule, 50 cells, no smoothing, no fallback; used on the dataset."""
+        """The paper's setting (docs/method.md): area rule, 50 cells, no smoothing, no fallback; used on the dataset."""
         kw = {"grid": "area", "size": PAPER_SIZE, "smooth": False, "fallback": None}
         kw.update(overrides)
         return cls(**kw)

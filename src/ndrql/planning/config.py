@@ -1,4 +1,4 @@
-"""Frozen configuration of the Q-learning planners, with the defaults of SPEC sections 2-4."""
+"""Frozen configuration of the Q-learning planners, with the defaults of docs/method.md."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ from ndrql.planning import rules
 
 @dataclass(frozen=True)
 class QLConfig:
-    """Hyper-parameters of tabular Q-learning (SPEC section 2) and of convergence (section 3)."""
+    """Hyper-parameters of tabular Q-learning and of convergence (docs/method.md, sections 2-3)."""
 
     alpha: float = 0.1
     """Learning rate (paper: fixed 0.1)."""
     epsilon: float = 0.2
     """Exploration rate of epsilon-greedy (paper: fixed 0.2)."""
     gamma: float = 0.95
-    """Discount factor (SPEC 2: 0.95; 0.9 drowns the goal's value 60 moves away)."""
+    """Discount factor (the paper gives none; 0.9 drowns the goal's value 60 moves away)."""
     max_steps: int | None = None
     """Moves per episode before it is cut; ``None`` = 4 x the number of grid cells."""
     max_episodes: int = 20000
@@ -51,7 +51,7 @@ class QLConfig:
 
 @dataclass(frozen=True)
 class PriorConfig:
-    """Parameters of the priors (SPEC section 4, paper Eqs. 2-7)."""
+    """Parameters of the priors (docs/method.md, paper Eqs. 2-7)."""
 
     r0: float = 0.0
     """Eq. 2: base reward for a move into free space (plain QL: ``r_c = r0 = 0``)."""

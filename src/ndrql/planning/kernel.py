@@ -1,8 +1,8 @@
-"""Tabular Q-learning (SPEC sections 2-3) compiled with numba: the whole run in one call.
+"""Tabular Q-learning (docs/method.md) compiled with numba: the whole run in one call.
 
-:func:`train` runs every episode (epsilon-greedy with random tie-breaking, the update of SPEC 2,
+:func:`train` runs every episode (epsilon-greedy with random tie-breaking, the update of docs/method.md,
 visited-cell tracking per episode) and, after each episode, the deterministic greedy rollout that
-decides convergence (SPEC 3). Nothing runs in Python per step or per episode. The reward and the
+decides convergence (docs/method.md). Nothing runs in Python per step or per episode. The reward and the
 transition are :func:`ndrql.planning.rules.step`, compiled here; the random stream is xoshiro256**
 seeded by splitmix64 (:mod:`ndrql.planning.rng` is its Python twin), so a run depends only on its
 seed, whatever else runs in the process.

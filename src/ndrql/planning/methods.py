@@ -1,6 +1,6 @@
 """The named Q-learning methods of the paper (Tables 2 and 3) and how their priors are built.
 
-SPEC section 4 maps each name to a set of priors:
+Each name maps to a set of priors (docs/method.md, section 5):
 
 ========  ===============================================================================
 name      priors
@@ -74,7 +74,7 @@ class Method:
         return self.n_crf or self.n_qi
 
 
-#: The methods of the paper, by name (SPEC section 4).
+#: The methods of the paper, by name (docs/method.md).
 METHODS: dict[str, Method] = {
     m.name: m
     for m in (
@@ -168,7 +168,7 @@ def build_priors(
 def downscale_priors(
     region: np.ndarray | None, guideline: np.ndarray | None, shape: tuple[int, int]
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Region and guideline at the map's resolution -> planning grid, by area averaging (SPEC 1)."""
+    """Region and guideline at the map's resolution -> planning grid, by area averaging (docs/method.md)."""
     from ndrql.maps.grid import area_downscale
 
     out = []

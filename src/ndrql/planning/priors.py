@@ -1,4 +1,4 @@
-"""The priors of the paper (Eqs. 2-7, SPEC section 4), on the planning grid.
+"""The priors of the paper (Eqs. 2-7, docs/method.md), on the planning grid.
 
 Two kinds, freely composed by :mod:`ndrql.planning.methods`:
 

@@ -32,7 +32,7 @@ class ReferenceRun:
 
 
 def greedy_rollout(q: np.ndarray, nxt: np.ndarray, start: int, goal: int) -> list[int] | None:
-    """SPEC 3 rollout: argmax with lowest-index ties; ``None`` on a revisit or after ``cells`` moves."""
+    """The convergence rollout (docs/method.md): argmax with lowest-index ties; ``None`` on a revisit or after ``cells`` moves."""
     path = [start]
     seen = {start}
     s = start
@@ -58,7 +58,7 @@ def train(
     seed: int,
     config: QLConfig = QLConfig(),
 ) -> ReferenceRun:
-    """Q-learning per SPEC 2-3 on ``blocked`` (bool (H, W)) from ``q0`` ((H*W, 4)) with ``seed``."""
+    """Q-learning per docs/method.md on ``blocked`` (bool (H, W)) from ``q0`` ((H*W, 4)) with ``seed``."""
     blocked = np.asarray(blocked, dtype=bool)
     h, w = blocked.shape
     cells = h * w

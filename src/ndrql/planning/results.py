@@ -1,4 +1,4 @@
-"""What a Q-learning run reports (SPEC section 3): :class:`PlanResult` and its JSON form."""
+"""What a Q-learning run reports (docs/method.md): :class:`PlanResult` and its JSON form."""
 
 from __future__ import annotations
 

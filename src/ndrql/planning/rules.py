@@ -1,4 +1,4 @@
-"""The Q-learning problem of SPEC section 2 (paper Eq. 1), defined once.
+"""The Q-learning problem of docs/method.md (paper Eq. 1), defined once.
 
 The compiled kernel (:mod:`ndrql.planning.kernel`), the numpy reference
 (:mod:`ndrql.planning.reference`) and the Gymnasium environment (:mod:`ndrql.env`) all use the
@@ -33,7 +33,7 @@ OUTCOME_NAMES: tuple[str, ...] = ("move", "collision", "revisit", "goal")
 
 
 def next_table(blocked: np.ndarray) -> np.ndarray:
-    """Transition table ``nxt[s, a]``: the cell action ``a`` leads to from cell ``s`` (SPEC 2).
+    """Transition table ``nxt[s, a]``: the cell action ``a`` leads to from cell ``s`` (docs/method.md).
 
     A move off the map or into an obstacle leaves the agent where it is (``nxt[s, a] == s``).
     ``blocked`` is a bool ``(H, W)`` array, ``True`` = obstacle. Returns int32 ``(H * W, 4)``.
@@ -85,7 +85,7 @@ def step(nxt, goal, r_c, visited, mark, s, a, r_collision, r_goal, r_revisit):
 
 
 def greedy_action(q, s):
-    """``argmax_a q[s, a]`` with ties broken by the lowest action index (SPEC 3 rollouts)."""
+    """``argmax_a q[s, a]`` with ties broken by the lowest action index (docs/method.md rollouts)."""
     best = 0
     v = q[s, 0]
     for a in range(1, 4):

@@ -65,7 +65,7 @@ def plan(
     keep_q: bool = False,
     astar: int | None = None,
 ) -> PlanResult:
-    """One Q-learning run of ``method`` with ``seed`` on a planning grid (SPEC sections 2-4).
+    """One Q-learning run of ``method`` with ``seed`` on a planning grid (docs/method.md).
 
     Raises :class:`PointError` for a start/goal off the grid or blocked and :class:`NoPathError`
     when they are not 4-connected. ``priors`` (from :func:`build_priors`) skips rebuilding them; a

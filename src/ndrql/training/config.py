@@ -41,8 +41,8 @@ def check_train_config(cfg: "TrainConfig") -> None:
 class TrainConfig:
     """Everything that defines a training run (saved in every checkpoint)."""
 
-    data: str = "../shared/data/path-planning-dataset"
-    """Dataset root in its original layout."""
+    data: str = "path-planning-dataset"
+    """Dataset root in its original layout; ndrql train uses $NDRQL_DATASET or a path-planning-dataset folder it finds when not given."""
     model: str = "ndr-stdc1-half"
     """Model preset (ndrql.model.registry.PRESETS)."""
     model_overrides: dict = field(default_factory=dict)

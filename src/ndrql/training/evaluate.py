@@ -1,4 +1,4 @@
-"""Evaluation of a model on a cached split: per-image region and guideline F1 (SPEC section 5)."""
+"""Evaluation of a model on a cached split: per-image region and guideline F1 (docs/method.md)."""
 
 from __future__ import annotations
 

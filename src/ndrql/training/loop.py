@@ -1,4 +1,4 @@
-"""Training loop with exact resume (SPEC section 5): AdamW, warmup + cosine, mixed precision per device,
+"""Training loop with exact resume (docs/method.md): AdamW, warmup + cosine, mixed precision per device,
 one process or many (DDP under ``torchrun``; see :mod:`ndrql.training.distributed` and docs/training.md).
 
 State lives in a run directory outside git: ``last.pt`` (written atomically every few minutes and at

@@ -1,4 +1,4 @@
-"""Training loss: BCE + Dice on each output (SPEC section 5)."""
+"""Training loss: BCE + Dice on each output (docs/method.md)."""
 
 from __future__ import annotations
 

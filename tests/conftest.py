@@ -18,11 +18,14 @@ DATASET_DIR = (REPO_ROOT.parent / "shared" / "data" / "path-planning-dataset").r
 def dataset_root() -> Path:
     """Root of the real path-planning dataset; the test is skipped when it is absent.
 
-    Override the location with the ``NDRQL_DATASET`` environment variable.
+    ``$NDRQL_DATASET`` when set, else where ``ndrql`` itself looks (``ndrql.dataset.layout.default_root``:
+    a ``path-planning-dataset`` folder in the working directory, or ``../shared/data`` beside the repo).
     """
-    root = Path(os.environ.get("NDRQL_DATASET", DATASET_DIR))
+    from ndrql.dataset.layout import default_root
+
+    root = Path(os.environ.get("NDRQL_DATASET") or default_root() or DATASET_DIR)
     if not (root / "TRAIN").is_dir() or not (root / "TEST" / "SEEN").is_dir():
-        pytest.skip(f"dataset not found at {root} (expected ../shared/data/path-planning-dataset beside the repo)")
+        pytest.skip(f"dataset not found at {root} (get it: docs/dataset.md; point NDRQL_DATASET at it)")
     return root
 
 

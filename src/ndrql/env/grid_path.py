@@ -80,7 +80,8 @@ class GridPathEnv(gym.Env):
     ## Episode End
     Terminated when the agent reaches the goal. Truncated after ``max_steps`` moves (default
     ``4 * h * w``, as in training). ``gym.make`` adds a ``TimeLimit`` of 10,000 steps
-    (``spec.max_episode_steps``): the same cap for the paper's 50x50 grid, never earlier for a smaller one.
+    (``spec.max_episode_steps``): the same cap for the paper's 50x50 grid, never earlier for a smaller
+    one; for a larger grid pass ``max_episode_steps=4 * h * w`` to ``gym.make``.
 
     ## Arguments
     - ``map``: a map file (image, ROS ``map_server`` YAML, MovingAI ``.map``, ``.npy``), a ``GridMap``

@@ -66,9 +66,13 @@ def test_astar_on_a_png_writes_json_and_png(ndrql_exe, room_png, tmp_path):
 
 def test_astar_print_grid_and_snap_warning(ndrql_exe, room_png):
     path, _ = room_png
-    rc, out, err = run(ndrql_exe, "astar", path, "--start", "60,10", "--goal", "115,10", "--print-grid")
+    # pixel (64, 10) is free, its planning cell (26, 6) two-thirds wall: snapped with a warning
+    rc, out, err = run(ndrql_exe, "astar", path, "--start", "64,10", "--goal", "115,10", "--print-grid")
     assert rc == 0
-    assert err.startswith("ndrql: warning: start (60, 10) falls in blocked planning cell")
+    assert err.startswith("ndrql: warning: start (64, 10) falls in blocked planning cell (26, 6)")
+    # a start on an obstacle pixel is refused, as by plan
+    rc, _, err = run(ndrql_exe, "astar", path, "--start", "60,10", "--goal", "115,10")
+    assert rc == 2 and err == "ndrql: error: start 60,10 is on an obstacle of the map\n"
     grid_lines = [ln for ln in out.splitlines() if len(ln) == 50 and set(ln) <= set("#.*SG")]
     assert len(grid_lines) == 50 and sum(ln.count("S") for ln in grid_lines) == 1
 

@@ -88,7 +88,7 @@ def test_not_converged_is_reported(ndrql_exe, room_npy, tmp_path):
         (["--method", "DQN"], "valid methods: QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL"),
         (["--compare", "QL,nope"], "unknown method 'nope'"),
         (["--method", "NDR-QL", "--weights", "/nonexistent/ndr.pt"], "missing model weights: /nonexistent/ndr.pt"),
-        (["--seeds", "0"], "--seeds must be >= 1"),
+        (["--seeds", "0"], "--seeds must be an integer in 1..10,000, got 0"),
         (["--gamma", "1.5"], "gamma"),
         (["--method", "N-C", "--prior-from", "missing.npz"], "prior file not found"),
     ],

@@ -113,7 +113,7 @@ def test_cli_reproduce_bad_input(ndrql_exe):
     r = subprocess.run(ndrql_exe + ["reproduce", "table9"], capture_output=True, text=True)
     assert r.returncode == 2 and "invalid choice" in r.stderr
     r = subprocess.run(ndrql_exe + ["reproduce", "table3", "--seeds", "0"], capture_output=True, text=True)
-    assert r.returncode == 2 and r.stderr.strip() == "ndrql: error: --seeds must be >= 1, got 0"
+    assert r.returncode == 2 and r.stderr.strip() == "ndrql: error: --seeds must be an integer in 1..10,000, got 0"
     r = subprocess.run(ndrql_exe + ["reproduce", "table3", "--data", "/nonexistent"], capture_output=True, text=True)
     assert r.returncode == 2 and "pass --data DIR" in r.stderr
     r = subprocess.run(ndrql_exe + ["reproduce", "--help"], capture_output=True, text=True)

@@ -206,7 +206,7 @@ def test_image_over_the_pixel_limit_is_refused_from_its_header(ndrql_exe, work):
     Image.new("L", (10_000, 10_000), 255).save(work / "big.png", optimize=True)  # ~120 KB file, 10^8 pixels
     assert (work / "big.png").stat().st_size < 300_000
     for cmd in (("map", "info", "big.png"), ("astar", "big.png", "--start", "1,1", "--goal", "9,9")):
-        one_error(run(ndrql_exe, *cmd, cwd=work, cap=True), r"10000x10000 = 100,000,000 pixels, more than the limit")
+        one_error(run(ndrql_exe, *cmd, cwd=work, cap=True), r"map is 10000x10000 = 100,000,000 pixels, more than the limit")
     one_error(run(ndrql_exe, "map", "info", "big.png", "--max-pixels", "1000", cwd=work), r"more than the limit of 1,000")
     one_error(run(ndrql_exe, "map", "info", "small.png", "--max-pixels", "0", cwd=work), r"--max-pixels must be")
 

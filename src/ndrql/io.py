@@ -24,6 +24,7 @@ layer may use it.
 from __future__ import annotations
 
 import errno
+import functools
 import hashlib
 import json
 import math
@@ -83,6 +84,7 @@ _AT_FDCWD = -100
 _AT_SYMLINK_FOLLOW = 0x400
 
 
+@functools.lru_cache(maxsize=1)
 def _linkat() -> Any:
     """libc's ``linkat`` (``os.link`` does not follow the ``/proc/self/fd`` link on Linux), or ``None``."""
     try:

@@ -35,7 +35,7 @@ def check_pixels(height: int, width: int, max_pixels: int | None, path: Path) ->
     """:class:`MapFormatError` when a ``height`` x ``width`` map exceeds ``max_pixels`` (``None``: no limit)."""
     if max_pixels is not None and height * width > max_pixels:
         raise MapFormatError(
-            f"map {path} is {height}x{width} = {height * width:,} pixels, more than the limit of {max_pixels:,}; "
+            f"{path}: map is {height}x{width} = {height * width:,} pixels, more than the limit of {max_pixels:,}; "
             f"crop or downscale it, or raise --max-pixels")
 
 

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 EXAMPLES = """examples:
-  ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 3 seeds -> results/tune/
+  ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 10 seeds -> results/tune/
   ndrql tune --method QL --trials 20 --samples 10     # a small search
   ndrql tune --method IQL --storage sqlite:////shared/studies.db   # several processes or machines, one study
   ndrql tune --export-preset tuned.json --methods QL,O-QL,IQL,NDR-QL   # best trials -> a preset file
@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the spec "
                    "preset's point included (default: 200)")
     p.add_argument("--samples", type=int, default=100, metavar="K", help="validation maps per evaluation (default: 100)")
-    p.add_argument("--seeds", type=int, default=3, metavar="S", help="Q-learning seeds per map, 0..S-1 (default: 3)")
+    p.add_argument("--seeds", type=int, default=10, metavar="S", help="Q-learning seeds per map, 0..S-1 (default: 10)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the TPE sampler (default: 0)")
     p.add_argument("--order-seed", type=int, default=0, metavar="N",
                    help="seed of the order validation maps are drawn in (default: 0)")

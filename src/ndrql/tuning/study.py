@@ -13,9 +13,12 @@
   constraints (Optuna's constrained TPE): the mean greedy path / A* is no worse than with the SPEC
   constants, and no more runs fail to converge than with them. During a search a run may take at
   most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not converge within
-  that is pruned on the spot (it already breaks the second constraint), and a trial whose running
-  mean after a chunk of maps is worse than the median of earlier trials at the same point is
-  pruned too (median pruner).
+  that is pruned on the spot (it already breaks the second constraint). After each chunk of maps
+  (from the ``prune_warmup``-th on) a trial is also pruned when it is hopeless: its running mean of
+  steps is more than ``prune_factor`` times the best feasible trial's at the same point, or its
+  running greedy path / A* is more than ``ratio_margin`` above the SPEC point's at the same point.
+  (A median pruner does not fit a constrained search: fast trials with bad paths drag the median
+  below every feasible trial.)
 - **Name**: the study's name holds the method and a digest of everything that defines the
   objective (maps, seeds, caps, search space), so changing any of them starts a new study.
 """
@@ -46,7 +49,7 @@ class TuneConfig:
     """Finished trials (completed or pruned) per study, the SPEC point included."""
     samples: int = 100
     """K: validation maps per evaluation."""
-    seeds: int = 3
+    seeds: int = 10
     """S: Q-learning seeds per map (``0 .. S-1``)."""
     seed: int = 0
     """Seed of the TPE sampler."""
@@ -58,8 +61,12 @@ class TuneConfig:
     """Episode cap of a run during the search (the SPEC's 20,000 is kept everywhere else)."""
     startup_trials: int = 20
     """Random trials before TPE starts modelling (the SPEC point counts as one)."""
-    prune_warmup: int = 2
-    """Chunks before the median pruner may stop a trial."""
+    prune_warmup: int = 3
+    """Chunks a trial runs before it may be pruned as hopeless."""
+    prune_factor: float = 1.5
+    """Hopeless: running mean steps above this times the best feasible trial's at the same chunk."""
+    ratio_margin: float = 0.03
+    """Hopeless: running greedy path / A* this much above the SPEC point's at the same chunk."""
     heartbeat: int = 30
     """Seconds between a running trial's heartbeats (SQL storages)."""
     grace: int = 120
@@ -74,6 +81,8 @@ class TuneConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < low:
                 raise NdrqlError(f"{name.replace('_', '-')} must be an integer >= {low}, got {v!r}")
+        if not (self.prune_factor >= 1.0 and self.ratio_margin >= 0.0):
+            raise NdrqlError("prune_factor must be >= 1 and ratio_margin >= 0")
         if self.grace <= self.heartbeat:
             raise NdrqlError("the grace period must be longer than the heartbeat interval")
 
@@ -89,7 +98,7 @@ class TuneConfig:
 def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str | None) -> str:
     """``<method>-<digest>``: the digest covers everything that defines the objective."""
     blob = json.dumps([S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
-                       weights_digest], sort_keys=True)
+                       cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest], sort_keys=True)
     return f"{cfg.method}-{hashlib.sha256(blob.encode()).hexdigest()[:10]}"
 
 
@@ -139,8 +148,7 @@ def open_study(cfg: TuneConfig, name: str, storage: Any) -> Any:
     sampler = optuna.samplers.TPESampler(
         seed=cfg.seed, n_startup_trials=cfg.startup_trials,
         constraints_func=None if _has_set_constraint() else _constraints_func)
-    pruner = optuna.pruners.MedianPruner(n_startup_trials=cfg.startup_trials, n_warmup_steps=cfg.prune_warmup)
-    return optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=pruner,
+    return optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=optuna.pruners.NopPruner(),
                                direction="minimize", load_if_exists=True)
 
 
@@ -164,7 +172,7 @@ def finished(study: Any) -> int:
     return sum(1 for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.PRUNED)))
 
 
-def _add_spec_trial(study: Any, cfg: TuneConfig, ev: Evaluation) -> None:
+def _add_spec_trial(study: Any, cfg: TuneConfig, ev: Evaluation, running: list[float]) -> None:
     """Trial 0: the SPEC constants, evaluated once (it is also the constraints' reference)."""
     import optuna
 
@@ -172,7 +180,7 @@ def _add_spec_trial(study: Any, cfg: TuneConfig, ev: Evaluation) -> None:
     params = S.params_of(cfg.method, ql, pc)
     attrs = {"spec": True, **{k: v for k, v in ev.summary().items()}, "c_ratio": 0.0, "c_not_converged": 0.0}
     kw: dict[str, Any] = {"params": params, "distributions": S.distributions(cfg.method), "value": ev.steps,
-                          "user_attrs": attrs}
+                          "user_attrs": attrs, "intermediate_values": dict(enumerate(running))}
     if _has_set_constraint():
         kw["constraints"] = {"c_ratio": 0.0, "c_not_converged": 0.0}
     else:
@@ -186,17 +194,26 @@ def baseline(study: Any, cfg: TuneConfig, problems: Sequence[Problem], pool: Any
     if stored is not None:
         return stored
     ql, pc = cfg.base_configs()
-    ev, _ = evaluate(problems, cfg.method, cfg.seed_list, ql, pc, pool=pool, chunk=cfg.chunk)
-    summary = ev.summary()
+    steps: list[float] = []
+    ratios: list[float] = []
+
+    def record(_i: int, ev: Evaluation) -> bool:
+        steps.append(ev.steps)
+        ratios.append(ev.ratio)
+        return False
+
+    ev, _ = evaluate(problems, cfg.method, cfg.seed_list, ql, pc, pool=pool, chunk=cfg.chunk, after_chunk=record)
+    summary = {**ev.summary(), "running_ratio": ratios}
     study.set_user_attr("baseline", summary)
     study.set_user_attr("problems", [p.key for p in problems])
     study.set_user_attr("config", asdict(cfg))
     if not study.trials:
-        _add_spec_trial(study, cfg, ev)
+        _add_spec_trial(study, cfg, ev, steps)
     return summary
 
 
-def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str, Any], pool: Any) -> Callable[[Any], float]:
+def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str, Any], pool: Any,
+                   study: Any) -> Callable[[Any], float]:
     """The function Optuna minimises (module docstring)."""
     import optuna
 
@@ -204,11 +221,20 @@ def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str,
         params = S.suggest(trial, cfg.method)
         ql, pc = S.configs_from_params(params, *cfg.base_configs())
         reason: list[str] = []
+        best = best_trial(study)
+        ref = dict(best.intermediate_values) if best is not None else {}
+        base_ratio = base.get("running_ratio", [])
 
         def after_chunk(i: int, ev: Evaluation) -> bool:
             trial.report(ev.steps, i)
-            if trial.should_prune():
-                reason.append("median pruner")
+            if i + 1 < cfg.prune_warmup:
+                return False
+            if i in ref and ev.steps > cfg.prune_factor * ref[i]:
+                reason.append(f"steps over {cfg.prune_factor} x the best feasible trial's ({best.number}) after "
+                              f"{i + 1} chunks")
+                return True
+            if i < len(base_ratio) and ev.ratio > base_ratio[i] + cfg.ratio_margin:
+                reason.append(f"greedy path / A* over the spec point's + {cfg.ratio_margin} after {i + 1} chunks")
                 return True
             return False
 
@@ -259,7 +285,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     pool = process_pool(workers, start_method="fork") if workers > 1 else None
     try:
         base = baseline(study, cfg, problems, pool)
-        objective = make_objective(cfg, problems, base, pool)
+        objective = make_objective(cfg, problems, base, pool, study)
         done = finished(study)
         bar = tqdm(total=cfg.trials, initial=min(done, cfg.trials), desc=f"tune {cfg.method}", unit="trial",
                    disable=not progress, file=sys.stderr, dynamic_ncols=True)

@@ -16,7 +16,6 @@ bytes.
 from __future__ import annotations
 
 import json
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -26,6 +25,7 @@ import numpy as np
 from ndrql.errors import DatasetError, NdrqlError
 from ndrql.io import save_npz, write_text
 from ndrql.synth.generate import RawSample, SetSpec, generate_sample
+from ndrql.workers import process_pool
 
 FORMAT = "ndrql-generated"
 VERSION = 1
@@ -113,7 +113,7 @@ def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bo
             for job in jobs:
                 bar.update(_write_shard(job))
         else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
+            with process_pool(workers) as pool:  # workers die with this process
                 for n in pool.map(_write_shard, jobs):
                     bar.update(n)
     return root

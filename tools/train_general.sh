@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# The `general` model: generate its training maps, then train it warm-started from the paper model.
+# Resumable end to end: run the same command again after an interruption (generation resumes shard
+# by shard, training from last.pt with exactly the batches it would have seen).
+#
+#   tools/train_general.sh                       # defaults below; state under $NDRQL_CACHE
+#   EPOCHS=4 STEPS=500 tools/train_general.sh    # a shorter schedule
+#
+# Seeds of training sets stay below 900000: the evaluation sets (src/ndrql/experiments/transfer_sets.json)
+# use 900000 and above. EXCLUDE=maze,office trains without those families (leave-families-out runs).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+NDRQL=${NDRQL:-.venv/bin/ndrql}
+CACHE=${NDRQL_CACHE:-$HOME/.cache/ndrql}
+DATA=${DATA:-../shared/data/path-planning-dataset}
+MODE=${MODE:-grid}                 # what the model sees (docs/results.md#ceiling): grid or map
+GRIDS=${GRIDS:-40,50,64,80,100,128}
+COUNT=${COUNT:-20000}
+SIZES=${SIZES:-201,401,801}
+SEED=${SEED:-1}
+EPOCHS=${EPOCHS:-10}
+STEPS=${STEPS:-1000}
+LR=${LR:-1e-3}
+THREADS=${THREADS:-2}
+EXCLUDE=${EXCLUDE:-}
+FAMILIES=$(.venv/bin/python -c "
+from ndrql.synth.families import family_names
+ex = set(filter(None, '${EXCLUDE}'.split(',')))
+print(','.join(f for f in family_names() if f not in ex))")
+TAG=${TAG:-general-${MODE}${EXCLUDE:+-no-${EXCLUDE//,/-}}}
+GEN=$CACHE/gen/train-s${SEED}-${FAMILIES//,/-}
+RUN=${RUN:-$CACHE/runs/$TAG}
+
+echo "families: $FAMILIES"
+echo "data: $GEN"
+echo "run: $RUN"
+"$NDRQL" data generate --family "$FAMILIES" --count "$COUNT" --size "$SIZES" --seed "$SEED" --out "$GEN" --workers 2 --no-progress
+RESUME=()
+[ -f "$RUN/last.pt" ] && RESUME=(--resume)
+exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3" --input-mode "$MODE" --grid-sizes "$GRIDS" \
+    --init-weights src/ndrql/data/ndr_default.pt --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
+    --warmup-steps 100 --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
+    --no-progress --run-dir "$RUN" "${RESUME[@]}"

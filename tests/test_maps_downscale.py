@@ -108,3 +108,17 @@ def test_packed_group_sums_equal_reduceat(width, group):
     sliced = x[:, ::2] if width > 1 else x  # not contiguous along the row: the plain path
     np.testing.assert_array_equal(group_sums(sliced, starts, 0, np.int64),
                                   np.add.reduceat(sliced, starts, axis=0, dtype=np.int64))
+
+
+def test_a_one_row_map_is_narrowed_before_it_is_widened():
+    import tracemalloc
+
+    arr = np.zeros((1, 4_000_000), dtype=bool)
+    arr[0, ::7] = True
+    tracemalloc.start()
+    g = planning_grid(arr, 50)  # 50 x 50 cells stretched over one pixel row
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert g.shape == (50, 50) and not g.any()  # 1 pixel in 7 is obstacle: every cell below half
+    assert peak < 8 * arr.size  # well below the 50 x 4 M intermediate of the rows-first order
+    np.testing.assert_array_equal(planning_grid(arr[:, :4000], 50), dense_planning_grid(arr[:, :4000], (50, 50)))

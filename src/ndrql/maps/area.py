@@ -89,6 +89,10 @@ def _overlap_sums(x: np.ndarray, n_out: int, axis: int, acc: type) -> np.ndarray
 def area_sums(values: np.ndarray, shape: tuple[int, int], acc: type = np.int64) -> np.ndarray:
     """Area-weighted sums of ``values`` over the cells of a ``shape`` resize, in units of
     ``1 / (shape[0] * shape[1])`` pixel (divide by the input's pixel count for the mean). Exact for
-    integer or boolean inputs with ``acc=np.int64``; O(pixels) time and memory."""
-    rows = _overlap_sums(np.asarray(values), int(shape[0]), 0, acc)
-    return _overlap_sums(rows, int(shape[1]), 1, acc)
+    integer or boolean inputs with ``acc=np.int64``; O(pixels) time and memory (the axis whose pass leaves the
+    smaller intermediate goes first, so a 1 x 16 M map never becomes 50 x 16 M)."""
+    x = np.asarray(values)
+    h_out, w_out = int(shape[0]), int(shape[1])
+    if h_out * x.shape[1] <= x.shape[0] * w_out:  # resize the axis that keeps the intermediate smaller first
+        return _overlap_sums(_overlap_sums(x, h_out, 0, acc), w_out, 1, acc)
+    return _overlap_sums(_overlap_sums(x, w_out, 1, acc), h_out, 0, acc)

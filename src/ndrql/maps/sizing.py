@@ -178,7 +178,12 @@ def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int
     none is connected, :class:`NoPathError` says where the bottleneck is and what to do.
     """
     trials: list[SizeTrial] = []
-    for size in ladder(free_check.shape, max_size):
+    sizes = ladder(free_check.shape, max_size)
+    if not sizes:
+        h, w = free_check.shape
+        raise NoPathError(f"a {h}x{w} map is too thin for square cells up to {max_size} on its longer side "
+                          f"(a cell must be at most twice the shorter side); crop it or use --grid area")
+    for size in sizes:
         t = try_size(free_check, start, goal, size, full_length)
         trials.append(t)
         if t.ratio is not None and t.ratio <= 1.0 + tolerance:

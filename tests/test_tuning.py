@@ -242,11 +242,15 @@ def test_outputs_and_preset_from_a_study(tmp_path):
     assert len(json.loads((folder / "trials.json").read_text())) == 5
     setting, _ = best_setting(st, "NDR-QL")
     check = check_presets(PROBLEMS, ["NDR-QL"], {"NDR-QL": setting}, [5, 6])
-    preset = tuned_preset({"NDR-QL": setting}, check, {"search": {"trials": 5}})
-    assert preset.plan_default == check["NDR-QL"]["tuned_wins"]
+    won = dict(check["NDR-QL"], tuned_wins=True)
+    preset = tuned_preset({"NDR-QL": setting}, {"NDR-QL": won}, {"search": {"trials": 5}})
+    assert preset.plan_default and preset.meta["kept_spec"] == []
     back = load_preset(write_preset(tmp_path / "p.json", preset))
     assert back.configs("NDR-QL") == (setting.ql, setting.priors)
     assert back.configs("D-C+N-C") == back.configs("NDR-QL")  # fallback for rows the search did not cover
+    lost = tuned_preset({"NDR-QL": setting}, {"NDR-QL": dict(won, tuned_wins=False)}, {})
+    assert not lost.plan_default and lost.meta["kept_spec"] == ["NDR-QL"]
+    assert lost.configs("NDR-QL") == (QLConfig(), PriorConfig())  # did not win on fresh seeds: spec constants
 
 
 # ------------------------------------------------------------------------------------------ presets
@@ -287,6 +291,7 @@ def test_preset_overrides_and_method_configs():
     assert method_configs(None, "QL", QLConfig(alpha=0.3)) == (QLConfig(alpha=0.3), PriorConfig())
     assert method_configs(p, "QL", QLConfig(epsilon=0.1)) == (QLConfig(alpha=0.5, epsilon=0.1), PriorConfig())
     assert preset_from_dict(preset_to_dict(p)).configs("NDR-QL") == p.configs("NDR-QL")
+    assert p.only("NDR-QL").configs("QL") == p.configs("NDR-QL")  # Table 2's ablation: one set for every row
 
 
 @pytest.mark.parametrize("data, message", [

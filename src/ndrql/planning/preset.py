@@ -124,6 +124,10 @@ class Preset:
         except ValueError as exc:
             raise NdrqlError(f"bad option: {exc}") from None
 
+    def only(self, method: str) -> "Preset":
+        """This preset with ``method``'s constants for every method (an ablation at fixed constants)."""
+        return replace(self, default=self.setting(method), methods={}, fallback=None)
+
     def describe(self) -> str:
         """One line: name, where from, and how many methods it sets."""
         listed = ", ".join(self.methods) or "every method alike"

@@ -6,8 +6,9 @@
 - :func:`check_presets`: the SPEC constants against the tuned ones on the same validation maps
   with *fresh* seeds (not the ones the search saw) and the SPEC's full 20,000-episode budget, so
   the comparison is not biased by selecting the best of many noisy trials.
-- :func:`tuned_preset`: the preset of the best trials; ``plan_default`` is true only if the
-  tuned constants win that check for every method (fewer pooled steps, greedy path / A* no worse).
+- :func:`tuned_preset`: the preset of the best trials that won that check (fewer pooled steps,
+  greedy path / A* no worse, no more runs without convergence); a method whose best trial did not
+  win keeps the SPEC constants.
 """
 
 from __future__ import annotations
@@ -95,10 +96,15 @@ def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings:
 
 def tuned_preset(settings: dict[str, MethodSetting], check: dict[str, dict[str, Any]], meta: dict[str, Any],
                  fallback: str | None = "NDR-QL") -> Preset:
-    """The ``tuned`` preset (module docstring)."""
-    wins = bool(check) and all(c["tuned_wins"] for c in check.values())
-    return Preset(name="tuned", methods=dict(settings), fallback=fallback if fallback in settings else None,
-                  plan_default=wins, meta={**meta, "validation_check": check})
+    """The ``tuned`` preset (module docstring): per method the searched constants if they won the
+    check on fresh seeds, else the SPEC constants (listed in ``meta["kept_spec"]``);
+    ``plan_default`` when NDR-QL's searched constants won (``ndrql plan``'s default method), or,
+    without NDR-QL, when every method's did."""
+    methods = {m: (s if check.get(m, {}).get("tuned_wins") else MethodSetting()) for m, s in settings.items()}
+    kept = [m for m in settings if not check.get(m, {}).get("tuned_wins")]
+    wins = check["NDR-QL"]["tuned_wins"] if "NDR-QL" in check else (bool(check) and not kept)
+    return Preset(name="tuned", methods=methods, fallback=fallback if fallback in methods else None,
+                  plan_default=bool(wins), meta={**meta, "validation_check": check, "kept_spec": kept})
 
 
 def improvement(a: float | None, b: float | None) -> float | None:

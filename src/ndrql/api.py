@@ -113,7 +113,7 @@ def solve(
     seeds: Sequence[int] | int = (0,),
     *,
     weights: str | os.PathLike | None = None,
-    predictions: tuple[np.ndarray, np.ndarray | None] | None = None,
+    predictions: tuple[np.ndarray, np.ndarray | None] | str | None = None,
     config: QLConfig = QLConfig(),
     prior_config: PriorConfig = PriorConfig(),
     preset: Any = None,
@@ -138,7 +138,8 @@ def solve(
     the first and last pose), or taken from MovingAI scenario ``scen_index`` of ``scen``.
     ``seeds``: a list, or an int ``N`` for seeds ``0..N-1``. ``weights``: model file (default:
     ``$NDRQL_WEIGHTS`` or the shipped weights); ``predictions``: ``(region, guideline)`` at the map's
-    resolution instead of the model. ``settings``: grid rule, size, robot radius, smoothing
+    resolution instead of the model, or ``"oracle"`` for the oracle's (the planning grid's own shortest
+    path drawn like the dataset's labels: a diagnostic of the ceiling, reported as "oracle priors"). ``settings``: grid rule, size, robot radius, smoothing
     (default: the safe grid for a user's map; :meth:`PlanSettings.paper` for the paper's).
     ``workers``: processes for many runs (default: all cores; results do not depend on it).
     ``preset``: ``"spec"``, ``"tuned"``, a preset file or a :class:`~ndrql.planning.preset.Preset`:
@@ -192,8 +193,20 @@ def solve(
 
     region_map = guideline_map = region = guideline = None
     used_weights = None
+    view = None
     if any(m.needs_ndr for m in ms):
-        if predictions is not None:
+        if isinstance(predictions, str):
+            if predictions != "oracle":
+                raise NdrqlError(f"predictions must be (region, guideline) arrays or 'oracle', got {predictions!r}")
+            from ndrql.pipeline.predictions import oracle_view
+
+            with clock.stage("predict"):
+                view = oracle_view(pg)
+            info["model_input"] = view.info
+            info["prior_from"] = "oracle"
+            used_weights = "oracle priors"
+            region_map, guideline_map = view.region, view.guideline
+        elif predictions is not None:
             region_map, guideline_map = predictions
             for name, arr in (("region", region_map), ("guideline", guideline_map)):
                 if arr is not None and np.shape(arr) != grid_map.shape:
@@ -217,7 +230,10 @@ def solve(
             raise NdrqlError(f"{', '.join(needs_guide)} need the guideline prediction, which "
                              f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
         with clock.stage("predict"):
-            region, guideline = downscale_priors(region_map, guideline_map, pg.shape)
+            if view is not None and view.region_grid is not None:  # predicted on the planning grid itself
+                region, guideline = view.region_grid, view.guideline_grid
+            else:
+                region, guideline = downscale_priors(region_map, guideline_map, pg.shape)
             ndr = next((m for m in ms if m.needs_ndr), ms[0])
             ms = _fall_back(ms, region, guideline_map, grid_map, pg, consts(ndr.name)[1], settings, info)
 

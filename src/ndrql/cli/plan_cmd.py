@@ -68,8 +68,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
     p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ndr_default.pt)")
-    p.add_argument("--prior-from", metavar="FILE.npz",
-                   help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]")
+    p.add_argument("--prior-from", metavar="FILE.npz|oracle",
+                   help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]; "
+                   "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")
     from ndrql.model.predict import BACKENDS
 
     from ndrql.pipeline.settings import GRID_RULES
@@ -268,7 +269,9 @@ def run(args: argparse.Namespace) -> int:
             raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
                              "(a ROS map_server .yaml); use --json for the path in pixels")
     predictions = None
-    if args.prior_from and any(get_method(m).needs_ndr for m in methods):
+    if args.prior_from == "oracle":
+        predictions = "oracle"
+    elif args.prior_from and any(get_method(m).needs_ndr for m in methods):
         predictions = load_prior_file(args.prior_from)
         info["prior_from"] = args.prior_from
     with warnings_to_stderr():
@@ -282,7 +285,9 @@ def run(args: argparse.Namespace) -> int:
     echo = functools.partial(print, file=sys.stderr if args.json == "-" else sys.stdout)
     echo(f"map: {report.grid_map.source} ({report.grid_map.height}x{report.grid_map.width}); planning grid "
          f"{pg.shape[0]}x{pg.shape[1]}, start {pg.start}, goal {pg.goal}")
-    if report.weights:
+    if report.info.get("prior_from") == "oracle":
+        echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
+    elif report.weights:
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')})")
     echo("\n".join(_summary(report)))
     if args.json:

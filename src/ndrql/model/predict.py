@@ -156,33 +156,56 @@ class _TorchRunner:
 
 
 class _OnnxRunner:
-    """ONNX Runtime session of the exported model (fixed 201x201 input, dynamic batch)."""
+    """ONNX Runtime sessions of the exported model, one per input side (dynamic batch).
+
+    The network's pyramid pooling and padding are traced at a fixed input size, so every side gets its
+    own export (made once on first use, cached by weights digest and side; see :func:`_onnx_model`).
+    """
 
     name = "onnx"
 
-    def __init__(self, onnx_path: Path, threads: int):
+    def __init__(self, weights: Path, threads: int, first: tuple[int, Path]):
+        self.weights, self.threads = weights, threads
+        self.sessions: dict[int, Any] = {}
+        self.sessions[first[0]] = self._session(first[1])
+
+    def _session(self, onnx_path: Path):
         import onnxruntime as ort
 
         opts = ort.SessionOptions()
-        opts.intra_op_num_threads = max(0, threads)
+        opts.intra_op_num_threads = max(0, self.threads)
         opts.inter_op_num_threads = 1
-        self.session = ort.InferenceSession(str(onnx_path), sess_options=opts, providers=["CPUExecutionProvider"])
+        return ort.InferenceSession(str(onnx_path), sess_options=opts, providers=["CPUExecutionProvider"])
+
+    def session(self, side: int):
+        if side not in self.sessions:
+            found = _onnx_model(self.weights, side=side)
+            assert found is not None  # the first side exported, so this model has both outputs
+            try:
+                self.sessions[side] = self._session(found[0])
+            except Exception:  # noqa: BLE001 - a damaged cached export: export it again once
+                self.sessions[side] = self._session(_onnx_model(self.weights, side=side, rebuild=True)[0])  # type: ignore[index]
+        return self.sessions[side]
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        region, guide = self.session.run(None, {"x": np.ascontiguousarray(x, np.float32)})
+        if x.shape[-1] != x.shape[-2]:
+            raise ValueError(f"the model's input must be square, got {x.shape[-2]}x{x.shape[-1]}")
+        region, guide = self.session(int(x.shape[-1])).run(None, {"x": np.ascontiguousarray(x, np.float32)})
         return _sigmoid(region)[:, 0], _sigmoid(guide)[:, 0]
 
 
-def onnx_cache_path(weights: Path) -> Path:
-    """Where the ONNX export of ``weights`` is kept: ``$NDRQL_CACHE/onnx/<sha256 of the file>.onnx``."""
+def onnx_cache_path(weights: Path, side: int = MODEL_SIDE) -> Path:
+    """Where the ONNX export of ``weights`` for ``side`` x ``side`` inputs is kept:
+    ``$NDRQL_CACHE/onnx/<sha256 of the file>.onnx`` (201 px) or ``<sha256>-<side>.onnx``."""
     from ndrql.dataset.cache import cache_dir
     from ndrql.io import file_digest
 
-    return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}.onnx"
+    suffix = "" if side == MODEL_SIDE else f"-{side}"
+    return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}{suffix}.onnx"
 
 
-def _onnx_model(weights: Path, rebuild: bool = False) -> tuple[Path, dict] | None:
-    """The cached ONNX export of ``weights`` and its model config, exporting it on first use.
+def _onnx_model(weights: Path, rebuild: bool = False, side: int = MODEL_SIDE) -> tuple[Path, dict] | None:
+    """The cached ONNX export of ``weights`` for ``side`` px inputs and its model config, exporting it on first use.
 
     A cache hit needs neither torch nor the checkpoint (same bytes, same model); the export is checked
     against the SHA-256 recorded beside it, and a damaged or truncated one is exported again once,
@@ -194,7 +217,7 @@ def _onnx_model(weights: Path, rebuild: bool = False) -> tuple[Path, dict] | Non
 
     from ndrql.io import file_digest, write_json
 
-    onnx_path = onnx_cache_path(weights)
+    onnx_path = onnx_cache_path(weights, side)
     meta_path = onnx_path.with_suffix(".json")
     try:
         meta = json.loads(meta_path.read_text())
@@ -213,16 +236,16 @@ def _onnx_model(weights: Path, rebuild: bool = False) -> tuple[Path, dict] | Non
 
     config = dict(load_checkpoint(weights)["config"])
     exported = config.get("guideline_decoder", True)
-    record = {"config": config, "exported": exported, "weights": str(weights)}
+    record = {"config": config, "exported": exported, "weights": str(weights), "side": side}
     if exported:
-        export_onnx(weights, onnx_path)
+        export_onnx(weights, onnx_path, size=side)
         record["onnx_sha256"] = file_digest(onnx_path)
     write_json(meta_path, record)
     return (onnx_path, config) if exported else None
 
 
-def _onnx_runner(weights: Path, threads: int) -> tuple[Any, str] | None:
-    """An ONNX Runtime runner for ``weights`` and its encoding; a cached export that ONNX Runtime cannot
+def _onnx_runner(weights: Path, threads: int) -> tuple[Any, dict] | None:
+    """An ONNX Runtime runner for ``weights`` and its model config; a cached export that ONNX Runtime cannot
     load is exported again once (with a warning). ``None`` for models without a guideline output."""
     import warnings
 
@@ -230,13 +253,13 @@ def _onnx_runner(weights: Path, threads: int) -> tuple[Any, str] | None:
     if found is None:
         return None
     try:
-        return _OnnxRunner(found[0], threads), found[1].get("encoding", "point")
+        return _OnnxRunner(weights, threads, (MODEL_SIDE, found[0])), found[1]
     except Exception as exc:  # noqa: BLE001 - onnxruntime raises its own exception types
         warnings.warn(f"the cached ONNX export {found[0]} does not load ({type(exc).__name__}); exporting it again",
                       stacklevel=3)
     found = _onnx_model(weights, rebuild=True)
     assert found is not None
-    return _OnnxRunner(found[0], threads), found[1].get("encoding", "point")
+    return _OnnxRunner(weights, threads, (MODEL_SIDE, found[0])), found[1]
 
 
 class Predictor:
@@ -286,7 +309,8 @@ class Predictor:
             try:
                 found = _onnx_runner(path, threads)
                 if found is not None:
-                    return cls(found[0], encoding=found[1])
+                    return cls(found[0], encoding=found[1].get("encoding", "point"),
+                               input_mode=found[1].get("input_mode", "map"))
             except CheckpointError:
                 raise
             except Exception as exc:  # an unwritable cache, a failed export or session: torch still works

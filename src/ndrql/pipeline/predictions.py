@@ -29,6 +29,10 @@ class ModelView:
     """Guideline probabilities, float64 ``(H, W)``, or ``None`` for a model without guideline decoder."""
     info: dict[str, Any]
     """What the model saw (JSON ``model_input``): its input side, scale and where start and goal landed."""
+    region_grid: np.ndarray | None = None
+    """Region on the planning grid when the prediction was made there (grid-mode models, the oracle), else ``None``."""
+    guideline_grid: np.ndarray | None = None
+    """Guideline on the planning grid, as :attr:`region_grid`."""
 
 
 def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict[str, Any]:
@@ -54,12 +58,59 @@ def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict
             "moved": {"start": moved[0], "goal": moved[1]}}
 
 
+def _grid_to_map(prob: np.ndarray, grid: PlanningGrid) -> np.ndarray:
+    """Probabilities at 4 px per planning cell -> the map's pixels (nearest sample; for figures and JSON)."""
+    from ndrql.dataset.render import PX_PER_CELL
+
+    h, w = grid.source_shape
+    ch, cw = grid.cell_size
+    rows = np.minimum(((np.arange(h) + 0.5) / ch * PX_PER_CELL).astype(int), prob.shape[0] - 1)
+    cols = np.minimum(((np.arange(w) + 0.5) / cw * PX_PER_CELL).astype(int), prob.shape[1] - 1)
+    return np.asarray(prob, np.float64)[rows[:, None], cols[None, :]]
+
+
+def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any]) -> ModelView:
+    """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid."""
+    from ndrql.dataset.render import PX_PER_CELL
+    from ndrql.maps.grid import area_downscale
+
+    h, w = grid.shape
+    crop = lambda a: np.asarray(a, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL]  # noqa: E731
+    region_grid = area_downscale(crop(region_px), (h, w))
+    guide_grid = None if guide_px is None else area_downscale(crop(guide_px), (h, w))
+    return ModelView(region=_grid_to_map(crop(region_px), grid),
+                     guideline=None if guide_px is None else _grid_to_map(crop(guide_px), grid),
+                     info=info, region_grid=region_grid, guideline_grid=guide_grid)
+
+
+def oracle_view(grid: PlanningGrid) -> ModelView:
+    """The oracle's region and guideline: the planning grid's own shortest path drawn like the dataset's labels
+    (:func:`ndrql.synth.oracle.oracle_prediction`). A diagnostic of how far the model is from a perfect
+    prediction, never a method: it needs the answer."""
+    from ndrql.dataset.render import PX_PER_CELL
+    from ndrql.synth.oracle import oracle_prediction
+
+    region, guide = oracle_prediction(grid.blocked, grid.start, grid.goal, PX_PER_CELL)
+    return _on_grid(region, guide, grid, {"oracle": True, "px_per_cell": PX_PER_CELL})
+
+
 def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
     """Region and guideline for planning ``grid`` from ``start`` to ``goal`` (map pixels), at the map's resolution.
 
-    ``predictor``: a loaded model (:func:`ndrql.planning.methods.load_predictor`). ``grid`` is passed
-    so that what the model sees can follow the planning grid; today the model sees the map itself.
+    ``predictor``: a loaded model (:func:`ndrql.planning.methods.load_predictor`). What the model sees
+    follows its input mode (``predictor.input_mode``, from its checkpoint): ``grid`` models see the
+    planning grid itself at 4 px per cell (start and goal in their cells' centres) and predict on it;
+    ``map`` models (the paper's) see the map resized to 201 px.
     """
+    if getattr(predictor, "input_mode", "map") == "grid":
+        from ndrql.dataset.encodings import encode_input
+        from ndrql.dataset.render import grid_input
+
+        n = max(grid.shape)
+        img, s, g = grid_input(grid.blocked, grid.start, grid.goal, n)
+        r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
+        info = {"mode": "grid", "side": int(img.shape[0]), "start": list(s), "goal": list(g)}
+        return _on_grid(r[0], None if gl is None else gl[0], grid, info)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)
     region = np.asarray(pred.region, dtype=np.float64)

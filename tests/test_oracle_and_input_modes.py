@@ -1,0 +1,81 @@
+"""Oracle priors through the API and the CLI, and models that see the planning grid (grid input mode)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import ndrql
+from ndrql.maps.grid import area_downscale
+from ndrql.synth.oracle import oracle_prediction
+
+
+def _walls() -> np.ndarray:
+    grid = np.zeros((120, 160), dtype=bool)
+    grid[40:46, :120] = True
+    grid[80:86, 40:] = True
+    return grid
+
+
+def test_api_oracle_priors_are_the_grids_own_path():
+    report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1)
+    assert report.weights == "oracle priors" and report.info["prior_from"] == "oracle"
+    pg = report.grid
+    region, guide = oracle_prediction(pg.blocked, pg.start, pg.goal, 4)
+    h, w = pg.shape
+    # the priors were built from exactly the oracle's 4x4 block means on the grid
+    from ndrql.planning.methods import build_priors
+
+    expect = build_priors("NDR-QL", pg.blocked, pg.start, pg.goal, area_downscale(region[:4 * h, :4 * w], (h, w)),
+                          area_downscale(guide[:4 * h, :4 * w], (h, w)), report.prior_config)
+    assert report.thresholds["NDR-QL"] == expect.threshold
+    assert report.results[0].converged
+    assert report.to_dict()["weights"] == "oracle priors"
+
+
+def test_cli_prior_from_oracle_is_named_in_output_and_json(tmp_path, ndrql_exe):
+    np.save(tmp_path / "m.npy", _walls())
+    out = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "m.npy"), "--start", "10,10", "--goal", "110,150",
+                          "--prior-from", "oracle", "--json", str(tmp_path / "o.json")], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "oracle priors" in out.stdout
+    d = json.loads((tmp_path / "o.json").read_text())
+    assert d["weights"] == "oracle priors" and d["prior_from"] == "oracle" and d["model_input"]["oracle"] is True
+
+
+@pytest.fixture(scope="module")
+def grid_model(tmp_path_factory):
+    """A tiny model trained two steps in grid mode (enough to carry input_mode=grid in its checkpoint)."""
+    from ndrql.dataset.generated import generate_set
+    from ndrql.synth.generate import SetSpec
+    from ndrql.training.config import TrainConfig
+    from ndrql.training.loop import train
+
+    root = tmp_path_factory.mktemp("gm")
+    generate_set(root / "set", SetSpec(("blocks",), (96,), 8, 1), progress=False, shard_size=8)
+    cfg = TrainConfig(sources=f"{root / 'set'}:1", input_mode="grid", grid_sizes="16", model_overrides={"width": 0.25},
+                      batch_size=2, epochs=1, steps_per_epoch=2, warmup_steps=1, bf16=False, threads=1, val_per_source=1)
+    train(cfg, root / "run", progress=False, log=lambda m: None)
+    return root / "run" / "last.pt"
+
+
+def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
+    from ndrql.model.predict import Predictor, onnx_available
+    from ndrql.pipeline.predictions import predict_region
+
+    torch_pred = Predictor.load(grid_model, threads=1, backend="torch")
+    assert torch_pred.input_mode == "grid"
+    report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=grid_model, workers=1)
+    pg = report.grid
+    view = predict_region(torch_pred, report.grid_map, pg, report.start, report.goal)
+    assert view.info["mode"] == "grid" and view.info["side"] == 4 * max(pg.shape)
+    assert view.region_grid.shape == pg.shape and view.region.shape == report.grid_map.shape
+    assert 0.0 <= view.region_grid.min() and view.region_grid.max() <= 1.0
+    if onnx_available():  # the ONNX path exports one graph per input side; it agrees with torch
+        onnx_pred = Predictor.load(grid_model, threads=1, backend="onnx")
+        assert onnx_pred.input_mode == "grid"
+        other = predict_region(onnx_pred, report.grid_map, pg, report.start, report.goal)
+        assert np.allclose(other.region_grid, view.region_grid, atol=1e-3)

@@ -79,3 +79,29 @@ def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
         assert onnx_pred.input_mode == "grid"
         other = predict_region(onnx_pred, report.grid_map, pg, report.start, report.goal)
         assert np.allclose(other.region_grid, view.region_grid, atol=1e-3)
+
+
+def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
+    """A tiny transfer report: every family of the small set at grid 32, 2 seeds; model, oracle and share columns."""
+    import os
+
+    env = {**os.environ, "NDRQL_CACHE": str(tmp_path / "cache")}
+    out = subprocess.run([*ndrql_exe, "reproduce", "transfer", "--eval-set", "transfer-small", "--grids", "32",
+                          "--seeds", "2", "--per-family", "1", "--workers", "1", "--executor", "serial", "--no-progress",
+                          "--out", str(tmp_path / "tr")], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr
+    text = (tmp_path / "tr" / "transfer.md").read_text()
+    assert "| **all** |" in text and "share of oracle" in text and "Planning grid 32" in text
+    summary = json.loads((tmp_path / "tr" / "summary.json").read_text())
+    done = [r for r in summary["records"] if not r["skipped"]]
+    assert done and all(len(r["runs"]["QL"]["steps"]) == 2 for r in done)
+    # the share divides reductions of the same runs: recompute it from the records
+    from ndrql.experiments.transfer import summarize
+
+    s = summarize(summary["records"])
+    ql = sum(sum(r["runs"]["QL"]["steps"]) for r in done)
+    red = lambda row: 1 - sum(sum(r["runs"][row]["steps"]) for r in done) / ql  # noqa: E731
+    assert abs(s["share"] - red("NDR-QL (model)") / red("NDR-QL (oracle)")) < 1e-12
+    bad = subprocess.run([*ndrql_exe, "reproduce", "transfer", "--eval-set", "nope", "--out", str(tmp_path / "x")],
+                         capture_output=True, text=True, env=env)
+    assert bad.returncode == 2 and "valid: transfer" in bad.stderr and bad.stderr.count("\n") == 1

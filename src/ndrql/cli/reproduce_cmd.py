@@ -6,7 +6,7 @@ import argparse
 import shlex
 import sys
 
-TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "all")
+TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "all")
 
 EXAMPLES = """examples:
   ndrql reproduce table3                       # 8 fixed maps x QL, O-QL, IQL, NDR-QL x 10 seeds -> results/table3/
@@ -16,6 +16,7 @@ EXAMPLES = """examples:
   ndrql reproduce table4 --run --epochs 2      # trains every Table 4 variant (resumable), then evaluates them
   ndrql reproduce sizing                       # validation F1 per training hour by width and precision
   ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
+  ndrql reproduce transfer --grids 50,100      # held-out generated maps of every family: model vs oracle vs QL/IQL
   ndrql reproduce dynamic
   ndrql reproduce scale --preset tuned         # only the tuned constants (default for table2/3, scale: spec,tuned)
 
@@ -64,6 +65,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "$NDRQL_CACHE/runs; table4 uses DIR/table4/<variant>)")
     p.add_argument("--rgp-weights", metavar="FILE", help="table1: RGP peer weights (default: $NDRQL_RGP_WEIGHTS or "
                    "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
+    p.add_argument("--grids", default="50,100", metavar="LIST",
+                   help="transfer: planning grid sizes, safe grid (default: 50,100)")
+    p.add_argument("--per-family", type=int, default=None, metavar="N",
+                   help="transfer: at most N maps per family of the evaluation set (default: all)")
+    p.add_argument("--eval-set", default="transfer", metavar="NAME",
+                   help="transfer: evaluation set of transfer_sets.json (default: transfer)")
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
@@ -150,6 +157,16 @@ def run(args: argparse.Namespace) -> int:
 
             path = labels_check(out, data=args.data, limit=args.limit, seed=args.seed, command=opts.command,
                                 progress=not args.no_progress, log=log)
+        elif target == "transfer":
+            from ndrql.dataset.mixture import parse_sizes
+            from ndrql.experiments.transfer import transfer
+            from ndrql.limits import check_int
+
+            if args.per_family is not None:
+                check_int(args.per_family, "--per-family", 1)
+            path = transfer(out, weights=args.weights, set_name=args.eval_set, grids=parse_sizes(args.grids),
+                            seeds=args.seeds, seed0=args.seed, per_family=args.per_family, workers=args.workers,
+                            executor=args.executor, progress=not args.no_progress, command=opts.command, log=log)
         elif target == "sizing":
             from ndrql.experiments.model_tables import sizing
 

@@ -36,7 +36,11 @@ ROWS = ("QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)")
 
 def eval_spec(name: str = "transfer") -> SetSpec:
     """The versioned evaluation set ``name`` of ``transfer_sets.json``."""
+    from ndrql.errors import NdrqlError
+
     data = json.loads(resources.files("ndrql.experiments").joinpath("transfer_sets.json").read_text())
+    if name not in data["sets"]:
+        raise NdrqlError(f"unknown evaluation set {name!r}; valid: {', '.join(data['sets'])}")
     return SetSpec.from_dict(data["sets"][name])
 
 

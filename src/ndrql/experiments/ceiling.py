@@ -43,13 +43,16 @@ class GridCase:
     goal_cell: Point
 
 
-def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: Point, n: int) -> GridCase | None:
-    """The safe-grid problem of a map, or ``None`` when start and goal do not connect on it."""
-    blocked = conservative_grid(obstacles, n)
-    s, g = point_to_square_cell(start, obstacles.shape, n), point_to_square_cell(goal, obstacles.shape, n)
-    if s == g or blocked[s] or blocked[g] or bfs_distances(blocked, s)[g] < 0:
-        return None
-    return GridCase(name, group, obstacles, start, goal, n, blocked, s, g)
+def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: Point, n: int,
+              larger: tuple[int, ...] = ()) -> GridCase | None:
+    """The safe-grid problem of a map at ``n`` cells (or at the first of ``larger`` on which it connects,
+    like ``--size auto`` from ``n`` up), or ``None`` when start and goal connect on none of them."""
+    for size in (n, *larger):
+        blocked = conservative_grid(obstacles, size)
+        s, g = point_to_square_cell(start, obstacles.shape, size), point_to_square_cell(goal, obstacles.shape, size)
+        if s != g and not blocked[s] and not blocked[g] and bfs_distances(blocked, s)[g] >= 0:
+            return GridCase(name, group, obstacles, start, goal, size, blocked, s, g)
+    return None
 
 
 def to_grid(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -7,12 +7,15 @@ the model's priors and NDR-QL with the oracle's (:mod:`ndrql.experiments.ceiling
 family and pooled: region/guideline F1 of the model against the labels of its own input mode,
 NDR-QL vs QL and vs IQL (pooled steps, and the share of maps where NDR-QL needs fewer steps than
 IQL), greedy path / A*, the share of maps where the Eq. 7 threshold had to fall below 0.5, and the
-model's share of the oracle's reduction. Maps whose start and goal do not connect on a grid are
-skipped at that grid and counted.
+model's share of the oracle's reduction. A map whose start and goal do not connect on the safe grid
+of ``n`` cells is planned on the next size of ``--size auto``'s ladder that connects them, up to
+``min(2n, 128)`` (so "grid 50" means 50 cells, or 64, 80 or 100 for maps whose passages need them);
+maps that connect on none are skipped and counted.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from importlib import resources
 from pathlib import Path
@@ -80,7 +83,8 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
 
 def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seeds: list[int], out: Path, *,
             per_family: int | None = None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig(),
-            workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True) -> list[dict]:
+            workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True,
+            grow: bool = True) -> list[dict]:
     """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case."""
     picked: dict[str, list[int]] = {}
     for i in range(len(gs)):
@@ -93,20 +97,28 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
             for i in ids:
                 raw = gs.raw(i)
                 key = f"{fam}-{i}-g{n}"
-                case = grid_case(key, fam, raw.obstacles, raw.start, raw.goal, n)
+                case = grid_case(key, fam, raw.obstacles, raw.start, raw.goal, n, larger_sizes(n) if grow else ())
                 if case is None:
                     meta[key] = {"family": fam, "n": n, "skipped": True}
                     continue
                 model = model_priors(predictor, mode, case)
                 oracle = oracle_priors(case)
                 f1 = _f1(predictor, mode, case, raw.waypoints)
-                meta[key] = {"family": fam, "n": n, "skipped": False, "f1": f1}
+                meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1}
                 priors = {"QL": None, "IQL": None, "NDR-QL (model)": [a.tolist() for a in model],
                           "NDR-QL (oracle)": [a.tolist() for a in oracle]}
-                fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.blocked.tobytes().hex()[:64])
+                grid_id = hashlib.sha256(np.packbits(case.blocked).tobytes()).hexdigest()[:16]
+                fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.n, case.blocked.shape, grid_id)
                 tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, ql, pc), fp))
     rep = run_sweep(tasks, out / "tasks", executor=executor, workers=workers, progress=progress, desc="transfer")
     return [{"key": k, **m, **({"runs": rep.results[k]} if not m["skipped"] else {})} for k, m in meta.items()]
+
+
+def larger_sizes(n: int) -> tuple[int, ...]:
+    """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to ``min(2n, 128)``."""
+    from ndrql.maps.sizing import SIZE_LADDER
+
+    return tuple(s for s in SIZE_LADDER if n < s <= min(2 * n, 128))
 
 
 def _pooled(records: list[dict], row: str) -> float:
@@ -124,6 +136,7 @@ def summarize(records: list[dict]) -> dict:
     thd = [r["runs"]["NDR-QL (model)"]["threshold"] for r in ok]
     return {
         "maps": len(ok), "skipped": len(records) - len(ok),
+        "grown": int(sum(r.get("size", r["n"]) != r["n"] for r in ok)),
         "region_f1": 100 * float(np.nanmean([r["f1"][0] for r in ok])),
         "guideline_f1": 100 * float(np.nanmean([r["f1"][1] for r in ok])),
         "vs_ql": {row: -red[row] for row in ROWS},
@@ -139,7 +152,7 @@ def summarize(records: list[dict]) -> dict:
 def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
     """Markdown: one table per grid, a row per family and a pooled row."""
     parts = []
-    head = ["family", "maps (skipped)", "region F1", "guideline F1", "NDR-QL vs QL", "oracle vs QL", "share of oracle",
+    head = ["family", "maps (finer grid; skipped)", "region F1", "guideline F1", "NDR-QL vs QL", "oracle vs QL", "share of oracle",
             "NDR-QL vs IQL", "beats IQL", "path / A*", "Eq. 7 thd < 0.5"]
     for n in grids:
         at_n = [r for r in records if r["n"] == n]
@@ -149,11 +162,12 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
             if not s["maps"]:
                 rows.append([fam, f"0 ({s['skipped']})"] + ["-"] * (len(head) - 2))
                 continue
-            rows.append([f"**{fam}**" if fam == "all" else fam, f"{s['maps']} ({s['skipped']})", f"{s['region_f1']:.1f}",
+            rows.append([f"**{fam}**" if fam == "all" else fam, f"{s['maps']} ({s['grown']}; {s['skipped']})", f"{s['region_f1']:.1f}",
                          f"{s['guideline_f1']:.1f}", f"{100 * s['vs_ql']['NDR-QL (model)']:+.1f}%",
                          f"{100 * s['vs_ql']['NDR-QL (oracle)']:+.1f}%", f"{100 * s['share']:.0f}%", f"{100 * s['vs_iql']:+.1f}%",
                          f"{100 * s['beats_iql']:.0f}%", f"{s['path_ratio']:.3f}", f"{100 * s['threshold_below_half']:.0f}%"])
-        parts.append(f"**Planning grid {n}** (safe grid)\n\n" + md_table(head, rows))
+        finer = ", ".join(map(str, larger_sizes(n)))
+        parts.append(f"**Planning grid {n}** (safe grid; maps that need it on {finer or 'no finer size'})\n\n" + md_table(head, rows))
     return "\n\n".join(parts) + "\n"
 
 

@@ -243,12 +243,13 @@ def test_outputs_and_preset_from_a_study(tmp_path):
     setting, _ = best_setting(st, "NDR-QL")
     check = check_presets(PROBLEMS, ["NDR-QL"], {"NDR-QL": setting}, [5, 6])
     won = dict(check["NDR-QL"], tuned_wins=True)
-    preset = tuned_preset({"NDR-QL": setting}, {"NDR-QL": won}, {"search": {"trials": 5}})
+    preset = tuned_preset({"NDR-QL": setting}, {"NDR-QL": won}, {"search": {"trials": 5}}, fallback="NDR-QL")
     assert preset.plan_default and preset.meta["kept_spec"] == []
     back = load_preset(write_preset(tmp_path / "p.json", preset))
     assert back.configs("NDR-QL") == (setting.ql, setting.priors)
     assert back.configs("D-C+N-C") == back.configs("NDR-QL")  # fallback for rows the search did not cover
     lost = tuned_preset({"NDR-QL": setting}, {"NDR-QL": dict(won, tuned_wins=False)}, {})
+    assert lost.configs("D-C") == (QLConfig(), PriorConfig())  # not searched, no fallback: spec constants
     assert not lost.plan_default and lost.meta["kept_spec"] == ["NDR-QL"]
     assert lost.configs("NDR-QL") == (QLConfig(), PriorConfig())  # did not win on fresh seeds: spec constants
 

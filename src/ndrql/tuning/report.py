@@ -95,9 +95,10 @@ def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings:
 
 
 def tuned_preset(settings: dict[str, MethodSetting], check: dict[str, dict[str, Any]], meta: dict[str, Any],
-                 fallback: str | None = "NDR-QL") -> Preset:
+                 fallback: str | None = None) -> Preset:
     """The ``tuned`` preset (module docstring): per method the searched constants if they won the
-    check on fresh seeds, else the SPEC constants (listed in ``meta["kept_spec"]``);
+    check on fresh seeds, else the SPEC constants (listed in ``meta["kept_spec"]``); a method not
+    searched gets the SPEC constants too, unless ``fallback`` names a searched method to use instead;
     ``plan_default`` when NDR-QL's searched constants won (``ndrql plan``'s default method), or,
     without NDR-QL, when every method's did."""
     methods = {m: (s if check.get(m, {}).get("tuned_wins") else MethodSetting()) for m, s in settings.items()}

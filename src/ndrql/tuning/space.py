@@ -21,8 +21,9 @@ from typing import Any
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, get_method
 
-#: Bump when a range below changes (it is part of every study's name).
-SPACE_VERSION = 1
+#: Bump when a range below changes (it is part of every study's name). Version 1 (alpha up to 0.9,
+#: epsilon from 0.01, gamma 0.9-0.99, r_max up to 30, G up to 40) put best trials on its edges.
+SPACE_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -45,11 +46,11 @@ class Param:
     """What it is, with the paper's equation."""
 
 
-ALPHA = Param("alpha", 0.03, 0.9, True, "ql", ("alpha",), "learning rate (Eq. 1 update)")
-EPSILON = Param("epsilon", 0.01, 0.5, True, "ql", ("epsilon",), "exploration rate of epsilon-greedy")
-GAMMA = Param("gamma", 0.9, 0.99, False, "ql", ("gamma",), "discount factor")
-R_MAX = Param("r_max", 0.5, 30.0, True, "priors", ("r_max",), "maximum continuous reward (Eqs. 2-4)")
-G = Param("G", 2.0, 40.0, True, "priors", ("g_row", "g_col"), "D-CRF decay length in cells, G_x = G_y (Eq. 2)")
+ALPHA = Param("alpha", 0.03, 1.0, True, "ql", ("alpha",), "learning rate (Eq. 1 update)")
+EPSILON = Param("epsilon", 0.001, 0.5, True, "ql", ("epsilon",), "exploration rate of epsilon-greedy")
+GAMMA = Param("gamma", 0.8, 0.999, False, "ql", ("gamma",), "discount factor")
+R_MAX = Param("r_max", 0.5, 200.0, True, "priors", ("r_max",), "maximum continuous reward (Eqs. 2-4)")
+G = Param("G", 2.0, 200.0, True, "priors", ("g_row", "g_col"), "D-CRF decay length in cells, G_x = G_y (Eq. 2)")
 OMEGA_CRF = Param("omega_crf", 0.0, 1.0, False, "priors", ("omega_crf",), "weight of NDR-CRF against D-CRF (Eq. 4)")
 OMEGA_QI = Param("omega_qi", 0.0, 1.0, False, "priors", ("omega_qi",), "weight of the region mask (Eq. 6)")
 MASK_LOW = Param("mask_low", -50.0, -0.5, False, "priors", ("mask_low",), "MASK value outside the region (Eq. 7)")

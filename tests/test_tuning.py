@@ -231,6 +231,16 @@ def test_tune_config_rejects_bad_values():
     assert TuneConfig("ndr-ql").method == "NDR-QL"
 
 
+def test_paired_ratio_difference_known_answer():
+    from ndrql.tuning.report import paired_ratio_difference
+
+    a, b = Evaluation(), Evaluation()
+    a.add("x", [(True, 10, 1.0), (True, 10, 1.2), (False, 99, math.nan)])
+    b.add("x", [(True, 5, 1.1), (True, 5, 1.2), (True, 5, 1.0)])
+    mean, se, n = paired_ratio_difference(a, b)
+    assert n == 2 and mean == pytest.approx(0.05) and se == pytest.approx(np.std([0.1, 0.0], ddof=1) / math.sqrt(2))
+
+
 def test_outputs_and_preset_from_a_study(tmp_path):
     from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
     from ndrql.tuning.study import best_trial, run_study

@@ -153,7 +153,8 @@ def _export(args, cfgs, problems, storage, digest, log) -> int:
         check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool)
     for m, c in check.items():
         log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: spec {c['spec']['steps']:,.0f} steps "
-            f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned']['steps']:,.0f} ({c['tuned']['ratio']:.3f}); "
+            f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned']['steps']:,.0f} ({c['tuned']['ratio']:.3f}, "
+            f"paired difference {c['ratio_difference']['mean']:+.4f} +- {c['ratio_difference']['se']:.4f}); "
             f"{'tuned wins' if c['tuned_wins'] else 'tuned does not win'}")
     meta = {"search": {"samples": len(problems), "seeds": cfg.seed_list, "trials": cfg.trials,
                        "max_episodes": cfg.max_episodes, "sampler_seed": cfg.seed, "order_seed": cfg.order_seed,

@@ -3,9 +3,9 @@
     .venv/bin/python tools/tuning_report.py      # prints markdown; copies Optuna's plots to docs/tuning/
 
 Reads src/ndrql/planning/presets/tuned.json (search budget, best constants, check on fresh seeds),
-results/tune/<method>/best.json and history/importance plots, results/scale/summary.json (SPEC)
+results/tune/<method>/best.json and history/importance plots, results/scale/summary.json (spec)
 and results/scale-tuned/summary.json (tuned), and prints the budget, the best constants per
-method and the improvement of the tuned over the SPEC constants on the validation maps (TRAIN)
+method and the improvement of the tuned over the spec constants on the validation maps (TRAIN)
 next to the same on the scale study's test maps (TEST/SEEN and TEST/UNSEEN).
 """
 
@@ -25,7 +25,7 @@ from ndrql.tuning import space as S  # noqa: E402
 
 
 def pct(x):
-    return "-" if x is None else f"{100 * x:+.0f}%"
+    return "-" if x is None else f"{100 * x:.0f}%"
 
 
 def main() -> int:
@@ -35,7 +35,7 @@ def main() -> int:
     out = ["### Search spaces", "", md_table(["constant", "range", "scale", "searched for", "meaning"],
                                               S.space_table(tuple(methods)), ["l", "l", "l", "l", "l"]), ""]
     search = meta["search"]
-    out += [f"Budget per method: {search['trials']} trials (the SPEC point is trial 0), {search['samples']} validation "
+    out += [f"Budget per method: {search['trials']} trials (the spec point is trial 0), {search['samples']} validation "
             f"maps x seeds {search['seeds']}, episode cap {search['max_episodes']} during the search, TPE seed "
             f"{search['sampler_seed']}.", ""]
     rows = []
@@ -55,8 +55,8 @@ def main() -> int:
             src = ROOT / "results" / "tune" / m / f"{kind}.png"
             if src.is_file():
                 write_bytes(ROOT / "docs" / "tuning" / f"{m}-{kind}.png", src.read_bytes())
-    out += ["### Best constants", "", md_table(["method", "best trial", "complete / pruned / failed", "SPEC steps",
-                                                "best steps", "vs SPEC", "constants"], rows,
+    out += ["### Best constants", "", md_table(["method", "best trial", "complete / pruned / failed", "spec steps",
+                                                "best steps", "fewer steps than spec", "constants"], rows,
                                                ["l", "r", "r", "r", "r", "r", "l"]), ""]
     check = meta["validation_check"]
     scale = {}
@@ -78,8 +78,8 @@ def main() -> int:
             row += ["-"] * 5
         rows.append(row)
     out += ["### TRAIN vs TEST", "", md_table(
-        ["method", "validation SPEC", "validation tuned", "tuned vs SPEC", "greedy/A* SPEC / tuned",
-         "TEST SPEC", "TEST tuned", "tuned vs SPEC", "greedy/A* SPEC / tuned", "gap (validation - TEST)"], rows), ""]
+        ["method", "validation spec", "validation tuned", "fewer steps", "greedy/A* spec / tuned",
+         "TEST spec", "TEST tuned", "fewer steps", "greedy/A* spec / tuned", "gap (validation - TEST)"], rows), ""]
     print("\n".join(out))
     return 0
 

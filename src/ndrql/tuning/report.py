@@ -69,11 +69,14 @@ def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Pat
         from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
 
         ax = plot_optimization_history(study, target_name="pooled convergence steps")
-        ax.set_title(f"{cfg.method}: optimisation history ({len(states)} trials)", loc="left")
+        ax.set_title("", loc="left")  # Optuna's own title
+        ax.set_title(f"{cfg.method}: optimisation history ({len(states)} trials; grey: infeasible)")
+        ax.set_yscale("log")
         save_figure(ax.figure, folder / "history.png", dpi=110, bbox_inches="tight")
         if len(S.search_space(cfg.method)) > 1 and sum(1 for s in states if s == TrialState.COMPLETE) > 2:
             ax = plot_param_importances(study, target_name="pooled convergence steps")
-            ax.set_title(f"{cfg.method}: parameter importance", loc="left")
+            ax.set_title("", loc="left")
+            ax.set_title(f"{cfg.method}: parameter importance")
             save_figure(ax.figure, folder / "importance.png", dpi=110, bbox_inches="tight")
     import matplotlib.pyplot as plt
 

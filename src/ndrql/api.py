@@ -234,8 +234,8 @@ def solve(
                 region, guideline = view.region_grid, view.guideline_grid
             else:
                 region, guideline = downscale_priors(region_map, guideline_map, pg.shape)
-            ndr = next((m for m in ms if m.needs_ndr), ms[0])
-            ms = _fall_back(ms, region, guideline_map, grid_map, pg, consts(ndr.name)[1], settings, info)
+            # the prediction's quality is judged with the given prior_config, whatever the preset
+            ms = _fall_back(ms, region, guideline_map, grid_map, pg, prior_config, settings, info)
 
     priors = {}
     thresholds: dict[str, float | None] = {}

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 EXAMPLES = """examples:
   ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 10 seeds -> results/tune/
@@ -128,7 +127,7 @@ def _export(args, cfgs, problems, storage, digest, log) -> int:
     from ndrql.errors import NdrqlError
     from ndrql.planning.preset import write_preset
     from ndrql.tuning.report import best_setting, check_presets, tuned_preset
-    from ndrql.tuning.study import _storage, finished, study_name
+    from ndrql.tuning.study import finished, open_storage, study_name
     from ndrql.workers import process_pool
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -136,7 +135,7 @@ def _export(args, cfgs, problems, storage, digest, log) -> int:
     for cfg in cfgs:
         name = study_name(cfg, [p.key for p in problems], digest)
         try:
-            study = optuna.load_study(study_name=name, storage=_storage(storage, cfg))
+            study = optuna.load_study(study_name=name, storage=open_storage(storage, cfg))
         except KeyError:
             raise NdrqlError(f"no study {name} for {cfg.method} in {storage}: run ndrql tune --method "
                              f"{cfg.method} with the same settings first") from None

@@ -110,7 +110,7 @@ def default_storage(out_dir: str | Path) -> str:
     return f"sqlite:///{(folder / 'studies.db').resolve()}"
 
 
-def _storage(url: str, cfg: TuneConfig) -> Any:
+def open_storage(url: str, cfg: TuneConfig) -> Any:
     """An Optuna storage for ``url``; SQL ones with heartbeats, a stale trial retried once."""
     import warnings
 
@@ -280,7 +280,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
         raise NdrqlError("no planning problems to tune on")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     name = name or study_name(cfg, [p.key for p in problems], weights_digest)
-    study = open_study(cfg, name, _storage(storage, cfg))
+    study = open_study(cfg, name, open_storage(storage, cfg))
     kernel.warm_up()  # compile once before forking workers
     pool = process_pool(workers, start_method="fork") if workers > 1 else None
     try:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import bfs_distances
-from ndrql.maps.safe import conservative_grid, point_to_square_cell
+from ndrql.maps.safe import conservative_grid
 from ndrql.synth.labels import dilate_region, draw_guideline
 from ndrql.synth.oracle import oracle_prediction
 
@@ -61,12 +61,30 @@ def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int)
         (goal_cell[0] * PX_PER_CELL + mid, goal_cell[1] * PX_PER_CELL + mid)
 
 
+def place_cells(obstacles: np.ndarray, blocked: np.ndarray, start: Point, goal: Point, n: int) -> tuple[Point, Point] | None:
+    """Start and goal cells on the safe grid as ``ndrql plan`` places them (a point whose cell is blocked
+    moves to a nearby free cell it can see, :func:`ndrql.maps.sizing.place_point`); ``None`` when they
+    fall in one cell or do not connect."""
+    from ndrql.errors import NoPathError
+    from ndrql.maps.sizing import place_point
+
+    try:
+        s, _ = place_point(obstacles, blocked, start, n)
+        g, _ = place_point(obstacles, blocked, goal, n)
+    except NoPathError:  # no free cell at all at this size
+        return None
+    if s == g or blocked[s] or blocked[g] or bfs_distances(blocked, s)[g] < 0:
+        return None
+    return s, g
+
+
 def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Rendered | None:
     """``grid`` mode: conservative grid of ``n`` cells, 4 px per cell, oracle labels."""
     blocked = conservative_grid(obstacles, n)
-    s, g = point_to_square_cell(start, obstacles.shape, n), point_to_square_cell(goal, obstacles.shape, n)
-    if s == g or blocked[s] or blocked[g] or bfs_distances(blocked, s)[g] < 0:
+    cells = place_cells(obstacles, blocked, start, goal, n)
+    if cells is None:
         return None
+    s, g = cells
     img, s_px, g_px = grid_input(blocked, s, g, n)
     region, guide = oracle_prediction(blocked, s, g, PX_PER_CELL)
     side = img.shape[0]

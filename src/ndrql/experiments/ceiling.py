@@ -16,8 +16,8 @@ import numpy as np
 
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, grid_input, input_side
-from ndrql.maps.grid import area_downscale, bfs_distances
-from ndrql.maps.safe import cell_size_px, conservative_grid, point_to_square_cell
+from ndrql.maps.grid import area_downscale
+from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.runner import plan
 from ndrql.synth.oracle import oracle_prediction
@@ -47,11 +47,13 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
               larger: tuple[int, ...] = ()) -> GridCase | None:
     """The safe-grid problem of a map at ``n`` cells (or at the first of ``larger`` on which it connects,
     like ``--size auto`` from ``n`` up), or ``None`` when start and goal connect on none of them."""
+    from ndrql.dataset.render import place_cells
+
     for size in (n, *larger):
         blocked = conservative_grid(obstacles, size)
-        s, g = point_to_square_cell(start, obstacles.shape, size), point_to_square_cell(goal, obstacles.shape, size)
-        if s != g and not blocked[s] and not blocked[g] and bfs_distances(blocked, s)[g] >= 0:
-            return GridCase(name, group, obstacles, start, goal, size, blocked, s, g)
+        cells = place_cells(obstacles, blocked, start, goal, size)
+        if cells is not None:
+            return GridCase(name, group, obstacles, start, goal, size, blocked, *cells)
     return None
 
 

@@ -74,7 +74,9 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
     """Region and guideline F1 of the model against the labels of its input mode at this grid."""
     from ndrql.dataset.encodings import encode_input
 
-    r = render("grid" if mode == "grid" else "map", case.obstacles, case.start, case.goal, waypoints, case.n)
+    # map-mode models see the map at 201 px whatever the grid (as in ndrql plan): labels at that scale
+    r = render("grid", case.obstacles, case.start, case.goal, waypoints, case.n) if mode == "grid" else \
+        render("map", case.obstacles, case.start, case.goal, waypoints, 50)
     if r is None:
         return float("nan"), float("nan")
     reg, gl = predictor.predict_batch(encode_input(r.obstacles, r.start, r.goal, predictor.encoding)[None])
@@ -101,14 +103,15 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 if case is None:
                     meta[key] = {"family": fam, "n": n, "skipped": True}
                     continue
-                model = model_priors(predictor, mode, case)
+                model = model_priors(predictor, "map201" if mode == "map" else mode, case)  # what plan shows the model
                 oracle = oracle_priors(case)
                 f1 = _f1(predictor, mode, case, raw.waypoints)
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1}
                 priors = {"QL": None, "IQL": None, "NDR-QL (model)": [a.tolist() for a in model],
                           "NDR-QL (oracle)": [a.tolist() for a in oracle]}
                 grid_id = hashlib.sha256(np.packbits(case.blocked).tobytes()).hexdigest()[:16]
-                fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.n, case.blocked.shape, grid_id)
+                prior_id = hashlib.sha256(b"".join(np.ascontiguousarray(a, np.float64).tobytes() for a in (*model, *oracle))).hexdigest()[:16]
+                fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.n, case.blocked.shape, grid_id, prior_id)
                 tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, ql, pc), fp))
     rep = run_sweep(tasks, out / "tasks", executor=executor, workers=workers, progress=progress, desc="transfer")
     return [{"key": k, **m, **({"runs": rep.results[k]} if not m["skipped"] else {})} for k, m in meta.items()]

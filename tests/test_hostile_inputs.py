@@ -221,9 +221,6 @@ def test_npy_and_movingai_headers_claiming_huge_maps(ndrql_exe, work):
     one_error(run(ndrql_exe, "map", "info", "huge.map", cwd=work, cap=True), r"more than the limit")
 
 
-@pytest.mark.xfail(strict=False, reason="maps.area.area_sums widens the 1 row to 50 before it narrows the "
-                   "16,777,216 columns: a (50, 16777216) int32 intermediate (3.1 GB); reducing the shrinking axis "
-                   "first would keep it O(pixels)")
 def test_one_row_map_of_16m_pixels_plans_in_bounded_memory(ndrql_exe, work):
     Image.new("L", (16_777_216, 1), 255).save(work / "wide.png", optimize=True)  # 16 KB file
     r = run(ndrql_exe, "astar", "wide.png", "--start", "0,0", "--goal", "0,16777215", cwd=work, cap=True)

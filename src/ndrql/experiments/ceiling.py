@@ -15,10 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import PX_PER_CELL, grid_input, input_side
+from ndrql.dataset.render import PX_PER_CELL, input_side
 from ndrql.maps.grid import area_downscale
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.pipeline.predictions import cell_means, predict_on_grid
 from ndrql.planning.runner import plan
 from ndrql.synth.oracle import oracle_prediction
 
@@ -57,16 +58,10 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
     return None
 
 
-def to_grid(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """Probabilities at 4 px per cell (possibly padded) -> the grid, by area averaging."""
-    h, w = shape
-    return area_downscale(prob[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
-
-
 def oracle_priors(case: GridCase) -> tuple[np.ndarray, np.ndarray]:
     """Region and guideline of the oracle on the grid."""
     region, guide = oracle_prediction(case.blocked, case.start_cell, case.goal_cell, PX_PER_CELL)
-    return to_grid(region, case.blocked.shape), to_grid(guide, case.blocked.shape)
+    return cell_means(region, case.blocked.shape), cell_means(guide, case.blocked.shape)
 
 
 def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.ndarray]:
@@ -78,9 +73,8 @@ def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.n
     from ndrql.model.predict import from_model_output, to_model_input
 
     if mode == "grid":
-        img, s, g = grid_input(case.blocked, case.start_cell, case.goal_cell, case.n)
-        r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
-        return to_grid(r[0], case.blocked.shape), to_grid(gl[0], case.blocked.shape)
+        r, gl, _ = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
+        return cell_means(r, case.blocked.shape), cell_means(gl, case.blocked.shape)
     side = 201 if mode == "map201" else input_side("map", case.n)
     img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)
     r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])

@@ -69,18 +69,38 @@ def _grid_to_map(prob: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     return np.asarray(prob, np.float64)[rows[:, None], cols[None, :]]
 
 
-def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any]) -> ModelView:
-    """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid."""
+def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Probabilities drawn at 4 px per cell (possibly padded) -> the planning grid of ``shape``: exact 4x4 means."""
     from ndrql.dataset.render import PX_PER_CELL
     from ndrql.maps.grid import area_downscale
 
+    h, w = shape
+    return area_downscale(np.asarray(prob, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
+
+
+def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,
+                    goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any]]:
+    """A grid-mode model's region and guideline at 4 px per cell of the planning grid ``blocked`` (padded to
+    a square of ``4 max(h, w)`` px), and what it saw."""
+    from ndrql.dataset.encodings import encode_input
+    from ndrql.dataset.render import grid_input
+
+    img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
+    r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
+    info = {"mode": "grid", "side": int(img.shape[0]), "start": list(s), "goal": list(g)}
+    return r[0], None if gl is None else gl[0], info
+
+
+def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any]) -> ModelView:
+    """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid."""
+    from ndrql.dataset.render import PX_PER_CELL
+
     h, w = grid.shape
     crop = lambda a: np.asarray(a, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL]  # noqa: E731
-    region_grid = area_downscale(crop(region_px), (h, w))
-    guide_grid = None if guide_px is None else area_downscale(crop(guide_px), (h, w))
     return ModelView(region=_grid_to_map(crop(region_px), grid),
                      guideline=None if guide_px is None else _grid_to_map(crop(guide_px), grid),
-                     info=info, region_grid=region_grid, guideline_grid=guide_grid)
+                     info=info, region_grid=cell_means(region_px, grid.shape),
+                     guideline_grid=None if guide_px is None else cell_means(guide_px, grid.shape))
 
 
 def oracle_view(grid: PlanningGrid) -> ModelView:
@@ -103,14 +123,8 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
     ``map`` models (the paper's) see the map resized to 201 px.
     """
     if getattr(predictor, "input_mode", "map") == "grid":
-        from ndrql.dataset.encodings import encode_input
-        from ndrql.dataset.render import grid_input
-
-        n = max(grid.shape)
-        img, s, g = grid_input(grid.blocked, grid.start, grid.goal, n)
-        r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
-        info = {"mode": "grid", "side": int(img.shape[0]), "start": list(s), "goal": list(g)}
-        return _on_grid(r[0], None if gl is None else gl[0], grid, info)
+        region_px, guide_px, info = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
+        return _on_grid(region_px, guide_px, grid, info)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)
     region = np.asarray(pred.region, dtype=np.float64)

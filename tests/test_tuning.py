@@ -221,6 +221,26 @@ def test_killed_search_continues_the_same_study(tmp_path):
     assert not any(t[1] == "RUNNING" for t in after)
 
 
+def test_trial_killed_before_its_first_heartbeat_is_failed(tmp_path):
+    """A trial created but never heart-beaten (kill -9 right after creation) is failed after the grace;
+    a trial with a heartbeat, or a young one, is left to Optuna."""
+    import warnings
+
+    from ndrql.tuning.study import fail_orphans, open_storage
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        storage = open_storage(f"sqlite:///{tmp_path}/s.db", _cfg(heartbeat=1, grace=2))
+        study = optuna.create_study(study_name="s", storage=storage)
+        orphan, beating = study.ask(), study.ask()
+        storage.record_heartbeat(beating._trial_id)
+    assert fail_orphans(study, grace=2) == []  # too young
+    time.sleep(2.5)
+    assert fail_orphans(study, grace=2) == [orphan.number]
+    states = {t.number: t.state.name for t in study.get_trials()}
+    assert states == {orphan.number: "FAIL", beating.number: "RUNNING"}
+
+
 def test_tune_config_rejects_bad_values():
     from ndrql.tuning.study import TuneConfig
 

@@ -131,6 +131,41 @@ def open_storage(url: str, cfg: TuneConfig) -> Any:
             raise NdrqlError(f"cannot open the study storage {url[:120]}: {exc.__class__.__name__}") from None
 
 
+def fail_orphans(study: Any, grace: int) -> list[int]:
+    """Fail the RUNNING trials that never recorded a heartbeat and started over ``grace`` s ago.
+
+    Optuna fails stale trials only once they have a heartbeat; a process killed between creating a
+    trial and its first heartbeat leaves the trial RUNNING for ever. Returns the failed numbers.
+    """
+    from datetime import datetime, timedelta
+
+    from optuna.trial import TrialState
+
+    storage = getattr(study._storage, "_backend", study._storage)  # under Optuna's cache wrapper
+    models = _rdb_models()
+    if models is None or not hasattr(storage, "scoped_session"):
+        return []
+    failed = []
+    with storage.scoped_session() as session:
+        beating = {tid for (tid,) in session.query(models.TrialHeartbeatModel.trial_id).all()}
+    now = datetime.now()
+    for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+        if t._trial_id in beating or t.datetime_start is None:
+            continue
+        if now - t.datetime_start > timedelta(seconds=grace):
+            storage.set_trial_state_values(t._trial_id, TrialState.FAIL)
+            failed.append(t.number)
+    return failed
+
+
+def _rdb_models() -> Any:
+    try:
+        from optuna.storages._rdb import models
+    except ImportError:  # pragma: no cover - a future Optuna without this module: nothing to repair
+        return None
+    return models
+
+
 def _has_set_constraint() -> bool:
     import optuna
 
@@ -281,6 +316,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     name = name or study_name(cfg, [p.key for p in problems], weights_digest)
     study = open_study(cfg, name, open_storage(storage, cfg))
+    fail_orphans(study, cfg.grace)
     kernel.warm_up()  # compile once before forking workers
     pool = process_pool(workers, start_method="fork") if workers > 1 else None
     try:

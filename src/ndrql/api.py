@@ -213,14 +213,14 @@ def solve(
                     raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
                                      f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
         else:
-            from ndrql.model.predict import default_weights_path
+            from ndrql.model.weights import resolve_weights
             from ndrql.pipeline.predictions import predict_region
             from ndrql.planning.methods import load_predictor
 
             with clock.stage("load"):
                 predictor = load_predictor(weights, settings.threads, settings.backend)
             info["backend"] = predictor.backend_name
-            used_weights = str(weights if weights is not None else default_weights_path())
+            used_weights = str(resolve_weights(weights))
             with clock.stage("predict"):
                 view = predict_region(predictor, grid_map, pg, start, goal)
                 info["model_input"] = view.info

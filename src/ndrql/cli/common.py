@@ -93,6 +93,16 @@ def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = F
     parser.add_argument("--crop", action="store_true", help="ROS maps: crop to the bounding box of known cells")
 
 
+def add_weights_argument(parser: argparse.ArgumentParser, default: str | None = None) -> None:
+    """``--weights paper|general|FILE``; ``default`` names the shipped weights used without it."""
+    from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
+
+    names = "|".join(SHIPPED_WEIGHTS)
+    parser.add_argument("--weights", metavar=f"{names}|FILE",
+                        help=f"NDR model weights: shipped {' or '.join(SHIPPED_WEIGHTS)}, or a checkpoint file "
+                             f"(default: $NDRQL_WEIGHTS, else {default or DEFAULT_WEIGHTS})")
+
+
 def add_max_pixels_argument(parser: argparse.ArgumentParser) -> None:
     """``--max-pixels N``: the largest map read (refused from its header before decoding)."""
     from ndrql.maps.readers import MAX_MAP_PIXELS

@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from ndrql.cli.common import add_weights_argument
+
 DEMO_METHODS = ("QL", "IQL", "NDR-QL")
 
 
@@ -25,7 +27,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="out/demo", metavar="DIR", help="output folder (default: out/demo)")
     p.add_argument("--seeds", type=int, default=10, metavar="N", help="seeds 0..N-1 for every method (default: 10)")
-    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
+    add_weights_argument(p)
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
     p.add_argument("--preset", default="spec", metavar="NAME", help="constants per method: spec (the paper's; "
                    "default), tuned (searched on validation maps with ndrql tune) or a preset FILE")

@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.cli.common import add_weights_argument
+
 EXAMPLES = """examples:
   ndrql eval --split seen
   ndrql eval --split unseen --weights ~/.cache/ndrql/runs/ndr-default/best.pt --markdown out/unseen.md
@@ -21,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("eval", help="F1 of the NDR model on seen/unseen/val", description=__doc__, epilog=EXAMPLES,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--split", choices=("seen", "unseen", "val"), default="seen", help="split to score (default: seen)")
-    p.add_argument("--weights", metavar="FILE", help="checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
+    add_weights_argument(p)
     p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default: 32)")
     p.add_argument("--limit", type=int, default=0, help="score only the first N samples (0 = all)")
@@ -40,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.dataset.layout import CATEGORIES, check_root, default_root
     from ndrql.dataset.splits import train_val_split
     from ndrql.errors import DatasetError
-    from ndrql.model.predict import default_weights_path
+    from ndrql.model.weights import resolve_weights
     from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
     from ndrql.training.evaluate import category_rows, evaluate, markdown_table
 
@@ -58,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     check_root(root)
     if args.threads:
         torch.set_num_threads(args.threads)
-    weights = Path(args.weights) if args.weights else default_weights_path()
+    weights = resolve_weights(args.weights)
     ck = load_checkpoint(weights)
     model = model_from_checkpoint(ck).to(memory_format=torch.channels_last)
     encoding = dict(ck["config"]).get("encoding", "point")

@@ -32,11 +32,11 @@ def run_weights(args: argparse.Namespace) -> int:
 
 def run_onnx(args: argparse.Namespace) -> int:
     from ndrql.model.export import export_onnx
-    from ndrql.model.predict import default_weights_path
+    from ndrql.model.weights import resolve_weights
 
     from ndrql.limits import check_int
 
     check_int(args.size, "--size", 32, 4096)
-    out = export_onnx(Path(args.weights) if args.weights else default_weights_path(), args.out, args.size)
+    out = export_onnx(resolve_weights(args.weights), args.out, args.size)
     print(f"wrote {out}")
     return 0

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from ndrql.cli.common import add_weights_argument
+
 EXAMPLES = """examples:
   ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
   ndrql plan --sample path-planning-dataset:seen:0                          # start and goal from the sample
@@ -17,7 +19,7 @@ EXAMPLES = """examples:
   ndrql plan floor.png --start 300,200 --goal 1700,1800 --grid area --size 50   # the paper's grid instead of the safe one
 
 methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL; N-C, N-Q and NDR-QL use the
-NDR model (shipped weights, or --weights FILE, or $NDRQL_WEIGHTS; --prior-from FILE.npz gives the
+NDR model (shipped paper or general weights, or --weights FILE, or $NDRQL_WEIGHTS; --prior-from FILE.npz gives the
 predictions instead). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
 seed gives the same run on any machine load and any number of workers. Time per stage: load (model
 weights), predict, priors, learn; start-up (torch import, loading the compiled kernel) is per process.
@@ -67,7 +69,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=1, metavar="N", help="number of runs (seeds S..S+N-1; default: 1)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
-    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ndr_default.pt)")
+    add_weights_argument(p)
     p.add_argument("--prior-from", metavar="FILE.npz|oracle",
                    help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]; "
                    "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")

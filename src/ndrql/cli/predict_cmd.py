@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from ndrql.cli.common import add_weights_argument
+
 EXAMPLES = """examples:
   ndrql predict --sample path-planning-dataset:unseen:600 --out out/pred
   ndrql predict map.png --start 20,30 --goal 180,170 --out out/pred --weights my_model.pt
@@ -20,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_problem_arguments(p)
     add_max_pixels_argument(p)
-    p.add_argument("--weights", metavar="FILE", help="model checkpoint (default: the shipped model or $NDRQL_WEIGHTS)")
+    add_weights_argument(p)
     p.add_argument("--out", metavar="DIR", default="out/predict", help="output folder (default: out/predict)")
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")

@@ -6,6 +6,9 @@ import argparse
 import shlex
 import sys
 
+from ndrql.cli.common import add_weights_argument
+from ndrql.model.weights import PAPER_WEIGHTS
+
 TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "all")
 
 EXAMPLES = """examples:
@@ -48,7 +51,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("target", choices=TARGETS, metavar="TARGET", help=f"one of: {', '.join(TARGETS)}")
     p.add_argument("--out", metavar="DIR", help="results directory (default: results/<target>)")
     p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
-    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
+    add_weights_argument(p, PAPER_WEIGHTS)
     p.add_argument("--seeds", type=int, default=10, metavar="N", help="runs per map and method (default: 10)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
     p.add_argument("--workers", type=int, default=2, metavar="N", help="parallel workers (default: 2)")

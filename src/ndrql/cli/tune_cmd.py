@@ -6,6 +6,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ndrql.cli.common import add_weights_argument
+from ndrql.model.weights import PAPER_WEIGHTS
+
 EXAMPLES = """examples:
   ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 10 seeds -> results/tune/
   ndrql tune --method QL --trials 20 --samples 10     # a small search
@@ -37,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--study-name", metavar="NAME", help="study name (default: METHOD-<digest of the settings>)")
     p.add_argument("--out", metavar="DIR", default="results/tune", help="results directory (default: results/tune)")
     p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
-    p.add_argument("--weights", metavar="FILE", help="NDR model weights (default: $NDRQL_WEIGHTS or the shipped ones)")
+    add_weights_argument(p, PAPER_WEIGHTS)
     p.add_argument("--workers", type=int, default=2, metavar="N", help="processes running a trial's maps (default: 2)")
     p.add_argument("--export-preset", metavar="FILE", help="instead of searching: write the best trials of the "
                    "--methods' studies as a preset file, after checking them against spec on fresh seeds")

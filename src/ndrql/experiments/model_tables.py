@@ -166,12 +166,12 @@ def table1(out_dir: str | Path, data: str | None = None, weights: str | None = N
            limit: int | None = None, progress: bool = True, command: str = "", log: Callable[[str], None] = print) -> Path:
     """Region/guideline F1 of NDR and the RGP-style peer on seen and unseen, with their training budgets."""
     from ndrql.experiments.problems import resolve_root
-    from ndrql.model.predict import default_weights_path
+    from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     root = resolve_root(data)
-    ndr = Path(weights) if weights else default_weights_path()
+    ndr = resolve_weights(weights or None, PAPER_WEIGHTS)
     rgp = Path(rgp_weights) if rgp_weights else default_rgp_weights()
     if not ndr.is_file():
         raise NdrqlError(f"table1 needs the NDR weights ({ndr}); set NDRQL_WEIGHTS or pass --weights")

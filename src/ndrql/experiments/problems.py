@@ -121,10 +121,10 @@ class PredictionCache:
     """NDR predictions per sample, made once and kept on disk (module docstring)."""
 
     def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1):
-        from ndrql.model.predict import default_weights_path
+        from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 
         self.dir = Path(cache_dir)
-        self.weights = Path(weights) if weights is not None else default_weights_path()
+        self.weights = resolve_weights(weights, PAPER_WEIGHTS)
         if not self.weights.is_file():
             raise NdrqlError(
                 f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "

@@ -179,10 +179,11 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
              progress: bool = True, command: str = "", log: Callable[[str], None] = print) -> Path:
     """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``."""
     from ndrql.io import file_digest
-    from ndrql.model.predict import Predictor, default_weights_path
+    from ndrql.model.predict import Predictor
+    from ndrql.model.weights import resolve_weights
 
     out = Path(out)
-    wpath = Path(weights) if weights else default_weights_path()
+    wpath = resolve_weights(weights or None)
     predictor = Predictor.load(wpath, threads=1, backend="torch")
     mode = predictor.input_mode
     gs = eval_set(eval_spec(set_name), progress)

@@ -9,20 +9,17 @@ free pixel if the resize blocked them). Probabilities are mapped back to the map
 from __future__ import annotations
 
 import contextlib
-import os
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
 
 from ndrql.errors import CheckpointError, PointError
+from ndrql.model.weights import resolve_weights
 
 #: Side of the square input the model was trained on.
 MODEL_SIDE = 201
-#: File name of the shipped weights inside ``ndrql/data``.
-WEIGHTS_NAME = "ndr_default.pt"
 
 Point = tuple[int, int]
 
@@ -36,11 +33,9 @@ class Prediction:
 
 
 def default_weights_path() -> Path:
-    """``$NDRQL_WEIGHTS`` if set, else the weights shipped inside the package."""
-    env = os.environ.get("NDRQL_WEIGHTS")
-    if env:
-        return Path(env)
-    return Path(str(resources.files("ndrql") / "data" / WEIGHTS_NAME))
+    """``$NDRQL_WEIGHTS`` if set (a name or a path), else the shipped default weights
+    (:data:`ndrql.model.weights.DEFAULT_WEIGHTS`)."""
+    return resolve_weights(None)
 
 
 def point_on_grid(p: Point, scale: float, side: int) -> Point:
@@ -298,7 +293,7 @@ class Predictor:
 
         if backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {backend!r}; valid: {', '.join(BACKENDS)}")
-        path = Path(path) if path is not None else default_weights_path()
+        path = resolve_weights(path)
         if not path.is_file():
             raise CheckpointError(
                 f"missing model weights: {path} (reinstall ndrql, set NDRQL_WEIGHTS, or pass --weights / --prior-from)"

@@ -195,9 +195,9 @@ def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, b
     """
     from pathlib import Path
 
-    from ndrql.model.predict import default_weights_path
+    from ndrql.model.weights import resolve_weights
 
-    path = Path(weights) if weights is not None else default_weights_path()
+    path = resolve_weights(weights)
     try:
         st = path.stat()
         key = (str(path.resolve()), st.st_size, st.st_mtime_ns)

@@ -1,0 +1,48 @@
+"""Which weights file a name means: the shipped ``paper`` and ``general`` models, or a path.
+
+``paper`` is the model of the paper's setting (trained on the paper's dataset only; it sees the map
+resized to 201 px) and keeps the reproduction tables reproducible. ``general`` sees the planning grid
+at 4 px per cell and was trained on the paper's data plus generated maps of many families and scales
+(``docs/results.md#transfer``); it is the default of ``ndrql plan``, ``demo`` and the API.
+"""
+
+from __future__ import annotations
+
+import os
+from importlib import resources
+from pathlib import Path
+
+#: Name -> file inside ``ndrql/data``.
+SHIPPED_WEIGHTS: dict[str, str] = {"paper": "ndr_default.pt", "general": "ndr_general.pt"}
+#: The weights ``plan``, ``demo`` and the API use when none are named (``$NDRQL_WEIGHTS`` overrides).
+DEFAULT_WEIGHTS = "paper"
+#: The weights of the paper's tables (``reproduce table1`` ... ``scale``).
+PAPER_WEIGHTS = "paper"
+
+
+def shipped_weights(name: str) -> Path:
+    """Path of the shipped weights called ``name`` (:data:`SHIPPED_WEIGHTS`)."""
+    return Path(str(resources.files("ndrql") / "data" / SHIPPED_WEIGHTS[name]))
+
+
+def resolve_weights(spec: str | os.PathLike | None = None, default: str = DEFAULT_WEIGHTS) -> Path:
+    """The weights file ``spec`` names: ``paper``, ``general`` or a path; ``None`` means
+    ``$NDRQL_WEIGHTS`` (itself a name or a path) when set, else the shipped ``default``."""
+    if spec is None:
+        spec = os.environ.get("NDRQL_WEIGHTS") or default
+    text = os.fspath(spec)
+    if text in SHIPPED_WEIGHTS:
+        return shipped_weights(text)
+    return Path(text)
+
+
+def weights_label(path: str | os.PathLike) -> str:
+    """``paper``/``general`` for the shipped files, else the path as given."""
+    p = Path(path)
+    for name in SHIPPED_WEIGHTS:
+        try:
+            if p.resolve() == shipped_weights(name).resolve():
+                return name
+        except OSError:
+            pass
+    return str(path)

@@ -28,6 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default: 32)")
     p.add_argument("--limit", type=int, default=0, help="score only the first N samples (0 = all)")
     p.add_argument("--threads", type=int, default=0, help="torch threads (0 = all cores)")
+    p.add_argument("--grid", type=int, default=50, metavar="N",
+                   help="grid-mode models: planning grid the model sees (default: 50, the paper's); ignored for map-mode models")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
     p.add_argument("--json", metavar="FILE", help="also write the numbers as JSON")
     p.set_defaults(func=run)
@@ -75,9 +77,22 @@ def run(args: argparse.Namespace) -> int:
         names = CATEGORIES[args.split]
     if args.limit:
         indices = indices[:args.limit]
-    res = evaluate(model, data, indices, batch_size=args.batch_size, encoding=encoding, progress=True)
-    rows = category_rows(res, names)
-    table = markdown_table(rows, f"{args.split} ({len(indices)} samples, weights {weights.name})", args.split == "unseen")
+    mode = dict(ck["config"]).get("input_mode", "map")
+    title = f"{args.split} ({len(indices)} samples, weights {weights.name})"
+    if mode == "grid":
+        from ndrql.experiments.grid_eval import evaluate_grid_model
+
+        check_int(args.grid, "--grid", 8, 256)
+        ge = evaluate_grid_model(model, data, indices, n=args.grid, encoding=encoding,
+                                 batch_size=min(args.batch_size, 16), progress=True)
+        res = ge.dataset
+        rows = category_rows(res, names, grid=(ge.grid_region_f1, ge.grid_guideline_f1))
+        title += (f"; grid-mode model on the safe {args.grid}x{args.grid} grid (larger where start and goal need it: "
+                  f"{int((ge.sizes > args.grid).sum())} maps), each map pixel scored with its cell's mean")
+    else:
+        res = evaluate(model, data, indices, batch_size=args.batch_size, encoding=encoding, progress=True)
+        rows = category_rows(res, names)
+    table = markdown_table(rows, title, args.split == "unseen")
     print(table)
     print(f"throughput: {res.images_per_s:.1f} images/s (batch {args.batch_size}, fp32, {torch.get_num_threads()} threads)")
     if args.markdown:
@@ -85,5 +100,7 @@ def run(args: argparse.Namespace) -> int:
 
         write_text(args.markdown, table)
     if args.json:
-        write_json(args.json, {"split": args.split, "weights": str(weights), "rows": rows, "images_per_s": res.images_per_s})
+        write_json(args.json, {"split": args.split, "weights": str(weights), "input_mode": mode,
+                                "grid": args.grid if mode == "grid" else None, "rows": rows,
+                                "images_per_s": res.images_per_s})
     return 0

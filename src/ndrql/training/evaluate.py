@@ -70,8 +70,10 @@ def evaluate(model: torch.nn.Module, data: SplitArrays, indices: np.ndarray | No
     )
 
 
-def category_rows(result: EvalResult, names: tuple[str, ...]) -> list[dict[str, float | str | int]]:
-    """Mean F1 (percent) overall and per category."""
+def category_rows(result: EvalResult, names: tuple[str, ...],
+                  grid: tuple[np.ndarray, np.ndarray] | None = None) -> list[dict[str, float | str | int]]:
+    """Mean F1 (percent) overall and per category; ``grid``: per-image region and guideline F1 against
+    the planning grid's own labels (grid-mode models), added as two more columns."""
     rows: list[dict[str, float | str | int]] = []
     groups = [("all", np.ones(len(result.category), bool))] + [(n, result.category == i) for i, n in enumerate(names)]
     for name, sel in groups:
@@ -85,18 +87,26 @@ def category_rows(result: EvalResult, names: tuple[str, ...]) -> list[dict[str, 
             "guideline_f1": float(100 * np.nanmean(g)) if np.isfinite(g).any() else float("nan"),
             "region_f1_original": float(100 * result.region_f1_original[sel].mean()),
         })
+        if grid is not None:
+            gg = grid[1][sel]
+            rows[-1]["grid_region_f1"] = float(100 * grid[0][sel].mean())
+            rows[-1]["grid_guideline_f1"] = float(100 * np.nanmean(gg)) if np.isfinite(gg).any() else float("nan")
     return rows
 
 
 def markdown_table(rows: list[dict], split: str, original_labels: bool) -> str:
     """Markdown table of :func:`category_rows` (with the original-label column for UNSEEN)."""
+    grid = bool(rows) and "grid_region_f1" in rows[0]
     head = "| category | n | region F1 | guideline F1 |" + (" region F1 (original labels) |" if original_labels else "")
-    sep = "|---|---:|---:|---:|" + ("---:|" if original_labels else "")
+    head += " region F1 (grid labels) | guideline F1 (grid labels) |" if grid else ""
+    sep = "|---|---:|---:|---:|" + ("---:|" if original_labels else "") + ("---:|---:|" if grid else "")
     lines = [f"**{split}**", "", head, sep]
     for r in rows:
         line = f"| {r['category']} | {r['n']} | {r['region_f1']:.2f} | {r['guideline_f1']:.2f} |"
         if original_labels:
             line += f" {r['region_f1_original']:.2f} |"
+        if grid:
+            line += f" {r['grid_region_f1']:.2f} | {r['grid_guideline_f1']:.2f} |"
         lines.append(line)
     return "\n".join(lines) + "\n"
 

@@ -35,3 +35,20 @@ def test_eval_scores_a_grid_model_both_ways(ndrql_exe, dataset_root, tmp_path):
     row = data["rows"][0]
     assert row["n"] == 6 and 0 <= row["grid_region_f1"] <= 100 and 0 <= row["region_f1"] <= 100
     assert "region F1 (grid labels)" in res.stdout
+
+
+def test_prediction_cache_asks_a_grid_model_on_the_planning_grid(dataset_root, tmp_path):
+    """The tables' prediction cache: a grid-mode model predicts on the problem's own planning grid; its
+    priors are the 4x4 cell means; the second call reads the cache and gives the same arrays."""
+    from ndrql.experiments.problems import PredictionCache, load_problem
+
+    p = load_problem(dataset_root, "seen", 0)
+    cache = PredictionCache(tmp_path, "general")
+    a = cache.attach(p)
+    assert a.region.shape == p.blocked.shape == a.guideline.shape and cache.computed == 1
+    assert 0 <= a.region.min() and a.region.max() <= 1
+    assert a.region[p.start] > 0.5 and a.region[p.goal] > 0.5  # the region holds both ends of the path
+    b = PredictionCache(tmp_path, "general").attach(p)
+    assert np.array_equal(a.region, b.region) and np.array_equal(a.guideline, b.guideline)
+    region_map, _ = cache.full(p)
+    assert region_map.shape == p.obstacles.shape

@@ -141,15 +141,19 @@ class PredictionCache:
     def path(self, p: Problem) -> Path:
         return self.dir / f"{p.key}.npz"
 
-    def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
-        """Region and guideline at the map's resolution (float32), from the cache or the model."""
+    def _entry(self, p: Problem) -> tuple[str, np.ndarray, np.ndarray]:
+        """``(mode, region, guideline)`` as the model drew them (float32): at the map's resolution for
+        ``map``-mode models, at 4 px per cell of the planning grid for ``grid``-mode ones."""
         path = self.path(p)
-        inputs = hashlib.sha256(np.packbits(p.obstacles).tobytes() + repr((p.source_start, p.source_goal)).encode()).hexdigest()[:16]
+        key = np.packbits(p.obstacles).tobytes() + repr((p.source_start, p.source_goal)).encode()
+        key += np.packbits(p.blocked).tobytes() + repr((p.start, p.goal)).encode()  # grid models see the grid
+        inputs = hashlib.sha256(key).hexdigest()[:16]
         if path.is_file():
             try:
                 with np.load(path, allow_pickle=False) as d:
                     if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs:
-                        return d["region"].astype(np.float32), d["guideline"].astype(np.float32)
+                        mode = str(d["mode"]) if "mode" in d.files else "map"
+                        return mode, d["region"].astype(np.float32), d["guideline"].astype(np.float32)
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
                 pass  # a damaged cache entry is predicted again
         if self._predictor is None:
@@ -158,20 +162,47 @@ class PredictionCache:
             # torch, not ONNX Runtime: the tables in docs/results.md were made with it, and the two
             # backends differ by ~1e-4 in probability, which could move a run; same numbers on re-runs
             self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
-        pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
-        if pred.guideline is None:
+        mode = getattr(self._predictor, "input_mode", "map")
+        if mode == "grid":
+            from ndrql.pipeline.predictions import predict_on_grid
+
+            region, guideline, _ = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
+        else:
+            pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
+            region, guideline = pred.region, pred.guideline
+        if guideline is None:
             raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")
-        save_npz(path, region=pred.region.astype(np.float16), guideline=pred.guideline.astype(np.float16),
-                 weights=np.array(self.digest), inputs=np.array(inputs))
+        region, guideline = np.asarray(region).astype(np.float16), np.asarray(guideline).astype(np.float16)
+        save_npz(path, region=region, guideline=guideline, weights=np.array(self.digest), inputs=np.array(inputs),
+                 mode=np.array(mode))
         self.computed += 1
-        return pred.region.astype(np.float16).astype(np.float32), pred.guideline.astype(np.float16).astype(np.float32)
+        return mode, region.astype(np.float32), guideline.astype(np.float32)
+
+    def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Region and guideline at the map's resolution (float32), from the cache or the model (a grid-mode
+        model's cell means drawn back on the map's pixels)."""
+        mode, region, guideline = self._entry(p)
+        if mode == "grid":
+            from ndrql.experiments.grid_eval import to_map_pixels
+
+            n = max(p.blocked.shape)
+            return (to_map_pixels(region, p.obstacles.shape, n).astype(np.float32),
+                    to_map_pixels(guideline, p.obstacles.shape, n).astype(np.float32))
+        return region, guideline
 
     def attach(self, p: Problem) -> Problem:
-        """``p`` with region and guideline downscaled to its planning grid (area averaging, docs/method.md)."""
+        """``p`` with region and guideline on its planning grid: area averaging of the map-resolution
+        prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells."""
         from dataclasses import replace
 
         from ndrql.planning.methods import downscale_priors
 
-        region, guideline = self.full(p)
-        r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
+        mode, region, guideline = self._entry(p)
+        if mode == "grid":
+            from ndrql.pipeline.predictions import cell_means
+
+            r = np.clip(cell_means(region, p.blocked.shape), 0, 1)
+            g = np.clip(cell_means(guideline, p.blocked.shape), 0, 1)
+        else:
+            r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
         return replace(p, region=r, guideline=g)

@@ -45,13 +45,13 @@ def ndrql_exe() -> list[str]:
 def model_weights() -> Path:
     """The NDR model weights ``ndrql plan`` uses by default; the test is skipped when there are none.
 
-    That is ``$NDRQL_WEIGHTS`` if set, else the file shipped in the package (``ndrql/data/ndr_default.pt``).
+    That is ``$NDRQL_WEIGHTS`` if set, else the shipped default (``general``: ``ndrql/data/ndr_general.pt``).
     """
     from ndrql.model.predict import default_weights_path
 
     path = default_weights_path()
     if not path.is_file():
-        pytest.skip(f"no NDR model weights at {path} (shipped as src/ndrql/data/ndr_default.pt, or set NDRQL_WEIGHTS)")
+        pytest.skip(f"no NDR model weights at {path} (shipped in src/ndrql/data/, or set NDRQL_WEIGHTS)")
     return path
 
 

@@ -197,13 +197,14 @@ def test_point_in_a_blocked_cell_moves_with_a_warning(ndrql_exe, tmp_path):
 
 def test_json_to_stdout_and_a_point_the_model_input_loses(ndrql_exe, model_weights, tmp_path):
     """``--json -`` keeps stdout pure JSON; a start in a 1-px hole of a 603x603 map vanishes in the
-    model's 201x201 input: one warning, the JSON says where the model saw it, planning still works."""
+    model's 201x201 input: one warning, the JSON says where the model saw it, planning still works.
+    (The paper model: it sees the map resized to 201 px; the default general model sees the grid.)"""
     m = np.zeros((603, 603), dtype=bool)
     m[0:60, 0:60] = True
     m[31, 31] = False  # a single free pixel inside a block: gone after resizing by 1/3
     m[0:60, 30:33] = False  # ... reachable through a 3-px corridor so planning can start there
     np.save(tmp_path / "m.npy", m)
-    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "31,31", "--goal", "590,590", "--json", "-")
+    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "31,31", "--goal", "590,590", "--json", "-", "--weights", "paper")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["model_input"]["scale"] == pytest.approx(1 / 3)
@@ -214,7 +215,7 @@ def test_json_to_stdout_and_a_point_the_model_input_loses(ndrql_exe, model_weigh
     m[0:29, 31] = False  # a 1-px corridor: free on the map, blocked after resizing
     np.save(tmp_path / "m.npy", m)
     r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "20,31", "--goal", "590,590", "--json", "-", "--method", "N-Q",
-             "--size", "201")
+             "--size", "201", "--weights", "paper")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["model_input"]["moved"]["start"] is True

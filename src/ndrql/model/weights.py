@@ -15,7 +15,7 @@ from pathlib import Path
 #: Name -> file inside ``ndrql/data``.
 SHIPPED_WEIGHTS: dict[str, str] = {"paper": "ndr_default.pt", "general": "ndr_general.pt"}
 #: The weights ``plan``, ``demo`` and the API use when none are named (``$NDRQL_WEIGHTS`` overrides).
-DEFAULT_WEIGHTS = "paper"
+DEFAULT_WEIGHTS = "general"
 #: The weights of the paper's tables (``reproduce table1`` ... ``scale``).
 PAPER_WEIGHTS = "paper"
 

@@ -24,12 +24,13 @@ import numpy as np
 from ndrql.errors import NoPathError
 from ndrql.experiments import stats
 from ndrql.experiments.presets import method_configs, preset_line
-from ndrql.experiments.planning_tables import SweepOptions, Variant, registry_variant, variant_priors
+from ndrql.experiments.planning_tables import SweepOptions, method_fields
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, resolve_root, table3_maps
 from ndrql.experiments.report import machine, machine_line, md_table, save_figure
 from ndrql.experiments.sweep import Task, fingerprint, run_sweep
 from ndrql.io import write_json, write_text
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import Method, Priors, build_priors, get_method
 
 DYNAMIC_VERSION = 1
 METHODS = ("QL", "NDR-QL")
@@ -103,10 +104,9 @@ def advance_stages(p: Problem, path: Sequence[Sequence[int]], n: int = 5) -> lis
     return out
 
 
-def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], variant: Variant, seed: int, ql: QLConfig,
+def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], method: Method, seed: int, ql: QLConfig,
                pc: PriorConfig) -> list[dict]:
     """One seed through every stage: scratch and warm-started runs (module docstring)."""
-    from ndrql.planning.methods import Priors
     from ndrql.planning.runner import plan
 
     out = []
@@ -114,12 +114,12 @@ def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], variant:
     for k, (blocked, start, goal, region, guideline) in enumerate(stages):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            pri = variant_priors(variant, blocked, start, goal, region, guideline, pc)
-        scratch = plan(blocked, start, goal, variant.method(), seed, ql, pc, priors=pri, keep_q=True)
+            pri = build_priors(method, blocked, start, goal, region, guideline, pc)
+        scratch = plan(blocked, start, goal, method, seed, ql, pc, priors=pri, keep_q=True)
         if prev_q is None:
             warm = scratch
         else:
-            warm = plan(blocked, start, goal, variant.method(), seed, ql, pc,
+            warm = plan(blocked, start, goal, method, seed, ql, pc,
                         priors=Priors(pri.r_c, prev_q, pri.threshold), keep_q=True)
         prev_q = warm.q_table
         keep = ("converged", "convergence_steps", "convergence_episode", "path_length", "astar_length", "length_ratio", "path")
@@ -164,14 +164,14 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
         attached[name] = lst
     kernel.warm_up()
     tasks = []
-    variants = [registry_variant(m) for m in METHODS]
+    variants = [get_method(m) for m in METHODS]
     for name, stages in attached.items():
         for v in variants:
             st = [_stage_tuple(p, v.needs_ndr) for _, p in stages]
             ql, pc = method_configs(opts, v.name)
             for s in opts.seed_list:
                 fp = fingerprint(DYNAMIC_VERSION, name, [(p.key, p.start, p.goal, int(p.blocked.sum())) for _, p in stages],
-                                 asdict(v), s, asdict(ql), asdict(pc), preds.digest if v.needs_ndr else None)
+                                 method_fields(v), s, asdict(ql), asdict(pc), preds.digest if v.needs_ndr else None)
                 tasks.append(Task(f"{name}__{v.name}__{s}", chain_task, (st, v, s, ql, pc), fp))
     rep = run_sweep(tasks, out_dir / "tasks", executor=opts.executor, workers=opts.workers, progress=opts.progress,
                     desc="dynamic", ray_address=opts.ray_address)

@@ -24,50 +24,29 @@ from ndrql.experiments.report import machine, machine_line, md_table, save_figur
 from ndrql.experiments.sweep import Task, fingerprint, run_sweep
 from ndrql.io import write_json, write_text
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.methods import Method, Priors, build_priors
+from ndrql.planning.methods import Method, build_priors, get_method
 
 #: Bump when a change in this module changes task results (forces recomputation of stored tasks).
 TASK_VERSION = 1
 
 
-@dataclass(frozen=True)
-class Variant:
-    """A row of a table: a combination of priors (docs/method.md), possibly beyond the registry's names."""
-
-    name: str
-    d_crf: bool = False
-    n_crf: bool = False
-    d_qi: bool = False
-    n_qi: bool = False
-    qi_mask_only: bool = False
-    """With ``n_qi``: Q0 = omega * MASK only (Eq. 6 without its distance term), Table 2's lone N-Q."""
-
-    @property
-    def needs_ndr(self) -> bool:
-        return self.n_crf or self.n_qi
-
-    def method(self) -> Method:
-        return Method(self.name, d_crf=self.d_crf, n_crf=self.n_crf, d_qi=self.d_qi, n_qi=self.n_qi)
-
-
-def registry_variant(name: str) -> Variant:
-    from ndrql.planning.methods import get_method
-
-    m = get_method(name)
-    return Variant(m.name, m.d_crf, m.n_crf, m.d_qi, m.n_qi)
+def method_fields(m: Method) -> dict[str, Any]:
+    """What of a method determines its runs (its name and priors; the description does not), for fingerprints."""
+    return {"name": m.name, "d_crf": m.d_crf, "n_crf": m.n_crf, "d_qi": m.d_qi, "n_qi": m.n_qi,
+            "qi_mask_only": m.qi_mask_only}
 
 
 TABLE3_METHODS = ("QL", "O-QL", "IQL", "NDR-QL")
 #: Table 2's rows in the paper's order. ``N-Q`` alone is Eq. 6's mask term only; ``D-Q + N-Q`` is
 #: Eq. 6 as a whole, which is what the registry's ``N-Q`` method runs (it contains the D-QI term).
-TABLE2_VARIANTS = (
-    Variant("D-C", d_crf=True),
-    Variant("N-C", n_crf=True),
-    Variant("D-C+N-C", d_crf=True, n_crf=True),
-    Variant("D-Q", d_qi=True),
-    Variant("N-Q", n_qi=True, qi_mask_only=True),
-    Variant("D-Q+N-Q", d_qi=True, n_qi=True),
-    Variant("NDR-QL", d_crf=True, n_crf=True, d_qi=True, n_qi=True),
+TABLE2_ROWS = (
+    Method("D-C", d_crf=True),
+    Method("N-C", n_crf=True),
+    Method("D-C+N-C", d_crf=True, n_crf=True),
+    Method("D-Q", d_qi=True),
+    Method("N-Q", n_qi=True, qi_mask_only=True),
+    Method("D-Q+N-Q", d_qi=True, n_qi=True),
+    Method("NDR-QL", d_crf=True, n_crf=True, d_qi=True, n_qi=True),
 )
 
 #: The paper's Table 3 (single runs, one per map) and Table 2, for the reference columns.
@@ -130,33 +109,20 @@ class SweepOptions:
 # --------------------------------------------------------------------------------------- tasks
 
 
-def variant_priors(v: Variant, blocked: np.ndarray, start, goal, region, guideline, cfg: PriorConfig) -> Priors:
-    """Rewards and initial Q-table of a :class:`Variant` (registry composition + mask-only N-Q)."""
-    pri = build_priors(v.method(), blocked, start, goal, region, guideline, cfg)
-    if v.n_qi and v.qi_mask_only:
-        from ndrql.planning import priors as P
-        from ndrql.planning.rules import next_table
-
-        mask = P.region_mask(region, pri.threshold, cfg).ravel()
-        q0 = cfg.omega_qi * mask[next_table(np.asarray(blocked, bool))]
-        pri = Priors(r_c=pri.r_c, q0=np.ascontiguousarray(q0, dtype=np.float64), threshold=pri.threshold)
-    return pri
-
-
-def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], variant: Variant,
+def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], method: Method,
               seeds: list[int], ql: QLConfig, pc: PriorConfig, region: np.ndarray | None,
               guideline: np.ndarray | None, records_seed: int | None = None) -> dict[str, Any]:
-    """All seeds of one variant on one planning grid -> JSON-able dict (the sweep's unit of work)."""
+    """All seeds of one method on one planning grid -> JSON-able dict (the sweep's unit of work)."""
     from ndrql.planning.runner import plan
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        pri = variant_priors(variant, blocked, start, goal, region, guideline, pc)
+        pri = build_priors(method, blocked, start, goal, region, guideline, pc)
     runs = []
     for s in seeds:
-        r = plan(blocked, start, goal, variant.method(), s, ql, pc, priors=pri, keep_records=(s == records_seed))
+        r = plan(blocked, start, goal, method, s, ql, pc, priors=pri, keep_records=(s == records_seed))
         runs.append(r.to_dict(include_records=(s == records_seed)))
-    return {"variant": variant.name, "threshold": pri.threshold, "warnings": [str(w.message) for w in caught],
+    return {"variant": method.name, "threshold": pri.threshold, "warnings": [str(w.message) for w in caught],
             "runs": runs}
 
 
@@ -172,7 +138,7 @@ def _array_digest(a: np.ndarray | None) -> str | None:
     return hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()[:16]
 
 
-def make_tasks(problems: Sequence[Problem], variants: Sequence[Variant], opts: SweepOptions,
+def make_tasks(problems: Sequence[Problem], variants: Sequence[Method], opts: SweepOptions,
                weights_digest: str | None, records: bool = True) -> list[Task]:
     tasks = []
     for p in problems:
@@ -183,7 +149,7 @@ def make_tasks(problems: Sequence[Problem], variants: Sequence[Variant], opts: S
                 raise ValueError(f"{p.key}: variant {v.name} needs predictions; attach them first")
             rec = opts.seed0 if records else None
             ql, pc = method_configs(opts, v.name)
-            fp = fingerprint(TASK_VERSION, p.key, _array_digest(p.blocked), p.start, p.goal, asdict(v),
+            fp = fingerprint(TASK_VERSION, p.key, _array_digest(p.blocked), p.start, p.goal, method_fields(v),
                              opts.seed_list, asdict(ql), asdict(pc), weights_digest if v.needs_ndr else None, rec)
             key = f"{p.key}__{v.name}".replace(" ", "_")
             tasks.append(Task(key, plan_task, (p.blocked, p.start, p.goal, v, opts.seed_list, ql,
@@ -191,7 +157,7 @@ def make_tasks(problems: Sequence[Problem], variants: Sequence[Variant], opts: S
     return tasks
 
 
-def run_grid(problems: Sequence[Problem], variants: Sequence[Variant], opts: SweepOptions, out_dir: Path,
+def run_grid(problems: Sequence[Problem], variants: Sequence[Method], opts: SweepOptions, out_dir: Path,
              weights_digest: str | None, desc: str, records: bool = True) -> tuple[dict[tuple[str, str], dict], Any]:
     """Run (or resume) every (problem, variant) task; results by ``(problem key, variant name)``
     and the sweep's :class:`~ndrql.experiments.sweep.SweepReport`."""
@@ -279,7 +245,7 @@ def improvement_rows(methods: Sequence[str], maps: Sequence[str], means: dict[tu
 # ------------------------------------------------------------------------------------ figures
 
 
-def _curves_figure(p: Problem, label: str, variants: Sequence[Variant], results: dict, opts: SweepOptions) -> Any:
+def _curves_figure(p: Problem, label: str, variants: Sequence[Method], results: dict, opts: SweepOptions) -> Any:
     """Paper Fig. 6 style: per method, steps and return per episode (dashed line at convergence),
     and the Q-table after convergence with the greedy path (seed ``seed0``, re-run to get Q)."""
     from ndrql.planning.runner import plan
@@ -303,8 +269,8 @@ def _curves_figure(p: Problem, label: str, variants: Sequence[Variant], results:
         ql, pc = method_configs(opts, v.name)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            pri = variant_priors(v, p.blocked, p.start, p.goal, p.region, p.guideline, pc)
-        r = plan(p.blocked, p.start, p.goal, v.method(), run0["seed"], ql, pc, priors=pri, keep_q=True)
+            pri = build_priors(v, p.blocked, p.start, p.goal, p.region, p.guideline, pc)
+        r = plan(p.blocked, p.start, p.goal, v, run0["seed"], ql, pc, priors=pri, keep_q=True)
         ax = axes[2, j]
         plot_qtable(ax, r.q_table, p.blocked.shape, blocked=p.blocked)
         if r.path:
@@ -318,7 +284,7 @@ def _curves_figure(p: Problem, label: str, variants: Sequence[Variant], results:
     return fig
 
 
-def _maps_figure(problems: Sequence[Problem], labels: Sequence[str], variants: Sequence[Variant], results: dict,
+def _maps_figure(problems: Sequence[Problem], labels: Sequence[str], variants: Sequence[Method], results: dict,
                  predictions: PredictionCache | None) -> Any:
     """Row 1: region (green) and guideline (red) predictions on each map; row 2: every method's
     greedy path (seed ``seed0``) on the same planning grid."""
@@ -345,7 +311,7 @@ def _maps_figure(problems: Sequence[Problem], labels: Sequence[str], variants: S
 
 
 def _header(title: str, opts: SweepOptions, info: dict, predictions: PredictionCache | None, extra: str = "",
-            variants: Sequence[Variant] = ()) -> str:
+            variants: Sequence[Method] = ()) -> str:
     lines = [f"# {title}", "", f"Command: `{opts.command}`" if opts.command else "", "",
              f"Machine: {machine_line(info)}.", "",
              f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method; QLConfig {asdict(opts.ql)}; "
@@ -360,7 +326,7 @@ def _header(title: str, opts: SweepOptions, info: dict, predictions: PredictionC
     return "\n".join(lines) + "\n"
 
 
-def _attach(problems: list[Problem], variants: Sequence[Variant], out_root: Path, opts: SweepOptions,
+def _attach(problems: list[Problem], variants: Sequence[Method], out_root: Path, opts: SweepOptions,
             predictions: PredictionCache | None = None) -> tuple[list[Problem], PredictionCache | None]:
     if not any(v.needs_ndr for v in variants):
         return problems, predictions
@@ -372,7 +338,7 @@ def _attach(problems: list[Problem], variants: Sequence[Variant], out_root: Path
     return out, predictions
 
 
-def fixed_map_table(target: str, variants: Sequence[Variant], n_maps: int, opts: SweepOptions, out_dir: str | Path,
+def fixed_map_table(target: str, variants: Sequence[Method], n_maps: int, opts: SweepOptions, out_dir: str | Path,
                     paper: dict[str, list[int]], paper_paths: dict[str, list[str]] | None = None,
                     paper_improvement: dict[str, float] | None = None, log: Callable[[str], None] = print) -> Path:
     """Table 2 or 3: ``variants`` on the first ``n_maps`` fixed maps; writes ``<out>/<target>.md``,
@@ -454,13 +420,13 @@ def fixed_map_table(target: str, variants: Sequence[Variant], n_maps: int, opts:
 
 def table3(opts: SweepOptions, out_dir: str | Path, log: Callable[[str], None] = print) -> Path:
     """Table 3: QL, O-QL, IQL, NDR-QL on the 8 fixed maps."""
-    return fixed_map_table("table3", [registry_variant(m) for m in TABLE3_METHODS], 8, opts, out_dir,
+    return fixed_map_table("table3", [get_method(m) for m in TABLE3_METHODS], 8, opts, out_dir,
                            PAPER_TABLE3, PAPER_TABLE3_PATHS, PAPER_IMPROVEMENT, log)
 
 
 def table2(opts: SweepOptions, out_dir: str | Path, log: Callable[[str], None] = print) -> Path:
     """Table 2: the D-C / N-C / D-Q / N-Q ablation on MAP-1..MAP-5."""
-    return fixed_map_table("table2", TABLE2_VARIANTS, 5, opts, out_dir, PAPER_TABLE2, None, None, log)
+    return fixed_map_table("table2", TABLE2_ROWS, 5, opts, out_dir, PAPER_TABLE2, None, None, log)
 
 
 # -------------------------------------------------------------------------------------- scale
@@ -492,7 +458,7 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
             problems.append(load_problem(root, split, index))
         except NoPathError as exc:
             skipped.append({"split": split, "index": index, "reason": str(exc)})
-    variants = [registry_variant(m) for m in TABLE3_METHODS]
+    variants = [get_method(m) for m in TABLE3_METHODS]
     problems, predictions = _attach(problems, variants, out_dir.parent, opts)
     results, rep = run_grid(problems, variants, opts, out_dir, predictions.digest if predictions else None,
                             desc="scale", records=False)

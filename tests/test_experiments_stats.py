@@ -7,7 +7,7 @@ import pytest
 from scipy import stats as sps
 
 from ndrql.experiments import stats
-from ndrql.experiments.planning_tables import PAPER_IMPROVEMENT, PAPER_TABLE3
+from ndrql.experiments.paper import paper_table
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -39,11 +39,13 @@ def test_degenerate_samples():
 
 def test_relative_improvement_reproduces_paper_figures():
     """The paper's 90 / 80 / 58 % come out of its own Table 3 with the pooled definition."""
-    ql = PAPER_TABLE3["QL"]
-    for m, expected in PAPER_IMPROVEMENT.items():
-        assert round(stats.relative_improvement(PAPER_TABLE3[m], ql), 2) == expected
+    t3 = paper_table("table3")
+    ql = t3["steps"]["QL"]
+    assert set(t3["improvement"]) == {"NDR-QL", "O-QL", "IQL"}
+    for m, expected in t3["improvement"].items():
+        assert round(stats.relative_improvement(t3["steps"][m], ql), 2) == expected
     # the per-map mean gives 58% -> 50% for IQL: not the paper's definition
-    assert round(stats.per_map_improvement(PAPER_TABLE3["IQL"], ql), 2) == 0.50
+    assert round(stats.per_map_improvement(t3["steps"]["IQL"], ql), 2) == 0.50
 
 
 def test_relative_improvement_rejects_mismatch():

@@ -18,11 +18,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ndrql.errors import NdrqlError
+from ndrql.experiments.paper import paper_table
 from ndrql.experiments.report import machine, machine_line, md_table
-
-#: Paper Table 1 (reference only; their numbers, their models, their GPU training).
-PAPER_TABLE1 = {"RGP": (92.81, 58.16, 59.74, 35.82), "NEED": (92.34, None, 59.16, None),
-                "MPT": (87.70, None, 49.75, None), "NDR": (93.02, 61.22, 71.96, 37.31)}
 
 UNSEEN_NOTE = ("unseen R scores the 300 NARROW PASSAGE samples against region labels regenerated from the guideline "
                "(the upstream ones are broken: docs/dataset.md); 'original labels' scores the same predictions "
@@ -37,8 +34,6 @@ class ModelVariant:
     encoding: str
     """Input encoding (ndrql.dataset.encodings)."""
     guideline_decoder: bool
-    paper: tuple[float, float, float, float]
-    """Paper's seen R, seen G, unseen R, unseen G."""
 
     @property
     def model(self) -> str:
@@ -46,12 +41,12 @@ class ModelVariant:
 
 
 TABLE4_VARIANTS = (
-    ModelVariant("rgb", "rgb", False, (91.70, 58.25, 69.81, 35.39)),
-    ModelVariant("gauss25", "gauss25", False, (88.91, 55.34, 67.87, 33.71)),
-    ModelVariant("gauss50", "gauss50", False, (91.19, 57.02, 69.98, 37.65)),
-    ModelVariant("distance", "distance", False, (84.46, 53.67, 65.16, 33.04)),
-    ModelVariant("point", "point", False, (92.63, 59.12, 70.02, 35.33)),
-    ModelVariant("point+GD", "point", True, (93.02, 61.22, 71.96, 37.31)),
+    ModelVariant("rgb", "rgb", False),
+    ModelVariant("gauss25", "gauss25", False),
+    ModelVariant("gauss50", "gauss50", False),
+    ModelVariant("distance", "distance", False),
+    ModelVariant("point", "point", False),
+    ModelVariant("point+GD", "point", True),
 )
 
 #: The sizing comparison (docs/model.md): run directory under the runs root -> what it varies.
@@ -185,7 +180,7 @@ def table1(out_dir: str | Path, data: str | None = None, weights: str | None = N
         s = checkpoint_summary(path)
         numbers[name] = {**r, "training": s, "weights": str(path)}
         rows.append([f"{name} (ours)"] + _f1_cells(r) + [_fmt(s["params_m"]), s["epochs"], _fmt(s["train_hours"]), str(path)])
-    for name, v in PAPER_TABLE1.items():
+    for name, v in paper_table("table1")["rows"].items():  # reference only: their models, their GPU training
         rows.append([f"{name} (paper, reference)"] + [_fmt(x) for x in v] + ["-", "-", "-", "-", "paper Table 1"])
     md = _header("table1: region / guideline F1 (%) on TEST/SEEN and TEST/UNSEEN", command, limit)
     md += [md_table(["model", "seen R", "seen G", "unseen R", "unseen G", "unseen R (original labels)", "params (M)",
@@ -313,10 +308,11 @@ def table4(out_dir: str | Path, data: str | None = None, epochs: int = 2, run: b
     if run:
         train_variants(list(TABLE4_VARIANTS), runs, str(root), epochs, workers, log, base, progress)
     rows, todo, numbers = [], [], {}
+    paper_rows = paper_table("table4")["rows"]
     for v in TABLE4_VARIANTS:
         st = run_status(runs / v.name)
         head = [v.name, "yes" if v.guideline_decoder else "no"]
-        paper = " / ".join(_fmt(x) for x in v.paper)
+        paper = " / ".join(_fmt(x) for x in paper_rows[v.name])
         if st is None or not st["finished"]:
             where = "not trained (no checkpoint yet)" if st is None else f"training: epoch {st['epoch'] + 1}/{st['epochs']}, step {st['step']}"
             rows.append(head + [where] + [""] * 5 + [paper])

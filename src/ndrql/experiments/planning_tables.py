@@ -18,6 +18,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ndrql.experiments import stats
+from ndrql.experiments.paper import paper_table
 from ndrql.experiments.presets import method_configs, preset_line
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, load_problems, resolve_root, table3_maps
 from ndrql.experiments.report import machine, machine_line, md_table, save_figure
@@ -48,31 +49,6 @@ TABLE2_ROWS = (
     Method("D-Q+N-Q", d_qi=True, n_qi=True),
     Method("NDR-QL", d_crf=True, n_crf=True, d_qi=True, n_qi=True),
 )
-
-#: The paper's Table 3 (single runs, one per map) and Table 2, for the reference columns.
-PAPER_TABLE3 = {
-    "QL": [252064, 170762, 82772, 113510, 51861, 83744, 170777, 72285],
-    "O-QL": [49656, 33454, 16560, 25459, 11918, 15023, 32382, 13498],
-    "IQL": [98280, 66788, 64362, 42316, 45567, 27130, 23296, 50907],
-    "NDR-QL": [27039, 7676, 7459, 17524, 8386, 12154, 14158, 7649],
-}
-PAPER_TABLE3_PATHS = {
-    "QL": ["213/395", "103/484", "103/649", "116/390", "112/571", "98/386", "136/1658", "96/407"],
-    "O-QL": ["174/322", "84/390", "100/462", "125/262", "120/165", "98/364", "98/208", "98/192"],
-    "IQL": ["213/215", "171/744", "139/470", "130/287", "116/232", "162/774", "92/176", "98/212"],
-    "NDR-QL": ["145/218", "83/352", "93/97", "120/150", "154/156", "98/216", "98/136", "78/142"],
-}
-PAPER_IMPROVEMENT = {"NDR-QL": 0.90, "O-QL": 0.80, "IQL": 0.58}
-PAPER_TABLE2 = {
-    "D-C": [150589, 28495, 66225, 83062, 44890],
-    "N-C": [23495, 26271, 12758, 32177, 33194],
-    "D-C+N-C": [21412, 22092, 12296, 31520, 25558],
-    "D-Q": [254797, 77139, 60097, 51517, 86667],
-    "N-Q": [171416, 55262, 55224, 35153, 49353],
-    "D-Q+N-Q": [144470, 42049, 39654, 48542, 67215],
-    "NDR-QL": [27039, 7676, 7459, 17524, 8386],
-}
-
 
 @dataclass(frozen=True)
 class SweepOptions:
@@ -420,13 +396,14 @@ def fixed_map_table(target: str, variants: Sequence[Method], n_maps: int, opts: 
 
 def table3(opts: SweepOptions, out_dir: str | Path, log: Callable[[str], None] = print) -> Path:
     """Table 3: QL, O-QL, IQL, NDR-QL on the 8 fixed maps."""
+    paper = paper_table("table3")
     return fixed_map_table("table3", [get_method(m) for m in TABLE3_METHODS], 8, opts, out_dir,
-                           PAPER_TABLE3, PAPER_TABLE3_PATHS, PAPER_IMPROVEMENT, log)
+                           paper["steps"], paper["paths"], paper["improvement"], log)
 
 
 def table2(opts: SweepOptions, out_dir: str | Path, log: Callable[[str], None] = print) -> Path:
     """Table 2: the D-C / N-C / D-Q / N-Q ablation on MAP-1..MAP-5."""
-    return fixed_map_table("table2", TABLE2_ROWS, 5, opts, out_dir, PAPER_TABLE2, None, None, log)
+    return fixed_map_table("table2", TABLE2_ROWS, 5, opts, out_dir, paper_table("table2")["steps"], None, None, log)
 
 
 # -------------------------------------------------------------------------------------- scale

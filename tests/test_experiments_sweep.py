@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ndrql.experiments.planning_tables import SweepOptions, make_tasks, summarize_runs
+from ndrql.experiments.digests import fingerprint
+from ndrql.experiments.planning_runs import SweepOptions, make_tasks, summarize_runs
 from ndrql.experiments.problems import Problem
-from ndrql.experiments.sweep import Task, fingerprint, read_task, run_sweep, task_path
+from ndrql.experiments.sweep import Task, read_task, run_sweep, task_path
 from ndrql.planning.methods import Method, get_method
 
 

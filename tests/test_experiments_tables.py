@@ -10,7 +10,8 @@ import warnings
 import numpy as np
 import pytest
 
-from ndrql.experiments.planning_tables import TABLE2_ROWS, scale_refs
+from ndrql.experiments.scale import scale_refs
+from ndrql.experiments.table2 import TABLE2_ROWS
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Priors, build_priors
 from ndrql.planning.runner import plan

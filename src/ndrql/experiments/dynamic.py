@@ -23,14 +23,20 @@ import numpy as np
 
 from ndrql.errors import NoPathError
 from ndrql.experiments import stats
-from ndrql.experiments.presets import method_configs, preset_line
-from ndrql.experiments.planning_tables import SweepOptions, method_fields
+from ndrql.experiments.digests import fingerprint
+from ndrql.experiments.planning_runs import SweepOptions, method_fields
+from ndrql.experiments.presets import method_configs
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, resolve_root, table3_maps
-from ndrql.experiments.report import machine, machine_line, md_table, save_figure
-from ndrql.experiments.sweep import Task, fingerprint, run_sweep
+from ndrql.experiments.report import machine, machine_line, md_table, preset_line, save_figure
+from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import write_json, write_text
+from ndrql.maps.astar import astar4
+from ndrql.maps.grid import PlanningGrid, cell_to_point
+from ndrql.planning import kernel
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
+from ndrql.planning.runner import plan
+from ndrql.viz.reproduce import dynamic_figure
 
 DYNAMIC_VERSION = 1
 METHODS = ("QL", "NDR-QL")
@@ -38,9 +44,6 @@ METHODS = ("QL", "NDR-QL")
 
 def _with_map(p: Problem, obstacles: np.ndarray, source_start=None) -> Problem:
     """``p`` on a changed map and/or from a new start (planning grid, A* recomputed)."""
-    from ndrql.maps.astar import astar4
-    from ndrql.maps.grid import PlanningGrid
-
     s = tuple(source_start) if source_start is not None else p.source_start
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -56,9 +59,6 @@ def obstacle_stages(p: Problem, block_cells: int = 3) -> list[tuple[str, Problem
     A block is ``block_cells`` x ``block_cells`` planning cells of obstacle pixels, centred on a path
     cell; when it would disconnect start and goal, the next path cell is tried.
     """
-    from ndrql.maps.astar import astar4
-    from ndrql.maps.grid import cell_to_point
-
     path = astar4(p.blocked, p.start, p.goal).path
     h, w = p.obstacles.shape
     half = block_cells * h / p.blocked.shape[0] / 2
@@ -92,8 +92,6 @@ def obstacle_stages(p: Problem, block_cells: int = 3) -> list[tuple[str, Problem
 def advance_stages(p: Problem, path: Sequence[Sequence[int]], n: int = 5) -> list[tuple[str, Problem]]:
     """Scenario (b): the agent at ``n`` points along ``path`` (planning cells), the last one short of
     the goal; the start moves, map and goal stay."""
-    from ndrql.maps.grid import cell_to_point
-
     L = len(path) - 1
     idx = sorted(set(int(round(k * L / n)) for k in range(n)))
     out = []
@@ -107,8 +105,6 @@ def advance_stages(p: Problem, path: Sequence[Sequence[int]], n: int = 5) -> lis
 def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], method: Method, seed: int, ql: QLConfig,
                pc: PriorConfig) -> list[dict]:
     """One seed through every stage: scratch and warm-started runs (module docstring)."""
-    from ndrql.planning.runner import plan
-
     out = []
     prev_q = None
     for k, (blocked, start, goal, region, guideline) in enumerate(stages):
@@ -134,9 +130,6 @@ def _stage_tuple(p: Problem, needs_ndr: bool):
 
 def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", log: Callable[[str], None] = print) -> Path:
     """Both scenarios on one of the fixed maps; writes ``dynamic.md``, ``summary.json``, figures."""
-    from ndrql.planning import kernel
-    from ndrql.planning.runner import plan
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     info = machine()
@@ -214,7 +207,9 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
                   "Greedy path / A* of the warm runs (mean): " + ", ".join(
                       f"{m}: " + " / ".join(stats.fmt(c[f"{m}/warm"]["ratio"]["mean"], 2) for c in summ) for m in METHODS))
         summary["scenarios"][name] = summ
-    fig = _figure(attached, res, opts.seed0)
+    warm = {name: [stage["warm"] for stage in res[f"{name}__NDR-QL__{opts.seed0}"]] for name in attached}
+    fig = dynamic_figure([[(f"{label}\nwarm {stats.fmt(warm[name][i]['convergence_steps'])} steps", p, warm[name][i])
+                           for i, (label, p) in enumerate(stages)] for name, stages in attached.items()])
     f1 = save_figure(fig, out_dir / "fig5_dynamic.png")
     md.append("\n## Figures\n")
     md.append(f"![{f1.stem}]({f1.name})\n\nTop: scenario (a), bottom: scenario (b); region (green) and "
@@ -224,34 +219,3 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     write_json(out_dir / "summary.json", summary, indent=1, strict=False)
     log(f"dynamic: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path
-
-
-def _figure(attached: dict[str, list[tuple[str, Problem]]], res: dict, seed: int) -> Any:
-    from ndrql.maps.grid import cell_to_point
-    from ndrql.viz.maps import new_figure
-    from ndrql.viz.overlays import plot_prediction
-
-    n = max(len(v) for v in attached.values())
-    fig = new_figure(figsize=(2.7 * n, 6.0))
-    fig.set_layout_engine("constrained")
-    axes = fig.subplots(2, n, squeeze=False)
-    for r, (name, stages) in enumerate(attached.items()):
-        for i in range(n):
-            ax = axes[r, i]
-            if i >= len(stages):
-                ax.axis("off")
-                continue
-            label, p = stages[i]
-            # upsample the planning-grid predictions for display at map resolution
-            h, w = p.obstacles.shape
-            rr = np.minimum((np.arange(h) * p.blocked.shape[0]) // h, p.blocked.shape[0] - 1)
-            cc = np.minimum((np.arange(w) * p.blocked.shape[1]) // w, p.blocked.shape[1] - 1)
-            region = p.region[rr[:, None], cc[None, :]] if p.region is not None else None
-            guide = p.guideline[rr[:, None], cc[None, :]] if p.guideline is not None else None
-            plot_prediction(ax, p.obstacles, region, guide, p.source_start, p.source_goal)
-            run = res[f"{name}__NDR-QL__{seed}"][i]["warm"]
-            if run["path"]:
-                pts = np.array([cell_to_point(c, (h, w), p.blocked.shape) for c in run["path"]])
-                ax.plot(pts[:, 1], pts[:, 0], "-", color="white", linewidth=1.2)
-            ax.set_title(f"{label}\nwarm {stats.fmt(run['convergence_steps'])} steps", fontsize=7)
-    return fig

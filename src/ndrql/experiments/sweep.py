@@ -1,7 +1,7 @@
 """Resumable sweeps: many independent tasks, one atomic JSON file per finished task.
 
 A :class:`Task` is a top-level (picklable) function, its arguments, a unique ``key`` and a
-``fingerprint`` of everything that determines its result. :func:`run_sweep` first reads the task
+``fingerprint`` of everything that determines its result (:func:`ndrql.experiments.digests.fingerprint`). :func:`run_sweep` first reads the task
 files already in ``out_dir`` and reuses every one whose fingerprint matches; it runs the others on
 an executor and writes each result the moment it arrives (:func:`ndrql.io.write_json`), so a
 sweep killed at any point resumes without redoing finished work. Results come back keyed by task,
@@ -14,7 +14,6 @@ instance, or an existing cluster given by ``ray_address``).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import socket
@@ -59,12 +58,6 @@ class SweepReport:
     """Keys read back from files written before."""
     seconds: float = 0.0
     """Wall time of the call."""
-
-
-def fingerprint(*parts: Any) -> str:
-    """Short, stable digest of JSON-serialisable ``parts`` (dataclasses via ``vars``)."""
-    blob = json.dumps(parts, sort_keys=True, default=lambda o: vars(o) if hasattr(o, "__dict__") else repr(o))
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
 def _check_key(key: str) -> None:

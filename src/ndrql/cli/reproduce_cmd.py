@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.errors import NdrqlError
 
     if args.executor == "ray":
-        from ndrql.experiments.sweep import ray_available
+        from ndrql.workers import ray_available
 
         if not ray_available():
             raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)")

@@ -11,10 +11,9 @@ import os
 import queue as queue_mod
 import re
 import sys
-from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 from tqdm import tqdm
 
@@ -25,7 +24,7 @@ from ndrql.experiments.problems import resolve_root
 from ndrql.experiments.report import UNSEEN_NOTE, f1_cells, f1_header, fmt_f1, md_table, write_table
 from ndrql.training.config import TrainConfig
 from ndrql.training.loop import train
-from ndrql.workers import process_pool, start_manager
+from ndrql.workers import run_calls, start_manager
 
 
 @dataclass(frozen=True)
@@ -98,33 +97,32 @@ def train_variants(variants: list[ModelVariant], runs: Path, data: str, epochs: 
         return
     log(f"table4: training {len(todo)} variant(s) for {epochs} epochs, {workers} at a time, {threads} thread(s) each "
         f"(logs: {runs}/<variant>/train.log)")
+    done_steps: dict[str, int] = {}
+    bar = tqdm(total=None, desc="table4 training", unit="step", disable=not progress, file=sys.stderr)
+
+    def show_progress(q: Any) -> None:
+        """Move the bar by the ``epoch E step S/N`` lines the training processes put on ``q``."""
+        while True:
+            try:
+                run_dir, line = q.get_nowait()
+            except queue_mod.Empty:
+                return
+            pos = _steps_done(line)
+            if pos is None:
+                continue
+            epoch, step, per_epoch = pos
+            if bar.total is None:
+                bar.total = len(todo) * epochs * per_epoch
+            done_steps[run_dir] = (epoch - 1) * per_epoch + step
+            bar.n = sum(done_steps.values())
+            bar.refresh()
+
     # spawn: each training process starts clean; it and the queue's manager die with this process
-    with start_manager("spawn") as manager, process_pool(workers, start_method="spawn") as pool:
+    with start_manager("spawn") as manager:
         q = manager.Queue()
-        futures = {pool.submit(_train_one, variant_config(v, data, epochs, threads, base), str(runs / v.name), q): v
-                   for v in todo}
-        done_steps: dict[str, int] = {}
-        bar = tqdm(total=None, desc="table4 training", unit="step", disable=not progress, file=sys.stderr)
-        pending = set(futures)
-        while pending:
-            finished, pending = wait(pending, timeout=2.0, return_when=FIRST_COMPLETED)
-            while True:
-                try:
-                    run_dir, line = q.get_nowait()
-                except queue_mod.Empty:
-                    break
-                pos = _steps_done(line)
-                if pos is None:
-                    continue
-                epoch, step, per_epoch = pos
-                if bar.total is None:
-                    bar.total = len(todo) * epochs * per_epoch
-                done_steps[run_dir] = (epoch - 1) * per_epoch + step
-                bar.n = sum(done_steps.values())
-                bar.refresh()
-            for fut in finished:
-                fut.result()
-                log(f"table4: {futures[fut].name} trained")
+        run_calls(_train_one, [(variant_config(v, data, epochs, threads, base), str(runs / v.name), q) for v in todo],
+                  executor="process", workers=workers, start_method="spawn",
+                  on_result=lambda i, _: log(f"table4: {todo[i].name} trained"), poll=lambda: show_progress(q))
         bar.close()
 
 

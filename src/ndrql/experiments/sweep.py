@@ -1,9 +1,9 @@
 """Resumable sweeps: many independent tasks, one atomic JSON file per finished task.
 
 A :class:`Task` is a top-level (picklable) function, its arguments, a unique ``key`` and a
-``fingerprint`` of everything that determines its result (:func:`ndrql.experiments.digests.fingerprint`). :func:`run_sweep` first reads the task
-files already in ``out_dir`` and reuses every one whose fingerprint matches; it runs the others on
-an executor and writes each result the moment it arrives (:func:`ndrql.io.write_json`), so a
+``fingerprint`` of everything that determines its result (:func:`ndrql.experiments.digests.fingerprint`).
+:func:`run_sweep` first reads the task files already in ``out_dir`` and reuses every one whose
+fingerprint matches; it runs the others on an executor and writes each result the moment it arrives (:func:`ndrql.io.write_json`), so a
 sweep killed at any point resumes without redoing finished work. Results come back keyed by task,
 so whatever ran them, and in whatever order they finished, the tables built from them are the same.
 

@@ -120,9 +120,9 @@ def region_mask(region: np.ndarray, thd: float | None, cfg: PriorConfig = PriorC
 
 def ndr_qi_mask_term(blocked: np.ndarray, region: np.ndarray, thd: float | None,
                      cfg: PriorConfig = PriorConfig()) -> np.ndarray:
-    """Eq. 6's mask term alone: ``Q(s, a) = omega * MASK(N_r(s'))`` (Table 2's ablation row N-Q).
+    """The mask term of Eq. 6 alone: ``Q(s, a) = omega * MASK(N_r(s'))`` (Table 2's ablation row N-Q).
 
-    ``thd`` is Eq. 7's threshold (``None``: MASK is 0 everywhere).
+    ``thd`` is the threshold of Eq. 7 (``None``: MASK is 0 everywhere). :func:`ndr_qi` adds the distance term.
     """
     blocked = np.asarray(blocked, dtype=bool)
     mask = region_mask(_check_field("region", region, blocked.shape), thd, cfg).ravel()

@@ -207,10 +207,12 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
                   "Greedy path / A* of the warm runs (mean): " + ", ".join(
                       f"{m}: " + " / ".join(stats.fmt(c[f"{m}/warm"]["ratio"]["mean"], 2) for c in summ) for m in METHODS))
         summary["scenarios"][name] = summ
-    warm = {name: [stage["warm"] for stage in res[f"{name}__NDR-QL__{opts.seed0}"]] for name in attached}
-    fig = dynamic_figure([[(f"{label}\nwarm {stats.fmt(warm[name][i]['convergence_steps'])} steps", p, warm[name][i])
-                           for i, (label, p) in enumerate(stages)] for name, stages in attached.items()])
-    f1 = save_figure(fig, out_dir / "fig5_dynamic.png")
+    panels = []  # per scenario and stage: title, problem and the warm-started NDR-QL run of seed0
+    for name, stages in attached.items():
+        warm = [stage["warm"] for stage in res[f"{name}__NDR-QL__{opts.seed0}"]]
+        panels.append([(f"{label}\nwarm {stats.fmt(run['convergence_steps'])} steps", p, run)
+                       for (label, p), run in zip(stages, warm)])
+    f1 = save_figure(dynamic_figure(panels), out_dir / "fig5_dynamic.png")
     md.append("\n## Figures\n")
     md.append(f"![{f1.stem}]({f1.name})\n\nTop: scenario (a), bottom: scenario (b); region (green) and "
               "guideline (red) predicted on each stage's map, the warm-started NDR-QL path (seed "

@@ -122,6 +122,20 @@ def test_astar_octile_movingai_scenario(ndrql_exe, tmp_path):
     assert data["start"] == [0, 0] and data["goal"] == [2, 0]
 
 
+def test_scen_argument_parses_one_way(tmp_path):
+    """``--scen FILE[:K]`` for astar and plan: a trailing integer is K unless FILE:K is itself a file."""
+    from ndrql.cli.common import parse_scen
+
+    assert parse_scen("a.scen") == ("a.scen", None)
+    assert parse_scen("dir:x/a.scen:3") == ("dir:x/a.scen", 3)
+    assert parse_scen("a.scen:-1") == ("a.scen", -1)
+    assert parse_scen("a.scen:x") == ("a.scen:x", None)
+    assert parse_scen("a.scen:" + "9" * 13) == ("a.scen:" + "9" * 13, None)
+    odd = tmp_path / "odd.scen:2"
+    odd.write_text("version 1\n")
+    assert parse_scen(str(odd)) == (str(odd), None)
+
+
 def test_demo_writes_png_and_json(ndrql_exe, tmp_path, model_weights):
     rc, out, err = run(ndrql_exe, "demo", "--out", tmp_path / "demo", "--seeds", "2")
     assert rc == 0, err

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats as sps
 
 from ndrql.experiments import stats
-from ndrql.experiments.planning_tables import PAPER_IMPROVEMENT, PAPER_TABLE3
+from ndrql.experiments.paper import paper_table
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -39,13 +39,31 @@ def test_degenerate_samples():
 
 def test_relative_improvement_reproduces_paper_figures():
     """The paper's 90 / 80 / 58 % come out of its own Table 3 with the pooled definition."""
-    ql = PAPER_TABLE3["QL"]
-    for m, expected in PAPER_IMPROVEMENT.items():
-        assert round(stats.relative_improvement(PAPER_TABLE3[m], ql), 2) == expected
+    t3 = paper_table("table3")
+    ql = t3["steps"]["QL"]
+    assert set(t3["improvement"]) == {"NDR-QL", "O-QL", "IQL"}
+    for m, expected in t3["improvement"].items():
+        assert round(stats.relative_improvement(t3["steps"][m], ql), 2) == expected
     # the per-map mean gives 58% -> 50% for IQL: not the paper's definition
-    assert round(stats.per_map_improvement(PAPER_TABLE3["IQL"], ql), 2) == 0.50
+    assert round(stats.per_map_improvement(t3["steps"]["IQL"], ql), 2) == 0.50
 
 
 def test_relative_improvement_rejects_mismatch():
     with pytest.raises(ValueError):
         stats.relative_improvement([1, 2], [1])
+
+
+def test_paper_numbers_cover_every_row():
+    """paper_numbers.json has a reference for every row the tables print, in the paper's shape."""
+    from ndrql.experiments.table2 import TABLE2_ROWS
+    from ndrql.experiments.table3 import TABLE3_METHODS
+    from ndrql.experiments.table4 import TABLE4_VARIANTS
+
+    t1, t2, t3, t4 = (paper_table(f"table{i}") for i in range(1, 5))
+    assert list(t1["rows"]) == ["RGP", "NEED", "MPT", "NDR"] and all(len(v) == 4 for v in t1["rows"].values())
+    assert list(t2["steps"]) == [m.name for m in TABLE2_ROWS] and all(len(v) == 5 for v in t2["steps"].values())
+    assert list(t3["steps"]) == list(t3["paths"]) == list(TABLE3_METHODS)
+    assert all(len(v) == 8 for v in (*t3["steps"].values(), *t3["paths"].values()))
+    assert list(t4["rows"]) == [v.name for v in TABLE4_VARIANTS] and t4["rows"]["point+GD"] == t1["rows"]["NDR"]
+    with pytest.raises(KeyError, match="valid: table1"):
+        paper_table("table5")

@@ -14,9 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ndrql.experiments.planning_tables import SweepOptions, Variant, make_tasks, registry_variant, summarize_runs
+from ndrql.experiments.digests import fingerprint
+from ndrql.experiments.planning_runs import SweepOptions, make_tasks, summarize_runs
 from ndrql.experiments.problems import Problem
-from ndrql.experiments.sweep import Task, fingerprint, read_task, run_sweep, task_path
+from ndrql.experiments.sweep import Task, read_task, run_sweep, task_path
+from ndrql.planning.methods import Method, get_method
 
 
 def _square(x: int) -> dict:
@@ -77,7 +79,7 @@ def test_bad_keys_and_executor(tmp_path):
 
 def _planning_tasks(seeds: int = 3):
     opts = SweepOptions(seeds=seeds, progress=False)
-    variants = [registry_variant("QL"), registry_variant("IQL"), Variant("D-C", d_crf=True)]
+    variants = [get_method("QL"), get_method("IQL"), Method("D-C", d_crf=True)]
     return make_tasks(_problems(), variants, opts, None, records=False)
 
 
@@ -118,7 +120,7 @@ def _slow_tasks():
         b = np.zeros((40, 40), bool)
         b[20, 5 + k: 35] = True
         probs.append(Problem("kill", k, "wall", b, (0, 0), (39, 39), b, (0, 0), (39, 39), 78))
-    variants = [registry_variant("QL"), registry_variant("D-Q"), registry_variant("IQL"), Variant("D-C", d_crf=True)]
+    variants = [get_method("QL"), get_method("D-Q"), get_method("IQL"), Method("D-C", d_crf=True)]
     return make_tasks(probs, variants, opts, None, records=False)
 
 

@@ -10,7 +10,8 @@ import warnings
 import numpy as np
 import pytest
 
-from ndrql.experiments.planning_tables import TABLE2_VARIANTS, registry_variant, scale_refs, variant_priors
+from ndrql.experiments.scale import scale_refs
+from ndrql.experiments.table2 import TABLE2_ROWS
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Priors, build_priors
 from ndrql.planning.runner import plan
@@ -37,23 +38,24 @@ def test_keep_q_returns_final_table_and_warm_start_reconverges_fast():
     assert plan(b, s, g, "QL", seed=3).same_run(cold)
 
 
-def test_table2_variants_compose_as_the_registry():
+def test_table2_rows_compose_as_the_registry():
     b, s, g = _grid()
     rng = np.random.default_rng(0)
     region, guide = rng.random(b.shape), rng.random(b.shape)
     cfg = PriorConfig()
-    by = {v.name: v for v in TABLE2_VARIANTS}
+    by = {m.name: m for m in TABLE2_ROWS}
     for name in ("D-C", "N-C", "D-Q", "NDR-QL"):
-        a = variant_priors(by[name], b, s, g, region, guide, cfg)
+        a = build_priors(by[name], b, s, g, region, guide, cfg)
         ref = build_priors(name, b, s, g, region, guide, cfg)
         assert np.array_equal(a.r_c, ref.r_c) and np.array_equal(a.q0, ref.q0)
     # D-Q + N-Q is Eq. 6 (the registry's N-Q); N-Q alone is its mask term only
     eq6 = build_priors("N-Q", b, s, g, region, guide, cfg)
-    assert np.array_equal(variant_priors(by["D-Q+N-Q"], b, s, g, region, guide, cfg).q0, eq6.q0)
-    mask_only = variant_priors(by["N-Q"], b, s, g, region, guide, cfg).q0
+    assert np.array_equal(build_priors(by["D-Q+N-Q"], b, s, g, region, guide, cfg).q0, eq6.q0)
+    mask_only = build_priors(by["N-Q"], b, s, g, region, guide, cfg)
+    assert mask_only.threshold == eq6.threshold
     dq = build_priors("D-Q", b, s, g).q0
-    np.testing.assert_allclose(mask_only + (1 - cfg.omega_qi) * dq, eq6.q0, atol=1e-12)
-    assert set(np.unique(mask_only)) <= {0.0, cfg.omega_qi * cfg.mask_low}
+    np.testing.assert_allclose(mask_only.q0 + (1 - cfg.omega_qi) * dq, eq6.q0, atol=1e-12)
+    assert set(np.unique(mask_only.q0)) <= {0.0, cfg.omega_qi * cfg.mask_low}
 
 
 def test_scale_refs_are_stratified():

@@ -91,6 +91,16 @@ def test_ndr_qi_eq6_eq7():
     assert q1[idx(0, 0), DOWN] == pytest.approx(0.25 * -4 + 0.75 * dist(1, 0))
 
 
+def test_ndr_qi_mask_term_alone_eq6():
+    """Table 2's lone N-Q: Eq. 6 without its distance term, same threshold."""
+    start, goal = (0, 0), (0, 2)
+    q0, thd = P.ndr_qi(FREE, start, goal, REGION, mask_only=True)
+    assert thd == pytest.approx(0.79)
+    assert q0[idx(0, 0), RIGHT] == 0.5 * -10 and q0[idx(0, 0), DOWN] == 0.0 and q0[idx(1, 1), DOWN] == -5.0
+    assert np.array_equal(q0, P.ndr_qi_mask_term(FREE, REGION, thd))
+    assert not P.ndr_qi_mask_term(FREE, REGION, None).any()  # no threshold: MASK 0 everywhere
+
+
 def test_prior_shape_mismatch_says_what_to_do():
     with pytest.raises(ValueError, match="downscale"):
         P.adaptive_threshold(np.zeros((5, 5)), FREE, (0, 0), (2, 2))

@@ -139,3 +139,40 @@ def test_pool_results_are_unchanged(tmp_path):
         assert pool.submit(os.getenv, "NDRQL_T").result() == "1"
     with pytest.raises(ValueError, match="workers must be >= 1"):
         process_pool(0)
+
+
+def _slow_square(x: int) -> int:
+    time.sleep(0.05 * (3 - x % 4))  # later calls tend to finish first
+    return x * x
+
+
+def _fail_on_two(x: int) -> int:
+    if x == 2:
+        raise ZeroDivisionError("two")
+    return x
+
+
+@pytest.mark.parametrize("executor", ["serial", "process", "thread"])
+def test_run_calls_returns_results_in_call_order(executor):
+    """The one executor: results by call index whatever finished first; on_result once per call."""
+    from ndrql.workers import run_calls
+
+    seen, polls = [], []
+    out = run_calls(_slow_square, [(i,) for i in range(8)], executor=executor, workers=2,
+                    on_result=lambda i, r: seen.append((i, r)), poll=lambda: polls.append(1), poll_seconds=0.01)
+    assert out == [i * i for i in range(8)]
+    assert sorted(seen) == [(i, i * i) for i in range(8)] and polls
+    with pytest.raises(ZeroDivisionError, match="two"):
+        run_calls(_fail_on_two, [(i,) for i in range(4)], executor=executor, workers=2)
+
+
+def test_run_calls_rejects_bad_input():
+    from ndrql.errors import NdrqlError
+    from ndrql.workers import pick_executor, run_calls
+
+    with pytest.raises(NdrqlError, match="valid: serial, process, thread, ray"):
+        run_calls(abs, [(1,)], executor="dask")
+    with pytest.raises(ValueError, match="workers must be >= 1"):
+        run_calls(abs, [(1,)], workers=0)
+    assert [pick_executor("process", 1, 5), pick_executor("thread", 2, 1), pick_executor("process", 2, 2),
+            pick_executor("ray", 1, 1)] == ["serial", "serial", "process", "ray"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
 EXAMPLES = """examples:
@@ -42,14 +41,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
     """Fill ``--start``/``--goal`` from ``--scen FILE[:K]``; returns the problem and the scenario."""
-    from ndrql.cli.common import resolve_problem
+    from ndrql.cli.common import parse_scen, resolve_problem
     from ndrql.errors import MapFormatError
     from ndrql.maps.readers import read_movingai_scen
 
-    path, idx = args.scen, 0
-    head, sep, tail = args.scen.rpartition(":")
-    if sep and tail.strip().lstrip("+-").isdigit() and len(tail) <= 12 and not Path(args.scen).is_file():
-        path, idx = head, int(tail)
+    path, k = parse_scen(args.scen)
+    idx = 0 if k is None else k
     scenarios = read_movingai_scen(path)
     if not 0 <= idx < len(scenarios):
         raise MapFormatError(f"scenario {idx} not in {path}: it has scenarios 0..{len(scenarios) - 1}"

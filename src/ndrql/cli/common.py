@@ -46,6 +46,18 @@ def parse_point(text: str, name: str = "point") -> Cell:
         raise PointError(f"{name} must be ROW,COL (two integers), got {shown}") from None
 
 
+def parse_scen(text: str) -> tuple[str, int | None]:
+    """Parse ``--scen FILE[:K]`` into ``(FILE, K)`` (``K`` is ``None`` when not given).
+
+    A trailing ``:K`` is the scenario number when ``K`` is an integer (sign allowed, at most 12
+    characters) and ``FILE:K`` itself is not a file; the caller checks ``K`` against the file.
+    """
+    head, sep, tail = str(text).rpartition(":")
+    if sep and tail.strip().lstrip("+-").isdigit() and len(tail) <= 12 and not Path(text).is_file():
+        return head, int(tail)
+    return str(text), None
+
+
 def parse_sample_spec(text: str) -> tuple[Path, str, int]:
     """Parse ``DATASET_DIR:SPLIT:INDEX`` (split = train|seen|unseen); the directory may contain ``:``."""
     parts = str(text).rsplit(":", 2)

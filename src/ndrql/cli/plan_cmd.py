@@ -145,12 +145,11 @@ def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
 
             raise NdrqlError("--index needs --scen FILE")
         return None, 0
-    path, idx = args.scen, 0
-    head, sep, tail = args.scen.rpartition(":")
-    if sep and tail.isdigit():
-        path, idx = head, int(tail)
+    from ndrql.cli.common import parse_scen
+
+    path, k = parse_scen(args.scen)
     if args.index is None:
-        return path, idx
+        return path, 0 if k is None else k
     try:
         return path, int(args.index)
     except ValueError:
@@ -161,7 +160,7 @@ def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
 
 def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg: Any) -> int:
     """``--all`` / ``--index A:B``: every chosen scenario with one method and one seed (:mod:`ndrql.cli.plan_batch`)."""
-    from ndrql.cli.common import Problem, load_map_argument, warnings_to_stderr
+    from ndrql.cli.common import Problem, load_map_argument, parse_scen, warnings_to_stderr
     from ndrql.cli.plan_batch import run_batch
     from ndrql.errors import NdrqlError
 
@@ -177,8 +176,7 @@ def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg:
     if isinstance(loaded, Problem):
         raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
     scen_path = args.scen
-    head, sep, tail = scen_path.rpartition(":")
-    if sep and tail.isdigit():
+    if parse_scen(scen_path)[1] is not None:
         raise NdrqlError("give the batch range with --index A:B or --all, not --scen FILE:K")
     with warnings_to_stderr():
         return run_batch(loaded, scen_path, args.index, args.all, method=methods[0], seed=args.seed,

@@ -86,7 +86,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _options(args: argparse.Namespace):
-    from ndrql.experiments.planning_tables import SweepOptions
+    from ndrql.experiments.planning_runs import SweepOptions
     from ndrql.planning.config import PriorConfig, QLConfig
 
     from ndrql.cli.options import configs_from_flags
@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.errors import NdrqlError
 
     if args.executor == "ray":
-        from ndrql.experiments.sweep import ray_available
+        from ndrql.workers import ray_available
 
         if not ray_available():
             raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)")
@@ -141,17 +141,19 @@ def run(args: argparse.Namespace) -> int:
     for target in targets:
         out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
         if target in ("table3", "table2", "scale", "dynamic"):
-            from ndrql.experiments import planning_tables as T
             from ndrql.experiments.dynamic import dynamic
+            from ndrql.experiments.scale import scale
+            from ndrql.experiments.table2 import table2
+            from ndrql.experiments.table3 import table3
 
-            fns = {"table3": lambda o, d: T.table3(o, d, log=log), "table2": lambda o, d: T.table2(o, d, log=log),
-                   "scale": lambda o, d: T.scale(o, d, per_category=args.per_category, log=log),
+            fns = {"table3": lambda o, d: table3(o, d, log=log), "table2": lambda o, d: table2(o, d, log=log),
+                   "scale": lambda o, d: scale(o, d, per_category=args.per_category, log=log),
                    "dynamic": lambda o, d: dynamic(o, d, log=log)}
             paths = run_presets(target, fns[target], opts, out,
                                 _presets(args, target), log=log)
             path = ", ".join(str(x) for x in paths)
         elif target == "table1":
-            from ndrql.experiments.model_tables import table1
+            from ndrql.experiments.table1 import table1
 
             path = table1(out, data=args.data, weights=args.weights, rgp_weights=args.rgp_weights, limit=args.limit,
                           progress=not args.no_progress, command=opts.command, log=log)
@@ -171,12 +173,12 @@ def run(args: argparse.Namespace) -> int:
                             seeds=args.seeds, seed0=args.seed, per_family=args.per_family, workers=args.workers,
                             executor=args.executor, progress=not args.no_progress, command=opts.command, log=log)
         elif target == "sizing":
-            from ndrql.experiments.model_tables import sizing
+            from ndrql.experiments.sizing import sizing
 
             path = sizing(out, runs=args.runs, command=opts.command, data=args.data, limit=args.limit,
                           progress=not args.no_progress, log=log)
         else:
-            from ndrql.experiments.model_tables import table4
+            from ndrql.experiments.table4 import table4
 
             path = table4(out, data=args.data, epochs=args.epochs, run=args.run, runs=args.runs, workers=args.workers,
                           limit=args.limit, progress=not args.no_progress, command=opts.command, log=log)

@@ -1,12 +1,22 @@
-"""Experiments: one function per table or figure of the paper, plus sweeps and executors.
+"""Experiments: one module per table or study of the paper, on shared sweeps and reports.
 
 Light on import; the heavy parts (numba, torch, matplotlib, ray) load when an experiment runs.
 
-- :mod:`~ndrql.experiments.stats`: mean / median / 95% CI, relative improvement as the paper reports it.
-- :mod:`~ndrql.experiments.sweep`: resumable sweeps (one atomic JSON per finished task) on a
-  process pool, serially, or on Ray.
-- :mod:`~ndrql.experiments.problems`: dataset samples as planning problems, cached NDR predictions.
-- :mod:`~ndrql.experiments.planning_tables`: Tables 2 and 3 and the ``scale`` study.
-- :mod:`~ndrql.experiments.dynamic`: the dynamic scenarios of Fig. 5.
-- :mod:`~ndrql.experiments.model_tables`: Tables 1 and 4 (the NDR model's F1).
+Tables and studies (each writes ``<target>.md``, ``summary.json`` and figures under its folder):
+
+- :mod:`~ndrql.experiments.table1`, :mod:`~ndrql.experiments.table4`, :mod:`~ndrql.experiments.sizing`:
+  the NDR model's F1 (trained runs and their evaluation in :mod:`~ndrql.experiments.model_runs`).
+- :mod:`~ndrql.experiments.table2`, :mod:`~ndrql.experiments.table3` (both on
+  :mod:`~ndrql.experiments.fixed_maps`), :mod:`~ndrql.experiments.scale`,
+  :mod:`~ndrql.experiments.dynamic`: Q-learning methods on dataset maps, many seeds
+  (:mod:`~ndrql.experiments.planning_runs`); :mod:`~ndrql.experiments.presets` runs them per preset.
+- :mod:`~ndrql.experiments.transfer`, :mod:`~ndrql.experiments.ceiling`, :mod:`~ndrql.experiments.grid_eval`,
+  :mod:`~ndrql.experiments.labels_check`: held-out generated maps, the oracle's ceiling, grid-mode F1, labels.
+
+Shared pieces, one home each: :mod:`~ndrql.experiments.sweep` (resumable sweeps on the one executor,
+:mod:`ndrql.workers`), :mod:`~ndrql.experiments.digests` (fingerprints), :mod:`~ndrql.experiments.report`
+(markdown), :mod:`~ndrql.experiments.stats` (mean / median / 95% CI, the paper's improvement),
+:mod:`~ndrql.experiments.problems` (dataset samples as planning problems, cached predictions),
+:mod:`~ndrql.experiments.paper` (the paper's numbers, ``paper_numbers.json``). Figures are drawn by
+:mod:`ndrql.viz.reproduce`.
 """

@@ -23,13 +23,20 @@ import numpy as np
 
 from ndrql.errors import NoPathError
 from ndrql.experiments import stats
-from ndrql.experiments.presets import method_configs, preset_line
-from ndrql.experiments.planning_tables import SweepOptions, Variant, registry_variant, variant_priors
+from ndrql.experiments.digests import fingerprint
+from ndrql.experiments.planning_runs import SweepOptions, method_fields
+from ndrql.experiments.presets import method_configs
 from ndrql.experiments.problems import PredictionCache, Problem, load_problem, resolve_root, table3_maps
-from ndrql.experiments.report import machine, machine_line, md_table, save_figure
-from ndrql.experiments.sweep import Task, fingerprint, run_sweep
+from ndrql.experiments.report import machine, machine_line, md_table, preset_line, save_figure
+from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import write_json, write_text
+from ndrql.maps.astar import astar4
+from ndrql.maps.grid import PlanningGrid, cell_to_point
+from ndrql.planning import kernel
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import Method, Priors, build_priors, get_method
+from ndrql.planning.runner import plan
+from ndrql.viz.reproduce import dynamic_figure
 
 DYNAMIC_VERSION = 1
 METHODS = ("QL", "NDR-QL")
@@ -37,9 +44,6 @@ METHODS = ("QL", "NDR-QL")
 
 def _with_map(p: Problem, obstacles: np.ndarray, source_start=None) -> Problem:
     """``p`` on a changed map and/or from a new start (planning grid, A* recomputed)."""
-    from ndrql.maps.astar import astar4
-    from ndrql.maps.grid import PlanningGrid
-
     s = tuple(source_start) if source_start is not None else p.source_start
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -55,9 +59,6 @@ def obstacle_stages(p: Problem, block_cells: int = 3) -> list[tuple[str, Problem
     A block is ``block_cells`` x ``block_cells`` planning cells of obstacle pixels, centred on a path
     cell; when it would disconnect start and goal, the next path cell is tried.
     """
-    from ndrql.maps.astar import astar4
-    from ndrql.maps.grid import cell_to_point
-
     path = astar4(p.blocked, p.start, p.goal).path
     h, w = p.obstacles.shape
     half = block_cells * h / p.blocked.shape[0] / 2
@@ -91,8 +92,6 @@ def obstacle_stages(p: Problem, block_cells: int = 3) -> list[tuple[str, Problem
 def advance_stages(p: Problem, path: Sequence[Sequence[int]], n: int = 5) -> list[tuple[str, Problem]]:
     """Scenario (b): the agent at ``n`` points along ``path`` (planning cells), the last one short of
     the goal; the start moves, map and goal stay."""
-    from ndrql.maps.grid import cell_to_point
-
     L = len(path) - 1
     idx = sorted(set(int(round(k * L / n)) for k in range(n)))
     out = []
@@ -103,23 +102,20 @@ def advance_stages(p: Problem, path: Sequence[Sequence[int]], n: int = 5) -> lis
     return out
 
 
-def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], variant: Variant, seed: int, ql: QLConfig,
+def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], method: Method, seed: int, ql: QLConfig,
                pc: PriorConfig) -> list[dict]:
     """One seed through every stage: scratch and warm-started runs (module docstring)."""
-    from ndrql.planning.methods import Priors
-    from ndrql.planning.runner import plan
-
     out = []
     prev_q = None
     for k, (blocked, start, goal, region, guideline) in enumerate(stages):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            pri = variant_priors(variant, blocked, start, goal, region, guideline, pc)
-        scratch = plan(blocked, start, goal, variant.method(), seed, ql, pc, priors=pri, keep_q=True)
+            pri = build_priors(method, blocked, start, goal, region, guideline, pc)
+        scratch = plan(blocked, start, goal, method, seed, ql, pc, priors=pri, keep_q=True)
         if prev_q is None:
             warm = scratch
         else:
-            warm = plan(blocked, start, goal, variant.method(), seed, ql, pc,
+            warm = plan(blocked, start, goal, method, seed, ql, pc,
                         priors=Priors(pri.r_c, prev_q, pri.threshold), keep_q=True)
         prev_q = warm.q_table
         keep = ("converged", "convergence_steps", "convergence_episode", "path_length", "astar_length", "length_ratio", "path")
@@ -134,9 +130,6 @@ def _stage_tuple(p: Problem, needs_ndr: bool):
 
 def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", log: Callable[[str], None] = print) -> Path:
     """Both scenarios on one of the fixed maps; writes ``dynamic.md``, ``summary.json``, figures."""
-    from ndrql.planning import kernel
-    from ndrql.planning.runner import plan
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     info = machine()
@@ -164,14 +157,14 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
         attached[name] = lst
     kernel.warm_up()
     tasks = []
-    variants = [registry_variant(m) for m in METHODS]
+    variants = [get_method(m) for m in METHODS]
     for name, stages in attached.items():
         for v in variants:
             st = [_stage_tuple(p, v.needs_ndr) for _, p in stages]
             ql, pc = method_configs(opts, v.name)
             for s in opts.seed_list:
                 fp = fingerprint(DYNAMIC_VERSION, name, [(p.key, p.start, p.goal, int(p.blocked.sum())) for _, p in stages],
-                                 asdict(v), s, asdict(ql), asdict(pc), preds.digest if v.needs_ndr else None)
+                                 method_fields(v), s, asdict(ql), asdict(pc), preds.digest if v.needs_ndr else None)
                 tasks.append(Task(f"{name}__{v.name}__{s}", chain_task, (st, v, s, ql, pc), fp))
     rep = run_sweep(tasks, out_dir / "tasks", executor=opts.executor, workers=opts.workers, progress=opts.progress,
                     desc="dynamic", ray_address=opts.ray_address)
@@ -214,8 +207,12 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
                   "Greedy path / A* of the warm runs (mean): " + ", ".join(
                       f"{m}: " + " / ".join(stats.fmt(c[f"{m}/warm"]["ratio"]["mean"], 2) for c in summ) for m in METHODS))
         summary["scenarios"][name] = summ
-    fig = _figure(attached, res, opts.seed0)
-    f1 = save_figure(fig, out_dir / "fig5_dynamic.png")
+    panels = []  # per scenario and stage: title, problem and the warm-started NDR-QL run of seed0
+    for name, stages in attached.items():
+        warm = [stage["warm"] for stage in res[f"{name}__NDR-QL__{opts.seed0}"]]
+        panels.append([(f"{label}\nwarm {stats.fmt(run['convergence_steps'])} steps", p, run)
+                       for (label, p), run in zip(stages, warm)])
+    f1 = save_figure(dynamic_figure(panels), out_dir / "fig5_dynamic.png")
     md.append("\n## Figures\n")
     md.append(f"![{f1.stem}]({f1.name})\n\nTop: scenario (a), bottom: scenario (b); region (green) and "
               "guideline (red) predicted on each stage's map, the warm-started NDR-QL path (seed "
@@ -224,34 +221,3 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     write_json(out_dir / "summary.json", summary, indent=1, strict=False)
     log(f"dynamic: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path
-
-
-def _figure(attached: dict[str, list[tuple[str, Problem]]], res: dict, seed: int) -> Any:
-    from ndrql.maps.grid import cell_to_point
-    from ndrql.viz.maps import new_figure
-    from ndrql.viz.overlays import plot_prediction
-
-    n = max(len(v) for v in attached.values())
-    fig = new_figure(figsize=(2.7 * n, 6.0))
-    fig.set_layout_engine("constrained")
-    axes = fig.subplots(2, n, squeeze=False)
-    for r, (name, stages) in enumerate(attached.items()):
-        for i in range(n):
-            ax = axes[r, i]
-            if i >= len(stages):
-                ax.axis("off")
-                continue
-            label, p = stages[i]
-            # upsample the planning-grid predictions for display at map resolution
-            h, w = p.obstacles.shape
-            rr = np.minimum((np.arange(h) * p.blocked.shape[0]) // h, p.blocked.shape[0] - 1)
-            cc = np.minimum((np.arange(w) * p.blocked.shape[1]) // w, p.blocked.shape[1] - 1)
-            region = p.region[rr[:, None], cc[None, :]] if p.region is not None else None
-            guide = p.guideline[rr[:, None], cc[None, :]] if p.guideline is not None else None
-            plot_prediction(ax, p.obstacles, region, guide, p.source_start, p.source_goal)
-            run = res[f"{name}__NDR-QL__{seed}"][i]["warm"]
-            if run["path"]:
-                pts = np.array([cell_to_point(c, (h, w), p.blocked.shape) for c in run["path"]])
-                ax.plot(pts[:, 1], pts[:, 0], "-", color="white", linewidth=1.2)
-            ax.set_title(f"{label}\nwarm {stats.fmt(run['convergence_steps'])} steps", fontsize=7)
-    return fig

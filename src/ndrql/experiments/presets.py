@@ -30,22 +30,6 @@ def method_configs(opts: Any, name: str) -> tuple[QLConfig, PriorConfig]:
     return preset.configs(name)
 
 
-def preset_line(opts: Any, names: Sequence[str]) -> str:
-    """One paragraph for a table's header: the preset and each row's searched constants."""
-    preset = getattr(opts, "preset", None)
-    if preset is None:
-        return ""
-    from ndrql.planning.preset import configs_dict
-
-    parts = []
-    for n in names:
-        ql, pc = preset.configs(n)
-        d = configs_dict(ql, pc)
-        vals = {**d["ql"], **d["priors"]}
-        parts.append(f"{n}: " + ", ".join(f"{k} {v:.4g}" for k, v in vals.items()))
-    return f"Preset **{preset.name}** ({preset.source or 'given'}); constants per row: " + "; ".join(parts) + "."
-
-
 def out_dir_for(base: Path, preset_name: str) -> Path:
     """``results/<target>`` for spec, ``results/<target>-<preset>`` otherwise (siblings share predictions)."""
     return base if preset_name == "spec" else base.with_name(f"{base.name}-{Path(preset_name).stem}")

@@ -1,4 +1,8 @@
-"""Helpers for the result files: machine description, markdown tables, figure saving."""
+"""The markdown of the result files: machine description, tables, headers and cells, figure saving.
+
+Every table of ``ndrql reproduce`` is rendered with these pieces; the numbers come from the
+experiment modules, the figures from :mod:`ndrql.viz.reproduce`.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,17 @@ import os
 import platform
 import subprocess
 from pathlib import Path
+from dataclasses import asdict
 from typing import Any, Sequence
+
+from ndrql.io import save_figure as io_save_figure
+from ndrql.io import write_json, write_text
+from ndrql.planning.preset import configs_dict
+
+#: Footnote of Tables 1 and 4 on the unseen region labels.
+UNSEEN_NOTE = ("unseen R scores the 300 NARROW PASSAGE samples against region labels regenerated from the guideline "
+               "(the upstream ones are broken: docs/dataset.md); 'original labels' scores the same predictions "
+               "against the upstream labels resized to 201 px, as the paper presumably did.")
 
 
 def machine() -> dict[str, Any]:
@@ -59,6 +73,74 @@ def md_table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: Sequen
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> Path:
     """Write ``fig`` to ``path`` (format from the extension, tight bounding box) and return the path."""
-    from ndrql.io import save_figure as io_save_figure
-
     return io_save_figure(fig, path, dpi=dpi, bbox_inches="tight")
+
+
+def pct(x: float | None) -> str:
+    """A fraction as a whole percentage, ``-`` when missing."""
+    return "-" if x is None else f"{100 * x:.0f}%"
+
+
+# ------------------------------------------------------------------------------ planning tables
+
+
+def preset_line(opts: Any, names: Sequence[str]) -> str:
+    """One paragraph for a table's header: the preset of ``opts`` and each row's searched constants."""
+    preset = getattr(opts, "preset", None)
+    if preset is None:
+        return ""
+    parts = []
+    for n in names:
+        ql, pc = preset.configs(n)
+        d = configs_dict(ql, pc)
+        vals = {**d["ql"], **d["priors"]}
+        parts.append(f"{n}: " + ", ".join(f"{k} {v:.4g}" for k, v in vals.items()))
+    return f"Preset **{preset.name}** ({preset.source or 'given'}); constants per row: " + "; ".join(parts) + "."
+
+
+def planning_header(title: str, opts: Any, info: dict, predictions: Any, extra: str = "",
+                    names: Sequence[str] = ()) -> str:
+    """Header of a planning table: command, machine, seeds, constants (or preset), NDR weights.
+
+    ``opts``: the table's :class:`~ndrql.experiments.planning_runs.SweepOptions`; ``predictions``:
+    its prediction cache (``weights``, ``digest``) or ``None``; ``names``: the table's rows.
+    """
+    lines = [f"# {title}", "", f"Command: `{opts.command}`" if opts.command else "", "",
+             f"Machine: {machine_line(info)}.", "",
+             f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method; QLConfig {asdict(opts.ql)}; "
+             f"PriorConfig {asdict(opts.priors)}."]
+    if predictions is not None:
+        lines += ["", f"NDR weights: `{predictions.weights}` (sha256 {predictions.digest})."]
+    if opts.preset is not None:
+        lines[6] = f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method."
+        lines += ["", preset_line(opts, names)]
+    if extra:
+        lines += ["", extra]
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------- model tables
+
+
+def fmt_f1(x: float | None, digits: int = 2) -> str:
+    """An F1 (or hours, parameters) with ``digits`` decimals, ``-`` when missing or NaN."""
+    return "-" if x is None or x != x else f"{x:.{digits}f}"
+
+
+def f1_cells(r: dict[str, dict[str, float]]) -> list[str]:
+    """Seen R, seen G, unseen R, unseen G and unseen R against the original labels of an evaluation."""
+    return [fmt_f1(r["seen"]["region_f1"]), fmt_f1(r["seen"]["guideline_f1"]), fmt_f1(r["unseen"]["region_f1"]),
+            fmt_f1(r["unseen"]["guideline_f1"]), fmt_f1(r["unseen"]["region_f1_original"])]
+
+
+def f1_header(title: str, command: str, limit: int | None) -> list[str]:
+    """Header lines of a model table (Tables 1 and 4)."""
+    return [f"# {title}", "", f"Command: `{command}`", "", f"Machine: {machine_line(machine())}.", "",
+            f"Samples per split: {limit or 'all (1,200)'}; F1 per docs/method.md via ndrql.training.evaluate.", ""]
+
+
+def write_table(out_dir: Path, name: str, lines: list[str], numbers: dict) -> Path:
+    """``<out_dir>/<name>.md`` from ``lines`` and ``<out_dir>/summary.json`` from ``numbers``; the markdown path."""
+    path = write_text(out_dir / f"{name}.md", "\n".join(lines) + "\n")
+    write_json(out_dir / "summary.json", numbers, indent=None, strict=False)
+    return path

@@ -1,33 +1,34 @@
 """Resumable sweeps: many independent tasks, one atomic JSON file per finished task.
 
 A :class:`Task` is a top-level (picklable) function, its arguments, a unique ``key`` and a
-``fingerprint`` of everything that determines its result. :func:`run_sweep` first reads the task
-files already in ``out_dir`` and reuses every one whose fingerprint matches; it runs the others on
-an executor and writes each result the moment it arrives (:func:`ndrql.io.write_json`), so a
+``fingerprint`` of everything that determines its result (:func:`ndrql.experiments.digests.fingerprint`).
+:func:`run_sweep` first reads the task files already in ``out_dir`` and reuses every one whose
+fingerprint matches; it runs the others on an executor and writes each result the moment it arrives (:func:`ndrql.io.write_json`), so a
 sweep killed at any point resumes without redoing finished work. Results come back keyed by task,
 so whatever ran them, and in whatever order they finished, the tables built from them are the same.
 
-Executors: ``serial`` (this process), ``process`` (a local process pool, forked where possible so
-workers inherit compiled kernels, whose workers die with their parent (:mod:`ndrql.workers`); the default) and ``ray`` (``pip install ndrql[ray]``; a local Ray
-instance, or an existing cluster given by ``ray_address``).
+Executors (:func:`ndrql.workers.run_calls`, the one executor): ``serial`` (this process),
+``process`` (a local process pool, forked where possible so workers inherit compiled kernels, whose
+workers die with their parent; the default; one worker or one task runs in this process) and
+``ray`` (``pip install ndrql[ray]``; a local Ray instance, or an existing cluster given by ``ray_address``).
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import socket
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from tqdm import tqdm
+
 from ndrql.errors import NdrqlError
 from ndrql.io import make_folder, write_json
-from ndrql.workers import process_pool
+from ndrql.workers import pick_executor, run_calls
 
 #: Valid executor names for :func:`run_sweep`.
 EXECUTORS = ("process", "serial", "ray")
@@ -61,12 +62,6 @@ class SweepReport:
     """Wall time of the call."""
 
 
-def fingerprint(*parts: Any) -> str:
-    """Short, stable digest of JSON-serialisable ``parts`` (dataclasses via ``vars``)."""
-    blob = json.dumps(parts, sort_keys=True, default=lambda o: vars(o) if hasattr(o, "__dict__") else repr(o))
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
-
-
 def _check_key(key: str) -> None:
     if not key or not all(ch.isalnum() or ch in "._+-" for ch in key):
         raise ValueError(f"task key {key!r} must be non-empty and use only letters, digits and . _ + -")
@@ -95,9 +90,7 @@ def _call(fn: Callable[..., Any], args: tuple) -> tuple[Any, dict]:
     return out, {"pid": os.getpid(), "host": socket.gethostname(), "seconds": time.perf_counter() - t0}
 
 
-def _progress(total: int, initial: int, desc: str, enabled: bool):
-    from tqdm import tqdm
-
+def _progress(total: int, initial: int, desc: str, enabled: bool) -> tqdm:
     return tqdm(total=total, initial=initial, desc=desc, unit="task", disable=not enabled, file=sys.stderr,
                 dynamic_ncols=True, smoothing=0.1)
 
@@ -147,67 +140,11 @@ def run_sweep(
         bar.update(1)
 
     try:
-        if not todo:
-            pass
-        elif executor == "serial" or (executor == "process" and (workers == 1 or len(todo) == 1)):
-            for t in todo:
-                done(t, *_call(t.fn, t.args))
-        elif executor == "process":
-            _run_process(todo, workers, done)
-        else:
-            _run_ray(todo, workers, done, ray_address)
+        run_calls(_call, [(t.fn, t.args) for t in todo], executor=pick_executor(executor, workers, len(todo)),
+                  workers=workers, ray_address=ray_address, on_result=lambda i, out: done(todo[i], *out))
     finally:
         bar.close()
     # Key order of the input, whatever the completion order.
     report.results = {t.key: report.results[t.key] for t in tasks}
     report.seconds = time.perf_counter() - t0
     return report
-
-
-def _run_process(todo: list[Task], workers: int, done: Callable[[Task, Any, dict], None]) -> None:
-    with process_pool(min(workers, len(todo)), start_method="fork") as pool:
-        pending = {pool.submit(_call, t.fn, t.args): t for t in todo}
-        try:
-            while pending:
-                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    task = pending.pop(fut)
-                    done(task, *fut.result())
-        except BaseException:
-            for fut in pending:
-                fut.cancel()
-            raise
-
-
-def ray_available() -> bool:
-    try:
-        import ray  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def _run_ray(todo: list[Task], workers: int, done: Callable[[Task, Any, dict], None], address: str | None) -> None:
-    try:
-        import ray
-    except ImportError:
-        raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)") from None
-    started = False
-    if not ray.is_initialized():
-        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
-        if address:
-            ray.init(address=address, **kwargs)
-        else:
-            ray.init(num_cpus=workers, **kwargs)
-        started = True
-    try:
-        remote = ray.remote(num_cpus=1, max_retries=2)(_call)
-        pending = {remote.remote(t.fn, t.args): t for t in todo}
-        while pending:
-            ready, _ = ray.wait(list(pending), num_returns=1)
-            for ref in ready:
-                task = pending.pop(ref)
-                done(task, *ray.get(ref))
-    finally:
-        if started:
-            ray.shutdown()

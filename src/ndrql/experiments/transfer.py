@@ -15,7 +15,6 @@ maps that connect on none are skipped and counted.
 
 from __future__ import annotations
 
-import hashlib
 import json
 from importlib import resources
 from pathlib import Path
@@ -28,7 +27,8 @@ from ndrql.dataset.generated import GeneratedSet, generate_set, read_manifest
 from ndrql.dataset.render import render
 from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_priors
 from ndrql.experiments.report import md_table
-from ndrql.experiments.sweep import Task, fingerprint, run_sweep
+from ndrql.experiments.digests import array_digest, fingerprint
+from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import write_json, write_text
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.synth.generate import SetSpec
@@ -109,8 +109,8 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1}
                 priors = {"QL": None, "IQL": None, "NDR-QL (model)": [a.tolist() for a in model],
                           "NDR-QL (oracle)": [a.tolist() for a in oracle]}
-                grid_id = hashlib.sha256(np.packbits(case.blocked).tobytes()).hexdigest()[:16]
-                prior_id = hashlib.sha256(b"".join(np.ascontiguousarray(a, np.float64).tobytes() for a in (*model, *oracle))).hexdigest()[:16]
+                grid_id = array_digest(np.packbits(case.blocked))
+                prior_id = array_digest(*(np.asarray(a, np.float64) for a in (*model, *oracle)))
                 fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.n, case.blocked.shape, grid_id, prior_id)
                 tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, ql, pc), fp))
     rep = run_sweep(tasks, out / "tasks", executor=executor, workers=workers, progress=progress, desc="transfer")

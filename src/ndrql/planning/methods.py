@@ -17,7 +17,8 @@ NDR-QL    D-C + N-C (mixed by Eq. 4) + D-Q + N-Q (Eq. 6)
 
 Composition: rewards use Eq. 4 when both D-C and N-C are on, else Eq. 2 or Eq. 3 alone; the
 Q-table uses Eq. 6 when N-Q is on (Eq. 6 already contains the D-QI term, so ``N-Q`` and
-``D-Q + N-Q`` coincide), else Eq. 5 with D-Q, else 0.
+``D-Q + N-Q`` coincide), else Eq. 5 with D-Q, else 0. A :class:`Method` with ``qi_mask_only``
+(not in the registry: Table 2's ablation row ``N-Q``) takes Eq. 6's mask term alone.
 
 **O-QL** (Zhou et al., "An optimized Q-Learning algorithm for mobile robot local path planning",
 Knowledge-Based Systems 286, 111400, 2024). Its public abstract lists four changes: a Q-table
@@ -57,6 +58,8 @@ class Method:
     """Distance-based Q-table initialisation (Eq. 5)."""
     n_qi: bool = False
     """Region-based Q-table initialisation (Eqs. 6-7)."""
+    qi_mask_only: bool = False
+    """With ``n_qi``: Eq. 6's mask term alone, without its distance term (Table 2's lone N-Q row)."""
     description: str = ""
     """One line for help texts."""
 
@@ -157,7 +160,7 @@ def build_priors(
         r_c = np.full(shape, cfg.r0, dtype=np.float64)
     thd = None
     if m.n_qi:
-        q0, thd = P.ndr_qi(blocked, start, goal, region, cfg)  # type: ignore[arg-type]
+        q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only)  # type: ignore[arg-type]
     elif m.d_qi:
         q0 = P.d_qi(blocked, goal)
     else:

@@ -4,8 +4,9 @@ Two kinds, freely composed by :mod:`ndrql.planning.methods`:
 
 - continuous rewards ``r_c`` (an ``(H, W)`` array, the reward of a plain move into a cell):
   D-CRF (Eq. 2), NDR-CRF (Eq. 3) and their mix (Eq. 4);
-- Q-table initialisations (a ``(H * W, 4)`` array): D-QI (Eq. 5) and NDR-QI (Eq. 6) whose mask
-  (Eq. 7) uses the adaptive threshold of :func:`adaptive_threshold`.
+- Q-table initialisations (a ``(H * W, 4)`` array): D-QI (Eq. 5) and NDR-QI (Eq. 6, or its mask
+  term alone for Table 2's ablation) whose mask (Eq. 7) uses the adaptive threshold of
+  :func:`adaptive_threshold`.
 
 Coordinates: the paper's ``x`` is the row and ``y`` the column (the dataset's convention), so
 ``G_x`` is :attr:`PriorConfig.g_row`. Region and guideline arrays must already be at the planning
@@ -117,6 +118,17 @@ def region_mask(region: np.ndarray, thd: float | None, cfg: PriorConfig = PriorC
     return np.where(region > thd, 0.0, cfg.mask_low)
 
 
+def ndr_qi_mask_term(blocked: np.ndarray, region: np.ndarray, thd: float | None,
+                     cfg: PriorConfig = PriorConfig()) -> np.ndarray:
+    """The mask term of Eq. 6 alone: ``Q(s, a) = omega * MASK(N_r(s'))`` (Table 2's ablation row N-Q).
+
+    ``thd`` is the threshold of Eq. 7 (``None``: MASK is 0 everywhere). :func:`ndr_qi` adds the distance term.
+    """
+    blocked = np.asarray(blocked, dtype=bool)
+    mask = region_mask(_check_field("region", region, blocked.shape), thd, cfg).ravel()
+    return cfg.omega_qi * mask[rules.next_table(blocked)]
+
+
 def ndr_qi(
     blocked: np.ndarray,
     start: tuple[int, int],
@@ -124,11 +136,13 @@ def ndr_qi(
     region: np.ndarray,
     cfg: PriorConfig = PriorConfig(),
     thd: float | None = ...,  # type: ignore[assignment]
+    mask_only: bool = False,
 ) -> tuple[np.ndarray, float | None]:
     """Eq. 6, NDR-QI: ``Q(s, a) = omega * MASK(N_r(s')) + (1 - omega) * exp(-dist(s', goal))``.
 
     ``thd`` defaults to :func:`adaptive_threshold`; when none connects, MASK is 0 everywhere and a
-    :class:`ThresholdWarning` is emitted. Returns ``(q0, thd)``.
+    :class:`ThresholdWarning` is emitted. ``mask_only``: the mask term alone
+    (:func:`ndr_qi_mask_term`). Returns ``(q0, thd)``.
     """
     blocked = np.asarray(blocked, dtype=bool)
     region = _check_field("region", region, blocked.shape)
@@ -141,8 +155,9 @@ def ndr_qi(
                 ThresholdWarning,
                 stacklevel=2,
             )
-    mask = region_mask(region, thd, cfg).ravel()
+    masked = ndr_qi_mask_term(blocked, region, thd, cfg)
+    if mask_only:
+        return masked, thd
     r2, c2 = _next_cells(blocked)
-    masked = mask[r2 * blocked.shape[1] + c2]
-    q0 = cfg.omega_qi * masked + (1.0 - cfg.omega_qi) * np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
+    q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
     return q0, thd

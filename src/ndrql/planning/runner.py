@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,6 +19,7 @@ from ndrql.planning import rng, rules
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Priors, build_priors, get_method
 from ndrql.planning.results import EpisodeRecords, PlanResult
+from ndrql.workers import pick_executor, run_calls
 
 
 def _check_problem(blocked: np.ndarray, start, goal) -> tuple[np.ndarray, tuple[int, int], tuple[int, int]]:
@@ -186,7 +186,8 @@ def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "pr
     """Run ``jobs`` on ``workers`` cores (default: all) and return results in job order.
 
     ``backend``: ``"process"`` (a process pool, forked where the platform allows so workers inherit
-    the loaded kernel) or ``"thread"`` (the kernel releases the GIL). With one worker or one job, runs in this process.
+    the loaded kernel) or ``"thread"`` (the kernel releases the GIL), both on
+    :func:`ndrql.workers.run_calls`. With one worker or one job, runs in this process.
     Results do not depend on the backend or the number of workers. ``progress``: a progress bar of
     finished runs on stderr (shown on a terminal only).
     """
@@ -196,33 +197,21 @@ def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "pr
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
+    if backend not in ("process", "thread"):
+        raise ValueError(f"unknown backend {backend!r}; valid: process, thread")
     with tqdm(total=len(jobs), desc="runs", unit="run", disable=None if progress else True, leave=False) as bar:
-        if workers == 1 or len(jobs) <= 1:
-            out = []
-            for j in jobs:
-                out.append(_run_job(j))
-                bar.update()
-            return out
-        from ndrql.planning import kernel
+        executor = pick_executor(backend, workers, len(jobs))
+        if executor != "serial":
+            from ndrql.planning import kernel
 
-        kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
-        if backend == "thread":
-            with ThreadPoolExecutor(max_workers=workers) as pool:
-                futures = [pool.submit(_run_job, j) for j in jobs]
-                for fut in as_completed(futures):
-                    bar.update()
-                return [f.result() for f in futures]
-        if backend != "process":
-            raise ValueError(f"unknown backend {backend!r}; valid: process, thread")
+            kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
+        if executor != "process":  # in this process or on threads: one call per job
+            return run_calls(_run_job, [(j,) for j in jobs], executor=executor, workers=workers,
+                             on_result=lambda i, r: bar.update())
         n_chunks = min(len(jobs), workers * 4)
         chunks = [jobs[i::n_chunks] for i in range(n_chunks)]
-        from ndrql.workers import process_pool
-
-        with process_pool(min(workers, n_chunks), start_method="fork") as pool:  # workers die with this process
-            futures = [pool.submit(_run_chunk, c) for c in chunks]
-            for fut in as_completed(futures):
-                bar.update(len(fut.result()))
-            parts = [f.result() for f in futures]
+        parts = run_calls(_run_chunk, [(c,) for c in chunks], executor="process", workers=workers,
+                          start_method="fork", on_result=lambda i, part: bar.update(len(part)))
     out_: list[PlanResult | None] = [None] * len(jobs)
     for i, part in enumerate(parts):
         for k, res in enumerate(part):

@@ -19,6 +19,16 @@ def new_figure(figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 100) -> Any
     return fig
 
 
+def frame_map(ax: Any, shape: tuple[int, int]) -> None:
+    """Fit ``ax`` to a map or grid of ``shape`` (row 0 on top, pixel centres on integers), equal aspect, no ticks."""
+    h, w = shape
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
 def plot_occupancy(ax: Any, obstacles: np.ndarray, *, alpha: float = 1.0, color: str = "black",
                    extent: Sequence[float] | None = None, zorder: int = 0) -> Any:
     """Draw obstacles in ``color`` on a transparent background; returns the ``AxesImage``.
@@ -74,11 +84,7 @@ def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, pa
     artists += plot_path(ax, pts, color=ASTAR_COLOR, linewidth=2.0, label=f"A* ({len(path_cells) - 1} moves)")
     artists[-1].set_linestyle("--")
     artists += plot_endpoints(ax, source_start, source_goal)
-    ax.set_xlim(-0.5, w - 0.5)
-    ax.set_ylim(h - 0.5, -0.5)
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
+    frame_map(ax, (h, w))
     if title:
         artists.append(ax.set_title(title, fontsize=9))
     handles, _ = ax.get_legend_handles_labels()

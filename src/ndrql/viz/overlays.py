@@ -7,18 +7,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ndrql.viz.maps import plot_endpoints, plot_occupancy
+from ndrql.viz.maps import frame_map, plot_endpoints, plot_occupancy
 
 from ndrql.viz.style import METHOD_COLORS  # noqa: F401  (re-exported: one home, ndrql.viz.style)
-
-
-def _frame(ax: Any, shape: tuple[int, int]) -> None:
-    h, w = shape
-    ax.set_xlim(-0.5, w - 0.5)
-    ax.set_ylim(h - 0.5, -0.5)
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
 
 
 def plot_prediction(ax: Any, obstacles: np.ndarray, region: np.ndarray | None, guideline: np.ndarray | None,
@@ -45,7 +36,7 @@ def plot_prediction(ax: Any, obstacles: np.ndarray, region: np.ndarray | None, g
                                  extent=(-0.5, a.shape[1] - 0.5, a.shape[0] - 0.5, -0.5)))
     if start is not None and goal is not None:
         artists += plot_endpoints(ax, start, goal, size=40)
-    _frame(ax, obstacles.shape)
+    frame_map(ax, obstacles.shape)
     return artists
 
 
@@ -70,7 +61,7 @@ def plot_method_paths(ax: Any, blocked: np.ndarray, paths: Mapping[str, Sequence
         artists += ax.plot(pts[:, 1] + off, pts[:, 0] + off, "-", color=color, linewidth=linewidth,
                            label=f"{name} ({len(pts) - 1})", zorder=3 + i)
     artists += plot_endpoints(ax, start, goal, size=40)
-    _frame(ax, blocked.shape)
+    frame_map(ax, blocked.shape)
     if legend:
         artists.append(ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=3, fontsize=6, frameon=False))
     return artists

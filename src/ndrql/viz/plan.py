@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ndrql.viz.maps import new_figure, plot_endpoints, plot_occupancy, plot_path
+from ndrql.viz.maps import frame_map, new_figure, plot_endpoints, plot_occupancy, plot_path
 
 from ndrql.viz.style import (ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, GUIDELINE_RGB, METHOD_COLORS,  # noqa: F401
                               REGION_RGB, legend_below, method_color)
@@ -100,11 +100,7 @@ def plot_plan(
         artists.append(ax.scatter(hits[:, 1], hits[:, 0], s=70, c="red", marker="x", linewidths=2.0, zorder=6,
                                   label=f"collision ({len(hits)})"))
     artists += plot_endpoints(ax, source_start, source_goal)
-    ax.set_xlim(-0.5, w - 0.5)
-    ax.set_ylim(h - 0.5, -0.5)
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
+    frame_map(ax, (h, w))
     if title:
         artists.append(ax.set_title(title, fontsize=9))
     if legend:

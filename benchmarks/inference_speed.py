@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from ndrql.model.predict import default_weights_path
-from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 
 
 def timed(fn, x, repeat: int) -> float:

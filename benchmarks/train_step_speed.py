@@ -133,7 +133,7 @@ def time_loops(cfg: TrainConfig, old_loop, steps: int, repeats: int) -> dict[str
 
 
 def resume_check(cfg_cli: TrainConfig, old_loop, ckpt: Path) -> None:
-    from ndrql.training.checkpoint import load_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint
 
     ck = load_checkpoint(ckpt)
     saved = ck["train_config"]

@@ -114,7 +114,7 @@ def test_sources_and_batches_are_deterministic(gen_set):
 
 
 def test_mixed_multiscale_training_resumes_exactly(gen_set, tmp_path):
-    from ndrql.training.checkpoint import load_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint
     from ndrql.training.config import TrainConfig
     from ndrql.training.loop import train
 

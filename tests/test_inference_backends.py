@@ -83,7 +83,7 @@ def test_model_without_guideline_runs_on_torch_under_auto(cache, tmp_path):
     import torch
 
     from ndrql.model.registry import build_model, preset
-    from ndrql.training.checkpoint import save_checkpoint
+    from ndrql.model.checkpoint import save_checkpoint
 
     cfg = preset("ndr-stdc1-half-noguide", width=0.25)
     torch.manual_seed(0)

@@ -88,7 +88,7 @@ def _old_to_model_input_map(obstacles: np.ndarray, side: int = 201) -> np.ndarra
 
 @pytest.mark.parametrize("shape", [(402, 402), (300, 1000), (1000, 333), (203, 202), (4000, 17)])
 def test_model_input_resize_is_unchanged(shape):
-    from ndrql.model.predict import to_model_input
+    from ndrql.dataset.render import to_model_input
 
     arr = np.random.default_rng(shape[0] + shape[1]).random(shape) < 0.4
     arr[0, 0] = arr[-1, -1] = False

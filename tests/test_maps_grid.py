@@ -17,7 +17,7 @@ from ndrql.maps import (
     SnapWarning,
     area_downscale,
     bfs_distances,
-    nearest_free,
+    nearest_free_bfs,
     planning_grid,
     point_to_cell,
 )
@@ -109,7 +109,7 @@ def test_snap_moves_point_to_nearest_free_cell_with_warning():
     assert pg.start in {(0, 2), (2, 0)}  # BFS distance 2 from (0, 0)
     assert pg.snapped == (True, False)
     assert pg.goal == (4, 4)
-    assert nearest_free(pg.blocked, (1, 1)) in {(1, 2), (2, 1)}
+    assert nearest_free_bfs(pg.blocked, (1, 1)) in {(1, 2), (2, 1)}
 
 
 def test_no_warning_when_cell_is_free():

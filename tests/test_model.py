@@ -8,7 +8,7 @@ import torch
 from ndrql.errors import CheckpointError
 from ndrql.model.ndr import NDRConfig, NDRNet
 from ndrql.model.registry import PRESETS, build_model, preset
-from ndrql.training.checkpoint import export_weights, load_checkpoint, model_from_checkpoint, save_checkpoint
+from ndrql.model.checkpoint import export_weights, load_checkpoint, model_from_checkpoint, save_checkpoint
 from ndrql.training.losses import ndr_loss
 
 TINY = {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.25, "unet_base": 8}

@@ -158,7 +158,7 @@ def test_ndr_methods_need_predictions():
 
 
 def test_predict_hook_says_what_to_do():
-    from ndrql.planning.methods import predict_priors
+    from ndrql.pipeline.predictions import predict_priors
 
     with pytest.raises(NdrqlError, match="missing model weights.*--prior-from"):
         predict_priors(np.zeros((201, 201), bool), (0, 0), (200, 200), weights="/nonexistent/ndr.pt")

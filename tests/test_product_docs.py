@@ -99,7 +99,8 @@ def test_demo_writes_figures_and_table(ndrql_exe, model_weights, tmp_path):
 def test_model_is_loaded_once_per_process(model_weights):
     import numpy as np
 
-    from ndrql.planning.methods import load_predictor, predict_priors
+    from ndrql.model.predict import load_predictor
+    from ndrql.pipeline.predictions import predict_priors
 
     a = load_predictor()
     assert load_predictor() is a and load_predictor(model_weights) is a

@@ -161,7 +161,7 @@ def test_compare_table_and_figure(ndrql_exe, model_weights, tmp_path):
 
 def test_weights_option_and_prior_file_agree(ndrql_exe, model_weights, tmp_path):
     """--weights FILE gives the same runs as the default weights, and as --prior-from the same predictions."""
-    from ndrql.planning.methods import predict_priors
+    from ndrql.pipeline.predictions import predict_priors
 
     m = rooms(100, 140)
     np.save(tmp_path / "m.npy", m)

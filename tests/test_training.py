@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from ndrql.errors import CheckpointError
-from ndrql.training.checkpoint import load_checkpoint
+from ndrql.model.checkpoint import load_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.loop import train
 

@@ -35,7 +35,7 @@ from ndrql.dataset.cache import cache_path, load_split, pack
 from ndrql.dataset.splits import train_val_split
 from ndrql.errors import CheckpointError
 from ndrql.training import distributed as D
-from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 from ndrql.training.config import TrainConfig
 
 TINY = {"unet_base": 4, "context_channels": 16, "fusion_channels": [16, 8]}

@@ -19,7 +19,7 @@ def test_tuning_uses_only_validation_train_maps(dataset_root, model_weights, mon
     import ndrql.dataset.cache as cache
     import ndrql.dataset.layout as layout
     from ndrql.dataset.splits import train_val_split
-    from ndrql.training.checkpoint import load_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint
     from ndrql.tuning import objective
 
     tc = dict(load_checkpoint(model_weights).get("train_config", {}))

@@ -48,7 +48,7 @@ def best_of(fn, n: int = 3) -> float:
 def downscale_timings() -> None:
     from ndrql.maps.grid import planning_grid
     from ndrql.maps.safe import conservative_grid, inflate
-    from ndrql.model.predict import to_model_input
+    from ndrql.dataset.render import to_model_input
 
     rng = np.random.default_rng(0)
     for side in (2000, 4000):

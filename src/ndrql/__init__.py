@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__version__ = "0.1.0"
+from ndrql.version import __version__
 
 #: Names served lazily from ``ndrql.api`` (importing them pulls numpy and the planners, not torch).
 _API = ("plan", "solve", "PlanReport", "PlanSettings")

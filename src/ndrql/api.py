@@ -20,7 +20,7 @@ the NDR model predicts region and guideline at the map's resolution
 of each method (Eqs. 2-7) -> Q-learning to convergence (Eq. 1) -> each learned path as a polyline on
 the full map, checked for collisions, shortcut by line of sight, and as world poses
 (:mod:`ndrql.pipeline.route`). The model is loaded once per process and reused
-(:func:`ndrql.planning.methods.load_predictor`); torch and numba are imported only when needed.
+(:func:`ndrql.model.predict.load_predictor`); torch and numba are imported only when needed.
 
 Bad input raises an :class:`~ndrql.errors.NdrqlError` subclass with a one-line message (the CLI
 prints it and exits with 2).
@@ -213,9 +213,9 @@ def solve(
                     raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
                                      f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
         else:
+            from ndrql.model.predict import load_predictor
             from ndrql.model.weights import resolve_weights
             from ndrql.pipeline.predictions import predict_region
-            from ndrql.planning.methods import load_predictor
 
             with clock.stage("load"):
                 predictor = load_predictor(weights, settings.threads, settings.backend)

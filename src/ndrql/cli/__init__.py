@@ -16,7 +16,7 @@ import importlib
 import sys
 from typing import NoReturn
 
-from ndrql import __version__
+from ndrql.version import __version__
 from ndrql.errors import NdrqlError
 
 #: Subcommand modules (under ``ndrql.cli``), in the order ``--help`` lists them.

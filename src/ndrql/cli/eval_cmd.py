@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.dataset.splits import train_val_split
     from ndrql.errors import DatasetError
     from ndrql.model.weights import resolve_weights
-    from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
     from ndrql.training.evaluate import category_rows, evaluate, markdown_table
 
     from ndrql.limits import MAX_THREADS, check_int

@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_weights(args: argparse.Namespace) -> int:
-    from ndrql.training.checkpoint import export_weights
+    from ndrql.model.checkpoint import export_weights
 
     out = export_weights(args.checkpoint, args.out, half=not args.fp32)
     print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")

@@ -10,6 +10,11 @@
 In both modes the model sees about 4 px per planning cell whatever the grid, so the label widths
 (2 and 30 px) keep the same meaning in cells. A sample that the mode cannot use (start and goal
 disconnected or in one cell on the grid) renders to ``None``.
+
+A map of another size meets a ``map``-mode model through :func:`to_model_input`: the longer side
+resized to 201 px (area averaging of the obstacle fraction, blocked at >= 0.5, the planning grid's
+rule), the shorter side padded with obstacles to 201, start and goal scaled with it (moved to the
+nearest free pixel if the resize blocked them); :func:`from_model_output` maps the probabilities back.
 """
 
 from __future__ import annotations
@@ -19,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ndrql.errors import NdrqlError
-from ndrql.maps.grid import bfs_distances
+from ndrql.maps.area import group_sums
+from ndrql.maps.grid import MODEL_SIDE, bfs_distances, nearest_free_euclidean
 from ndrql.maps.safe import conservative_grid
 from ndrql.synth.labels import dilate_region, draw_guideline
 from ndrql.synth.oracle import oracle_prediction
@@ -95,10 +101,53 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Ren
     return Rendered(img, s_px, g_px, gl, r)
 
 
+def point_on_grid(p: Point, scale: float, side: int) -> Point:
+    """Where a pixel centre lands after scaling the map by ``scale`` (clamped to the grid)."""
+    return (min(side - 1, int((p[0] + 0.5) * scale)), min(side - 1, int((p[1] + 0.5) * scale)))
+
+
+def to_model_input(obstacles: np.ndarray, start: Point, goal: Point, side: int = MODEL_SIDE) -> tuple[np.ndarray, Point, Point, float]:
+    """Resize/pad a map to ``side`` x ``side`` (module docstring); returns map, start, goal, scale."""
+    obstacles = np.asarray(obstacles, bool)
+    h, w = obstacles.shape
+    if (h, w) == (side, side):
+        return obstacles, tuple(start), tuple(goal), 1.0
+    scale = side / max(h, w)
+    nh, nw = max(1, round(h * scale)), max(1, round(w * scale))
+    # area averaging via per-pixel bin membership (works for up- and downscaling); the bins are
+    # contiguous runs of pixels, so each axis is one reduceat pass: O(pixels) time and memory
+    rows = np.minimum((np.arange(h) * nh) // h, nh - 1)
+    cols = np.minimum((np.arange(w) * nw) // w, nw - 1)
+    if h >= nh and w >= nw:
+        r0 = np.searchsorted(rows, np.arange(nh))  # first pixel of each bin (every bin has one)
+        c0 = np.searchsorted(cols, np.arange(nw))
+        rows_sum = group_sums(np.ascontiguousarray(obstacles).view(np.uint8), r0, 0, np.int64)
+        sums = np.add.reduceat(rows_sum, c0, axis=1).astype(np.float64)
+        counts = np.outer(np.diff(np.append(r0, h)), np.diff(np.append(c0, w))).astype(np.float64)
+        small = sums / np.maximum(counts, 1) >= 0.5
+    else:  # upscaling: nearest source pixel
+        src_r = np.minimum((np.arange(nh) * h) // nh, h - 1)
+        src_c = np.minimum((np.arange(nw) * w) // nw, w - 1)
+        small = obstacles[src_r[:, None], src_c[None, :]]
+    out = np.ones((side, side), bool)
+    out[:nh, :nw] = small
+    s = nearest_free_euclidean(out, point_on_grid(tuple(start), nh / h, side))
+    g = nearest_free_euclidean(out, point_on_grid(tuple(goal), nh / h, side))
+    return out, s, g, scale
+
+
+def from_model_output(prob: np.ndarray, shape: tuple[int, int], scale: float) -> np.ndarray:
+    """Map a (side, side) probability back to the original map's ``shape`` (nearest sampling)."""
+    if scale == 1.0 and prob.shape == shape:
+        return prob
+    h, w = shape
+    r = np.minimum(((np.arange(h) + 0.5) * scale).astype(int), prob.shape[0] - 1)
+    c = np.minimum(((np.arange(w) + 0.5) * scale).astype(int), prob.shape[1] - 1)
+    return prob[r[:, None], c[None, :]]
+
+
 def render_map(obstacles: np.ndarray, start: Point, goal: Point, waypoints: np.ndarray, n: int) -> Rendered | None:
     """``map`` mode: the map resized to ``4n + 1`` px, the path's waypoints drawn at that scale."""
-    from ndrql.model.predict import to_model_input
-
     side = input_side("map", n)
     img, s, g, scale = to_model_input(obstacles, start, goal, side)
     wp = np.rint((np.asarray(waypoints, np.float64) + 0.5) * scale - 0.5).astype(np.int64)

@@ -25,7 +25,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import NdrqlError, NoPathError, PointError
-from ndrql.maps.grid import GridMap, bfs_distances, nearest_free, planning_grid, point_to_cell
+from ndrql.maps.grid import GridMap, bfs_distances, nearest_free_bfs, planning_grid, point_to_cell
 
 Cell = tuple[int, int]
 
@@ -60,7 +60,7 @@ class EnvProblem:
 
 
 def _snap(blocked: np.ndarray, cell: Cell, name: str) -> Cell:
-    free = nearest_free(blocked, cell)
+    free = nearest_free_bfs(blocked, cell)
     if free != cell:
         warnings.warn(f"{name} falls in blocked planning cell {cell}; moved to the nearest free cell {free}",
                       UserWarning, stacklevel=3)

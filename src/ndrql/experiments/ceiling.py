@@ -70,7 +70,7 @@ def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.n
     ``grid``: the safe grid at 4 px per cell; ``map``: the map at ``4n + 1`` px; ``map201``: the map at
     201 px whatever the grid (the input of the paper's model before multi-scale training).
     """
-    from ndrql.model.predict import from_model_output, to_model_input
+    from ndrql.dataset.render import from_model_output, to_model_input
 
     if mode == "grid":
         r, gl, _ = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)

@@ -21,7 +21,7 @@ import torch
 
 from ndrql.dataset.cache import cache_dir, load_split
 from ndrql.io import file_digest, write_json
-from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 from ndrql.training.evaluate import evaluate
 
 

@@ -6,6 +6,7 @@ converted once, in their reader.
 
 from ndrql.maps.astar import AStarResult, astar4, astar8, octile, path_is_valid, shortest_path8
 from ndrql.maps.grid import (
+    MODEL_SIDE,
     MOVES4,
     PLANNING_SIZE,
     GridMap,
@@ -16,7 +17,8 @@ from ndrql.maps.grid import (
     cell_to_point,
     check_connected,
     grid_to_strings,
-    nearest_free,
+    nearest_free_bfs,
+    nearest_free_euclidean,
     planning_grid,
     point_to_cell,
 )
@@ -34,6 +36,7 @@ from ndrql.maps.writers import atomic_path, save_map, write_npy, write_png
 __all__ = [
     "AStarResult",
     "GridMap",
+    "MODEL_SIDE",
     "MOVES4",
     "PLANNING_SIZE",
     "PlanningGrid",
@@ -46,7 +49,8 @@ __all__ = [
     "cell_to_point",
     "check_connected",
     "grid_to_strings",
-    "nearest_free",
+    "nearest_free_bfs",
+    "nearest_free_euclidean",
     "octile",
     "path_is_valid",
     "planning_grid",

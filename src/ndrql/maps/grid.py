@@ -21,8 +21,10 @@ from ndrql.maps.area import DENSE_AREA_MAX_MACS, _overlap_matrix, _overlap_sums,
 
 Cell = Tuple[int, int]
 
-#: Side of the planning grid (paper: 201 -> 50).
+#: Side of the paper's planning grid, in cells (its 201 px maps -> 50 x 50 cells).
 PLANNING_SIZE = 50
+#: Side of the paper's maps (the dataset's samples) and of the NDR model's input, in px.
+MODEL_SIDE = 201
 
 #: The four moves of the planning grid, in action order: up, down, left, right.
 MOVES4: tuple[Cell, ...] = ((-1, 0), (1, 0), (0, -1), (0, 1))
@@ -175,7 +177,7 @@ def bfs_distances(blocked: np.ndarray, source: Cell) -> np.ndarray:
     return dist
 
 
-def nearest_free(blocked: np.ndarray, cell: Cell) -> Cell:
+def nearest_free_bfs(blocked: np.ndarray, cell: Cell) -> Cell:
     """Nearest free cell to ``cell`` by 4-connected BFS over the whole grid (obstacles are crossed).
 
     Ties go to the first cell found in move order up, down, left, right. ``cell`` itself when free.
@@ -197,6 +199,22 @@ def nearest_free(blocked: np.ndarray, cell: Cell) -> Cell:
                 seen[nr, nc] = True
                 queue.append((nr, nc))
     raise NoPathError("the planning grid has no free cell at all")
+
+
+def nearest_free_euclidean(obstacles: np.ndarray, p: Cell) -> Cell:
+    """``p`` itself when free, else the free pixel nearest by Euclidean distance (first in row-major order on a tie).
+
+    The rule for points on the model's input (:func:`ndrql.dataset.render.to_model_input`); planning
+    cells snap by BFS steps (:func:`nearest_free_bfs`).
+    """
+    if not obstacles[p]:
+        return p
+    free = np.argwhere(~obstacles)
+    if len(free) == 0:
+        raise PointError("the map has no free cell")
+    d = ((free - np.asarray(p)) ** 2).sum(1)
+    r, c = free[int(np.argmin(d))]
+    return (int(r), int(c))
 
 
 def check_connected(blocked: np.ndarray, start: Cell, goal: Cell) -> None:
@@ -284,7 +302,7 @@ class PlanningGrid:
                     f"{name} ({r}, {c}) is off the map: rows 0..{obstacles.shape[0] - 1}, cols 0..{obstacles.shape[1] - 1}"
                 )
             cell = point_to_cell((r, c), obstacles.shape, blocked.shape)
-            free = nearest_free(blocked, cell)
+            free = nearest_free_bfs(blocked, cell)
             if free != cell:
                 warnings.warn(
                     f"{name} ({r}, {c}) falls in blocked planning cell {cell}; moved to nearest free cell {free}",

@@ -29,7 +29,7 @@ import numpy as np
 
 from ndrql.errors import NoPathError
 from ndrql.maps.astar import shortest_path8
-from ndrql.maps.grid import Cell, nearest_free
+from ndrql.maps.grid import Cell, nearest_free_bfs
 from ndrql.maps.lines import segment_free
 from ndrql.maps.safe import cell_centre, cell_size_px, conservative_grid, grid_shape, point_to_square_cell
 
@@ -120,7 +120,7 @@ def place_point(free_check: np.ndarray, blocked: np.ndarray, point: Sequence[int
     for _, i, j in sorted(cands):
         if segment_free(free_check, point, cell_centre((i, j), shape, size)):
             return (i, j), True
-    return nearest_free(blocked, cell), True
+    return nearest_free_bfs(blocked, cell), True
 
 
 def grid_route_length(blocked: np.ndarray, start_cell: Cell, goal_cell: Cell, cell_px: float,

@@ -13,7 +13,7 @@ def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
     import torch
 
     from ndrql.io import atomic_path
-    from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 
     data = load_checkpoint(weights)
     model = model_from_checkpoint(data).eval()

@@ -1,25 +1,24 @@
 """Prediction API: region and guideline probabilities for any map, with the shipped model by default.
 
-Maps that are not 201x201 are brought to the model's scale first: the longer side is resized to
-201 px (area averaging of the obstacle fraction, blocked at >= 0.5, the planning grid's rule), the
-shorter side padded with obstacles to 201, start and goal scaled with it (snapped to the nearest
-free pixel if the resize blocked them). Probabilities are mapped back to the map's own size.
+Maps that are not 201x201 are brought to the model's scale first and the probabilities mapped back
+to the map's own size (:func:`ndrql.dataset.render.to_model_input`, :func:`~ndrql.dataset.render.from_model_output`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
 
+from ndrql.dataset.render import from_model_output, to_model_input
 from ndrql.errors import CheckpointError, PointError
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.model.weights import resolve_weights
-
-#: Side of the square input the model was trained on.
-MODEL_SIDE = 201
 
 Point = tuple[int, int]
 
@@ -36,65 +35,6 @@ def default_weights_path() -> Path:
     """``$NDRQL_WEIGHTS`` if set (a name or a path), else the shipped default weights
     (:data:`ndrql.model.weights.DEFAULT_WEIGHTS`)."""
     return resolve_weights(None)
-
-
-def point_on_grid(p: Point, scale: float, side: int) -> Point:
-    """Where a pixel centre lands after scaling the map by ``scale`` (clamped to the grid)."""
-    return (min(side - 1, int((p[0] + 0.5) * scale)), min(side - 1, int((p[1] + 0.5) * scale)))
-
-
-def nearest_free(obstacles: np.ndarray, p: Point) -> Point:
-    """``p`` itself when free, else the nearest free pixel (Euclidean)."""
-    if not obstacles[p]:
-        return p
-    free = np.argwhere(~obstacles)
-    if len(free) == 0:
-        raise PointError("the map has no free cell")
-    d = ((free - np.asarray(p)) ** 2).sum(1)
-    r, c = free[int(np.argmin(d))]
-    return (int(r), int(c))
-
-
-def to_model_input(obstacles: np.ndarray, start: Point, goal: Point, side: int = MODEL_SIDE) -> tuple[np.ndarray, Point, Point, float]:
-    """Resize/pad a map to ``side`` x ``side`` (see module docstring); returns map, start, goal, scale."""
-    obstacles = np.asarray(obstacles, bool)
-    h, w = obstacles.shape
-    if (h, w) == (side, side):
-        return obstacles, tuple(start), tuple(goal), 1.0
-    scale = side / max(h, w)
-    nh, nw = max(1, round(h * scale)), max(1, round(w * scale))
-    # area averaging via per-pixel bin membership (works for up- and downscaling); the bins are
-    # contiguous runs of pixels, so each axis is one reduceat pass: O(pixels) time and memory
-    rows = np.minimum((np.arange(h) * nh) // h, nh - 1)
-    cols = np.minimum((np.arange(w) * nw) // w, nw - 1)
-    if h >= nh and w >= nw:
-        r0 = np.searchsorted(rows, np.arange(nh))  # first pixel of each bin (every bin has one)
-        c0 = np.searchsorted(cols, np.arange(nw))
-        from ndrql.maps.area import group_sums
-
-        rows_sum = group_sums(np.ascontiguousarray(obstacles).view(np.uint8), r0, 0, np.int64)
-        sums = np.add.reduceat(rows_sum, c0, axis=1).astype(np.float64)
-        counts = np.outer(np.diff(np.append(r0, h)), np.diff(np.append(c0, w))).astype(np.float64)
-        small = sums / np.maximum(counts, 1) >= 0.5
-    else:  # upscaling: nearest source pixel
-        src_r = np.minimum((np.arange(nh) * h) // nh, h - 1)
-        src_c = np.minimum((np.arange(nw) * w) // nw, w - 1)
-        small = obstacles[src_r[:, None], src_c[None, :]]
-    out = np.ones((side, side), bool)
-    out[:nh, :nw] = small
-    s = nearest_free(out, point_on_grid(tuple(start), nh / h, side))
-    g = nearest_free(out, point_on_grid(tuple(goal), nh / h, side))
-    return out, s, g, scale
-
-
-def from_model_output(prob: np.ndarray, shape: tuple[int, int], scale: float) -> np.ndarray:
-    """Map a (side, side) probability back to the original map's ``shape`` (nearest sampling)."""
-    if scale == 1.0 and prob.shape == shape:
-        return prob
-    h, w = shape
-    r = np.minimum(((np.arange(h) + 0.5) * scale).astype(int), prob.shape[0] - 1)
-    c = np.minimum(((np.arange(w) + 0.5) * scale).astype(int), prob.shape[1] - 1)
-    return prob[r[:, None], c[None, :]]
 
 
 #: Inference backends: ``auto`` is ONNX Runtime when it (and ``onnx``, for the one-time export) is
@@ -227,7 +167,7 @@ def _onnx_model(weights: Path, rebuild: bool = False, side: int = MODEL_SIDE) ->
         if recorded:
             warnings.warn(f"the cached ONNX export {onnx_path} is damaged; exporting it again", stacklevel=3)
     from ndrql.model.export import export_onnx
-    from ndrql.training.checkpoint import load_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint
 
     config = dict(load_checkpoint(weights)["config"])
     exported = config.get("guideline_decoder", True)
@@ -317,7 +257,7 @@ class Predictor:
             else:
                 if backend == "onnx":
                     raise NdrqlError(f"{path} holds a model without a guideline output; the ONNX backend needs both outputs")
-        from ndrql.training.checkpoint import load_checkpoint, model_from_checkpoint
+        from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 
         data = load_checkpoint(path)
         config = dict(data["config"])
@@ -342,6 +282,28 @@ class Predictor:
         region = from_model_output(r[0], obstacles.shape, scale)
         guide = from_model_output(gl[0], obstacles.shape, scale) if gl is not None else None
         return Prediction(region=region, guideline=guide)
+
+
+def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto") -> Predictor:
+    """The NDR model for ``weights`` (default: ``$NDRQL_WEIGHTS`` or the shipped file), loaded once per process.
+
+    Loaded models are cached by path, size, modification time, threads and backend, so a second call
+    is free and a replaced weights file is picked up. A missing or unreadable file raises
+    :class:`~ndrql.errors.CheckpointError` with what to do. ``backend``: ``auto`` (ONNX Runtime when
+    installed; torch is then not imported once the export is cached), ``onnx`` or ``torch``.
+    """
+    path = resolve_weights(weights)
+    try:
+        st = path.stat()
+        key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    except OSError:
+        key = (str(path), -1, -1)  # Predictor.load gives the clear "missing model weights" error
+    return _cached_predictor(key, threads, backend)
+
+
+@functools.lru_cache(maxsize=4)
+def _cached_predictor(key: tuple[str, int, int], threads: int, backend: str) -> Predictor:
+    return Predictor.load(key[0], threads=threads, backend=backend)
 
 
 def predict(obstacles: np.ndarray, start: Point, goal: Point, weights: str | Path | None = None,

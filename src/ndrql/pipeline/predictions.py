@@ -3,11 +3,12 @@
 :func:`predict_region` decides what the model sees and returns region and guideline probabilities
 at the map's resolution; everything downstream (priors, figures, JSON) takes them from here. Today
 the model sees the map as drawn (not inflated), resized so its longer side is 201 px and padded with
-obstacles (:func:`ndrql.model.predict.to_model_input`), with start and goal scaled along.
+obstacles (:func:`ndrql.dataset.render.to_model_input`), with start and goal scaled along.
 """
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 from typing import Any
@@ -36,13 +37,14 @@ class ModelView:
 
 
 def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict[str, Any]:
-    """Where start and goal land in the model's 201x201 input (:func:`ndrql.model.predict.to_model_input`).
+    """Where start and goal land in the model's 201x201 input (:func:`ndrql.dataset.render.to_model_input`).
 
     A map that is not 201x201 is resized and padded for the model; a point whose resized pixel is an
     obstacle is moved to the nearest free pixel there. That is reported with a warning (the model
     then sees the point somewhere else; planning still uses the exact point).
     """
-    from ndrql.model.predict import MODEL_SIDE, point_on_grid, to_model_input
+    from ndrql.dataset.render import point_on_grid, to_model_input
+    from ndrql.maps.grid import MODEL_SIDE
 
     h, w = obstacles.shape
     _, s_in, g_in, scale = to_model_input(obstacles, start, goal)
@@ -117,7 +119,7 @@ def oracle_view(grid: PlanningGrid) -> ModelView:
 def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
     """Region and guideline for planning ``grid`` from ``start`` to ``goal`` (map pixels), at the map's resolution.
 
-    ``predictor``: a loaded model (:func:`ndrql.planning.methods.load_predictor`). What the model sees
+    ``predictor``: a loaded model (:func:`ndrql.model.predict.load_predictor`). What the model sees
     follows its input mode (``predictor.input_mode``, from its checkpoint): ``grid`` models see the
     planning grid itself at 4 px per cell (start and goal in their cells' centres) and predict on it;
     ``map`` models (the paper's) see the map resized to 201 px.
@@ -130,6 +132,31 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
     region = np.asarray(pred.region, dtype=np.float64)
     guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
     return ModelView(region=region, guideline=guideline, info=info)
+
+
+def predict_priors(
+    obstacles: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    weights: str | os.PathLike | None = None,
+    threads: int = 1,
+    backend: str = "auto",
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """NDR region and guideline probabilities at the map's resolution, from the trained model.
+
+    ``start``/``goal`` are ``(row, col)`` map pixels; maps of any size are resized for the model and
+    the outputs mapped back (:func:`ndrql.dataset.render.to_model_input`). The model is loaded once
+    per process (:func:`ndrql.model.predict.load_predictor`). ``threads``: threads for the forward
+    pass (default 1: one 201x201 map gains little from more, and a busy machine makes more threads
+    much slower); ``backend``: see :func:`~ndrql.model.predict.load_predictor`. The guideline is
+    ``None`` for a model without the guideline decoder.
+    """
+    from ndrql.model.predict import load_predictor
+
+    predictor = load_predictor(weights, threads, backend)
+    pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal))
+    guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
+    return np.asarray(pred.region, dtype=np.float64), guideline
 
 
 #: The region threshold (Eq. 7) below which the prediction is called uninformative: the model is not

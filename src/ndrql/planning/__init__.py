@@ -18,7 +18,6 @@ _EXPORTS = {
     "Priors": "methods",
     "build_priors": "methods",
     "get_method": "methods",
-    "predict_priors": "methods",
     "EpisodeRecords": "results",
     "PlanResult": "results",
     "PlanJob": "runner",

@@ -33,8 +33,6 @@ own name so results tables match the paper and a fuller O-QL can replace it with
 
 from __future__ import annotations
 
-import functools
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -186,56 +184,6 @@ def downscale_priors(
             raise NdrqlError(f"{name} must hold probabilities in [0, 1]")
         out.append(a if a.shape == tuple(shape) else area_downscale(a, tuple(shape)))
     return out[0], out[1]
-
-
-def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto"):
-    """The NDR model for ``weights`` (default: ``$NDRQL_WEIGHTS`` or the shipped file), loaded once per process.
-
-    Loaded models are cached by path, size, modification time, threads and backend, so a second call
-    is free and a replaced weights file is picked up. A missing or unreadable file raises
-    :class:`~ndrql.errors.CheckpointError` with what to do. ``backend``: ``auto`` (ONNX Runtime when
-    installed; torch is then not imported once the export is cached), ``onnx`` or ``torch``.
-    """
-    from pathlib import Path
-
-    from ndrql.model.weights import resolve_weights
-
-    path = resolve_weights(weights)
-    try:
-        st = path.stat()
-        key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
-    except OSError:
-        key = (str(path), -1, -1)  # Predictor.load gives the clear "missing model weights" error
-    return _cached_predictor(key, threads, backend)
-
-
-@functools.lru_cache(maxsize=4)
-def _cached_predictor(key: tuple[str, int, int], threads: int, backend: str):
-    from ndrql.model.predict import Predictor
-
-    return Predictor.load(key[0], threads=threads, backend=backend)
-
-
-def predict_priors(
-    obstacles: np.ndarray,
-    start: tuple[int, int],
-    goal: tuple[int, int],
-    weights: str | os.PathLike | None = None,
-    threads: int = 1,
-    backend: str = "auto",
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """NDR region and guideline probabilities at the map's resolution, from the trained model.
-
-    ``start``/``goal`` are ``(row, col)`` map pixels; maps of any size are resized for the model and
-    the outputs mapped back (:mod:`ndrql.model.predict`). The model is loaded once per process
-    (:func:`load_predictor`). ``threads``: threads for the forward pass (default 1: one 201x201
-    map gains little from more, and a busy machine makes more threads much slower); ``backend``:
-    see :func:`load_predictor`. The guideline is ``None`` for a model without the guideline decoder.
-    """
-    predictor = load_predictor(weights, threads, backend)
-    pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal))
-    guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
-    return np.asarray(pred.region, dtype=np.float64), guideline
 
 
 def load_prior_file(path: str) -> tuple[np.ndarray, np.ndarray]:

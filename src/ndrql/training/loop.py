@@ -31,7 +31,7 @@ from ndrql.dataset.splits import train_val_split
 from ndrql.errors import CheckpointError
 from ndrql.model.registry import build_model
 from ndrql.training import distributed as D
-from ndrql.training.checkpoint import load_checkpoint, save_checkpoint
+from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.evaluate import evaluate, evaluate_rendered
 from ndrql.training.losses import ndr_loss

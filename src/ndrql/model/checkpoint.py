@@ -12,7 +12,7 @@ from typing import Any
 
 import torch
 
-from ndrql import __version__
+from ndrql.version import __version__
 from ndrql.errors import CheckpointError
 
 FORMAT = "ndrql-checkpoint"

@@ -16,7 +16,7 @@ import pytest
 
 from ndrql.experiments.digests import fingerprint
 from ndrql.experiments.planning_runs import SweepOptions, make_tasks, summarize_runs
-from ndrql.experiments.problems import Problem
+from ndrql.pipeline.samples import Problem
 from ndrql.experiments.sweep import Task, read_task, run_sweep, task_path
 from ndrql.planning.methods import Method, get_method
 

@@ -95,7 +95,8 @@ def test_plots_take_ax_and_return_artists():
 def test_table3_maps_follow_their_rule(dataset_root):
     """maps_table3.json: first sample per category with A* >= 80 on the connected planning grid."""
     from ndrql.errors import NoPathError
-    from ndrql.experiments.problems import load_problem, table3_maps
+    from ndrql.experiments.problems import table3_maps
+    from ndrql.pipeline.samples import load_problem
 
     spec = json.loads(__import__("importlib.resources").resources.files("ndrql.experiments")
                       .joinpath("maps_table3.json").read_text())

@@ -7,7 +7,7 @@ import subprocess
 
 import numpy as np
 
-from ndrql.experiments.grid_eval import to_map_pixels
+from ndrql.pipeline.predictions import to_map_pixels
 
 
 def test_map_pixels_take_their_cells_mean():
@@ -40,7 +40,7 @@ def test_eval_scores_a_grid_model_both_ways(ndrql_exe, dataset_root, tmp_path):
 def test_prediction_cache_asks_a_grid_model_on_the_planning_grid(dataset_root, tmp_path):
     """The tables' prediction cache: a grid-mode model predicts on the problem's own planning grid; its
     priors are the 4x4 cell means; the second call reads the cache and gives the same arrays."""
-    from ndrql.experiments.problems import PredictionCache, load_problem
+    from ndrql.pipeline.samples import PredictionCache, load_problem
 
     p = load_problem(dataset_root, "seen", 0)
     cache = PredictionCache(tmp_path, "general")

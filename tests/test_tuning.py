@@ -20,7 +20,8 @@ from ndrql.planning.methods import method_names
 from ndrql.planning.preset import (PRESET_FIELDS, MethodSetting, Preset, PresetError, builtin_path, load_preset,
                                    method_configs, preset_from_dict, preset_to_dict, write_preset)
 from ndrql.tuning import space as S
-from ndrql.tuning.objective import Evaluation, Problem, chunks, evaluate, run_problem
+from ndrql.pipeline.samples import Problem
+from ndrql.tuning.objective import Evaluation, chunks, evaluate, run_problem
 
 optuna = pytest.importorskip("optuna")
 
@@ -38,7 +39,7 @@ def make_problem(key: str, n: int = 14, gap_col: int = 11) -> Problem:
     for r, c in res.path:
         guide[r, c] = 1.0
     region = np.clip(guide + np.roll(guide, 1, 0) + np.roll(guide, -1, 1), 0, 1)
-    return Problem(key, blocked, start, goal, int(res.moves), region, guide)
+    return Problem(key, 0, "", blocked, start, goal, blocked, start, goal, int(res.moves), region, guide)
 
 
 PROBLEMS = [make_problem("a", 14, 11), make_problem("b", 12, 9), make_problem("c", 14, 4)]
@@ -109,7 +110,7 @@ def test_evaluate_matches_single_runs_and_ignores_chunking_and_workers():
 def test_evaluate_stops_at_the_first_run_that_does_not_converge():
     ql = QLConfig(max_episodes=3)  # nothing converges in 3 episodes (W = 20)
     ev, stopped = evaluate(PROBLEMS, "QL", [0, 1, 2], ql, PriorConfig(), stop_on_failure=True)
-    assert stopped == "not converged" and list(ev.runs) == ["a"] and len(ev.runs["a"]) == 1
+    assert stopped == "not converged" and list(ev.runs) == ["a-0"] and len(ev.runs["a-0"]) == 1
     assert run_problem(PROBLEMS[0], "QL", [0, 1], ql, PriorConfig()) == run_problem(PROBLEMS[0], "QL", [0, 1], ql,
                                                                                       PriorConfig())
 

@@ -76,7 +76,7 @@ def _need_optuna() -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ndrql.errors import NdrqlError
-    from ndrql.experiments.problems import resolve_root
+    from ndrql.dataset.layout import resolve_root
     from ndrql.limits import MAX_WORKERS, check_int
     from ndrql.planning.methods import get_method
 

@@ -254,3 +254,15 @@ def default_root() -> Path | None:
         if (cand / "TRAIN").is_dir():
             return cand.resolve()
     return None
+
+
+def resolve_root(root: str | Path | None) -> Path:
+    """The dataset root (given, ``$NDRQL_DATASET``, or beside the repository)."""
+    if root is None:
+        root = os.environ.get(DATASET_ENV) or default_root()
+    if root is None:
+        raise DatasetError("dataset not found; pass --data DIR (the path-planning-dataset folder)")
+    root = Path(root)
+    if not (root / "TEST" / "SEEN").is_dir():
+        raise DatasetError(f"no TEST/SEEN in {root}; pass --data DIR (the path-planning-dataset folder)")
+    return root

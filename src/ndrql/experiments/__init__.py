@@ -16,7 +16,8 @@ Tables and studies (each writes ``<target>.md``, ``summary.json`` and figures un
 Shared pieces, one home each: :mod:`~ndrql.experiments.sweep` (resumable sweeps on the one executor,
 :mod:`ndrql.workers`), :mod:`~ndrql.experiments.digests` (fingerprints), :mod:`~ndrql.experiments.report`
 (markdown), :mod:`~ndrql.experiments.stats` (mean / median / 95% CI, the paper's improvement),
-:mod:`~ndrql.experiments.problems` (dataset samples as planning problems, cached predictions),
+:mod:`~ndrql.experiments.problems` (the fixed maps of Tables 2-3; the problems themselves and their cached
+predictions: :mod:`ndrql.pipeline.samples`),
 :mod:`~ndrql.experiments.paper` (the paper's numbers, ``paper_numbers.json``). Figures are drawn by
 :mod:`ndrql.viz.reproduce`.
 """

@@ -26,7 +26,9 @@ from ndrql.experiments import stats
 from ndrql.experiments.digests import fingerprint
 from ndrql.experiments.planning_runs import SweepOptions, method_fields
 from ndrql.experiments.presets import method_configs
-from ndrql.experiments.problems import PredictionCache, Problem, load_problem, resolve_root, table3_maps
+from ndrql.dataset.layout import resolve_root
+from ndrql.experiments.problems import table3_maps
+from ndrql.pipeline.samples import PredictionCache, Problem, load_problem
 from ndrql.experiments.report import machine, machine_line, md_table, preset_line, save_figure
 from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import write_json, write_text

@@ -18,7 +18,9 @@ from ndrql.experiments import stats
 from ndrql.experiments.planning_runs import (SweepOptions, attach_predictions, preset_json, run_grid,
                                              summarize_runs)
 from ndrql.experiments.presets import method_configs
-from ndrql.experiments.problems import MapRef, PredictionCache, Problem, load_problems, resolve_root, table3_maps
+from ndrql.dataset.layout import resolve_root
+from ndrql.experiments.problems import MapRef, table3_maps
+from ndrql.pipeline.samples import PredictionCache, Problem, load_problems
 from ndrql.experiments.report import machine, md_table, pct, planning_header, save_figure
 from ndrql.io import write_json, write_text
 from ndrql.planning.methods import Method, build_priors

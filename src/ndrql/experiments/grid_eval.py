@@ -22,10 +22,9 @@ import numpy as np
 
 from ndrql.dataset.batches import make_batch
 from ndrql.dataset.cache import SplitArrays
-from ndrql.dataset.render import PX_PER_CELL, Rendered, render_grid
+from ndrql.dataset.render import Rendered, render_grid
 from ndrql.experiments.transfer import larger_sizes
-from ndrql.maps.grid import area_downscale
-from ndrql.maps.safe import grid_shape
+from ndrql.pipeline.predictions import to_map_pixels
 from ndrql.training.evaluate import EvalResult, predict_batch
 from ndrql.training.metrics import f1_per_image
 
@@ -50,17 +49,6 @@ def render_at(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> tuple
         if r is not None:
             return r, size
     return None
-
-
-def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
-    """Probabilities at 4 px per cell of a grid of ``n`` cells -> the map's pixels: each pixel takes the
-    mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as :func:`ndrql.maps.safe.conservative_grid`)."""
-    rows, cols = grid_shape(shape, n)
-    cells = area_downscale(np.asarray(prob, np.float64)[:rows * PX_PER_CELL, :cols * PX_PER_CELL], (rows, cols))
-    longest = max(shape)
-    r = np.minimum(((np.arange(shape[0]) + 0.5) * n / longest).astype(int), rows - 1)
-    c = np.minimum(((np.arange(shape[1]) + 0.5) * n / longest).astype(int), cols - 1)
-    return cells[r[:, None], c[None, :]]
 
 
 def evaluate_grid_model(model, data: SplitArrays, indices: np.ndarray, n: int = 50, encoding: str = "point",

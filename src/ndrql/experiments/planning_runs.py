@@ -21,7 +21,7 @@ from tqdm import tqdm
 from ndrql.experiments import stats
 from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.presets import method_configs
-from ndrql.experiments.problems import PredictionCache, Problem
+from ndrql.pipeline.samples import PredictionCache, Problem
 from ndrql.experiments.sweep import SweepReport, Task, run_sweep
 from ndrql.planning import kernel
 from ndrql.planning.config import PriorConfig, QLConfig

@@ -19,7 +19,8 @@ from ndrql.errors import NoPathError
 from ndrql.experiments import stats
 from ndrql.experiments.planning_runs import (SweepOptions, attach_predictions, preset_json, run_grid,
                                              summarize_runs)
-from ndrql.experiments.problems import Problem, load_problem, resolve_root
+from ndrql.dataset.layout import resolve_root
+from ndrql.pipeline.samples import Problem, load_problem
 from ndrql.experiments.report import machine, md_table, pct, planning_header, save_figure
 from ndrql.experiments.table3 import TABLE3_METHODS
 from ndrql.io import write_json, write_text

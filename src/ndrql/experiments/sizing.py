@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Callable
 
 from ndrql.experiments.model_runs import checkpoint_summary, evaluate_weights, read_metrics, run_status, runs_root
-from ndrql.experiments.problems import resolve_root
+from ndrql.dataset.layout import resolve_root
 from ndrql.experiments.report import fmt_f1, machine, machine_line, md_table, save_figure, write_table
 from ndrql.viz.reproduce import sizing_figure
 

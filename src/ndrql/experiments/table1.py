@@ -14,7 +14,7 @@ from typing import Callable
 from ndrql.errors import NdrqlError
 from ndrql.experiments.model_runs import checkpoint_summary, evaluate_weights, runs_root
 from ndrql.experiments.paper import paper_table
-from ndrql.experiments.problems import resolve_root
+from ndrql.dataset.layout import resolve_root
 from ndrql.experiments.report import UNSEEN_NOTE, f1_cells, f1_header, fmt_f1, md_table, write_table
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 

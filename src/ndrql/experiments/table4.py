@@ -20,7 +20,7 @@ from tqdm import tqdm
 from ndrql.errors import NdrqlError
 from ndrql.experiments.model_runs import evaluate_weights, run_status, runs_root
 from ndrql.experiments.paper import paper_table
-from ndrql.experiments.problems import resolve_root
+from ndrql.dataset.layout import resolve_root
 from ndrql.experiments.report import UNSEEN_NOTE, f1_cells, f1_header, fmt_f1, md_table, write_table
 from ndrql.training.config import TrainConfig
 from ndrql.training.loop import train

@@ -80,6 +80,21 @@ def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return area_downscale(np.asarray(prob, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
 
 
+def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
+    """Probabilities at 4 px per cell of a grid of ``n`` cells -> the map's pixels: each pixel takes the
+    mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as :func:`ndrql.maps.safe.conservative_grid`)."""
+    from ndrql.dataset.render import PX_PER_CELL
+    from ndrql.maps.grid import area_downscale
+    from ndrql.maps.safe import grid_shape
+
+    rows, cols = grid_shape(shape, n)
+    cells = area_downscale(np.asarray(prob, np.float64)[:rows * PX_PER_CELL, :cols * PX_PER_CELL], (rows, cols))
+    longest = max(shape)
+    r = np.minimum(((np.arange(shape[0]) + 0.5) * n / longest).astype(int), rows - 1)
+    c = np.minimum(((np.arange(shape[1]) + 0.5) * n / longest).astype(int), cols - 1)
+    return cells[r[:, None], c[None, :]]
+
+
 def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,
                     goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any]]:
     """A grid-mode model's region and guideline at 4 px per cell of the planning grid ``blocked`` (padded to

@@ -25,22 +25,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from ndrql.pipeline.samples import Problem
 from ndrql.planning.config import PriorConfig, QLConfig
-
-
-@dataclass(frozen=True)
-class Problem:
-    """A planning problem on the 50x50 grid (what one tuning evaluation runs on)."""
-
-    key: str
-    """``train-<index>`` for a dataset sample, any name for a hand-made one."""
-    blocked: np.ndarray
-    start: tuple[int, int]
-    goal: tuple[int, int]
-    astar: int
-    """Optimal 4-connected moves."""
-    region: np.ndarray | None = None
-    guideline: np.ndarray | None = None
 
 
 def validation_ids(root: str | Path, val_fraction: float = 0.05, split_seed: int = 0) -> np.ndarray:
@@ -68,8 +54,7 @@ def train_problems(root: str | Path, ids: Sequence[int], k: int, weights: str | 
 
     from ndrql.dataset.cache import cache_dir, load_split
     from ndrql.errors import NoPathError
-    from ndrql.experiments.problems import PredictionCache
-    from ndrql.experiments.problems import Problem as DataProblem
+    from ndrql.pipeline.samples import PredictionCache
     from ndrql.maps.astar import astar4
     from ndrql.maps.grid import PlanningGrid
 
@@ -91,10 +76,9 @@ def train_problems(root: str | Path, ids: Sequence[int], k: int, weights: str | 
         except NoPathError:
             skipped.append(int(i))
             continue
-        dp = DataProblem("train", int(i), "", obstacles, (r0, c0), (r1, c1), np.array(pg.blocked),
-                         tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
-        dp = preds.attach(dp)
-        out.append(Problem(dp.key, dp.blocked, dp.start, dp.goal, opt, dp.region, dp.guideline))
+        p = Problem("train", int(i), "", obstacles, (r0, c0), (r1, c1), np.array(pg.blocked),
+                    tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
+        out.append(preds.attach(p))
         bar.update(1)
     bar.close()
     return out, skipped, preds.digest

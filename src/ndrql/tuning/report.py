@@ -23,7 +23,8 @@ from ndrql.io import make_folder, save_figure, write_json
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import MethodSetting, Preset, configs_dict
 from ndrql.tuning import space as S
-from ndrql.tuning.objective import Evaluation, Problem, evaluate
+from ndrql.pipeline.samples import Problem
+from ndrql.tuning.objective import Evaluation, evaluate
 from ndrql.tuning.study import TuneConfig, best_trial
 
 

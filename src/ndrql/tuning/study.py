@@ -36,7 +36,8 @@ from typing import Any, Callable, Sequence
 from ndrql.errors import NdrqlError
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.tuning import space as S
-from ndrql.tuning.objective import Evaluation, Problem, evaluate
+from ndrql.pipeline.samples import Problem
+from ndrql.tuning.objective import Evaluation, evaluate
 
 
 @dataclass(frozen=True)

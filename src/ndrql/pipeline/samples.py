@@ -1,0 +1,169 @@
+"""Dataset samples as planning problems, and cached NDR predictions.
+
+A :class:`Problem` is what every planning experiment and the tuning search run on: the 50x50
+planning grid, start and goal cells, the A* length and (for N-* methods) the NDR region/guideline
+downscaled to the grid, with the map it came from.
+Predictions are made once per sample with a :class:`~ndrql.model.predict.Predictor` and cached as
+``.npz`` (float16, map resolution) under ``<results>/predictions/``, keyed by the weights' digest,
+so a different model never reuses a stale prediction.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import zipfile
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ndrql.errors import NdrqlError, NoPathError
+from ndrql.io import file_digest, save_npz
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One planning problem: a map (a dataset sample, or a hand-made one) and its planning grid."""
+
+    split: str
+    """Dataset split (``train``, ``seen``, ``unseen``) or any name for a hand-made map."""
+    index: int
+    category: str
+    obstacles: np.ndarray
+    """Map at full resolution (201x201, ``True`` = obstacle)."""
+    source_start: tuple[int, int]
+    source_goal: tuple[int, int]
+    blocked: np.ndarray
+    """Planning grid (50x50)."""
+    start: tuple[int, int]
+    goal: tuple[int, int]
+    astar: int
+    """Optimal 4-connected moves on the planning grid."""
+    region: np.ndarray | None = None
+    """NDR region at planning-grid shape (``None`` until predictions are attached)."""
+    guideline: np.ndarray | None = None
+
+    @property
+    def key(self) -> str:
+        """``<split>-<index>``: names the problem in results, caches and tuning studies."""
+        return f"{self.split}-{self.index}"
+
+
+def load_problem(root: str | Path, split: str, index: int, size: int = 50) -> Problem:
+    """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
+    4-connected on the planning grid (docs/method.md: experiments skip such samples and count them)."""
+    from ndrql.dataset.layout import load_sample
+    from ndrql.maps.astar import astar4
+    from ndrql.maps.grid import PlanningGrid
+
+    s = load_sample(root, split, index)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # snapping is expected on some samples; the grid records it
+        pg = PlanningGrid.from_map(s.map, s.start, s.goal, size=size)
+    opt = int(astar4(pg.blocked, pg.start, pg.goal).moves)
+    return Problem(s.split, s.index, s.category, s.map, tuple(s.start), tuple(s.goal),  # type: ignore[arg-type]
+                   np.array(pg.blocked), tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
+
+
+def load_problems(root: str | Path, refs: list[tuple[str, int]], size: int = 50) -> tuple[list[Problem], list[dict]]:
+    """Problems for ``(split, index)`` pairs, and the skipped ones with the reason."""
+    out, skipped = [], []
+    for split, index in refs:
+        try:
+            out.append(load_problem(root, split, index, size))
+        except NoPathError as exc:
+            skipped.append({"split": split, "index": index, "reason": f"disconnected on the planning grid: {exc}"})
+    return out, skipped
+
+
+class PredictionCache:
+    """NDR predictions per sample, made once and kept on disk (module docstring)."""
+
+    def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1):
+        from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
+
+        self.dir = Path(cache_dir)
+        self.weights = resolve_weights(weights, PAPER_WEIGHTS)
+        if not self.weights.is_file():
+            raise NdrqlError(
+                f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "
+                "(set NDRQL_WEIGHTS or pass --weights FILE)"
+            )
+        self.digest = file_digest(self.weights)[:16]
+        self.threads = threads
+        self._predictor: Any = None
+        self.computed = 0
+
+    def describe(self) -> dict[str, str]:
+        return {"weights": str(self.weights), "weights_sha256_16": self.digest}
+
+    def path(self, p: Problem) -> Path:
+        return self.dir / f"{p.key}.npz"
+
+    def _entry(self, p: Problem) -> tuple[str, np.ndarray, np.ndarray]:
+        """``(mode, region, guideline)`` as the model drew them (float32): at the map's resolution for
+        ``map``-mode models, at 4 px per cell of the planning grid for ``grid``-mode ones."""
+        path = self.path(p)
+        key = np.packbits(p.obstacles).tobytes() + repr((p.source_start, p.source_goal)).encode()
+        key += np.packbits(p.blocked).tobytes() + repr((p.start, p.goal)).encode()  # grid models see the grid
+        inputs = hashlib.sha256(key).hexdigest()[:16]
+        if path.is_file():
+            try:
+                with np.load(path, allow_pickle=False) as d:
+                    if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs:
+                        mode = str(d["mode"]) if "mode" in d.files else "map"
+                        return mode, d["region"].astype(np.float32), d["guideline"].astype(np.float32)
+            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+                pass  # a damaged cache entry is predicted again
+        if self._predictor is None:
+            from ndrql.model.predict import Predictor
+
+            # torch, not ONNX Runtime: the tables in docs/results.md were made with it, and the two
+            # backends differ by ~1e-4 in probability, which could move a run; same numbers on re-runs
+            self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
+        mode = getattr(self._predictor, "input_mode", "map")
+        if mode == "grid":
+            from ndrql.pipeline.predictions import predict_on_grid
+
+            region, guideline, _ = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
+        else:
+            pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
+            region, guideline = pred.region, pred.guideline
+        if guideline is None:
+            raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")
+        region, guideline = np.asarray(region).astype(np.float16), np.asarray(guideline).astype(np.float16)
+        save_npz(path, region=region, guideline=guideline, weights=np.array(self.digest), inputs=np.array(inputs),
+                 mode=np.array(mode))
+        self.computed += 1
+        return mode, region.astype(np.float32), guideline.astype(np.float32)
+
+    def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Region and guideline at the map's resolution (float32), from the cache or the model (a grid-mode
+        model's cell means drawn back on the map's pixels)."""
+        mode, region, guideline = self._entry(p)
+        if mode == "grid":
+            from ndrql.pipeline.predictions import to_map_pixels
+
+            n = max(p.blocked.shape)
+            return (to_map_pixels(region, p.obstacles.shape, n).astype(np.float32),
+                    to_map_pixels(guideline, p.obstacles.shape, n).astype(np.float32))
+        return region, guideline
+
+    def attach(self, p: Problem) -> Problem:
+        """``p`` with region and guideline on its planning grid: area averaging of the map-resolution
+        prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells."""
+        from dataclasses import replace
+
+        from ndrql.planning.methods import downscale_priors
+
+        mode, region, guideline = self._entry(p)
+        if mode == "grid":
+            from ndrql.pipeline.predictions import cell_means
+
+            r = np.clip(cell_means(region, p.blocked.shape), 0, 1)
+            g = np.clip(cell_means(guideline, p.blocked.shape), 0, 1)
+        else:
+            r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
+        return replace(p, region=r, guideline=g)

@@ -328,7 +328,7 @@ def _xyyaw(point: Any) -> Any:
 def write_path(path: str, run: Any) -> Any:
     """Write ``run``'s final path as a nav_msgs/Path (YAML for ``.yaml``/``.yml``, else JSON)."""
     from ndrql.errors import NdrqlError
-    from ndrql.io import write_json, write_text
+    from ndrql.io import write_json as io_write_json, write_text
     from ndrql.maps.world import nav_path
 
     if run.route is None or run.route.poses is None:
@@ -338,4 +338,4 @@ def write_path(path: str, run: Any) -> Any:
         import yaml
 
         return write_text(path, yaml.safe_dump(msg, sort_keys=False, default_flow_style=None))
-    return write_json(path, msg)
+    return io_write_json(path, msg)

@@ -223,10 +223,6 @@ def train(
 
 def warm_up() -> None:
     """Load (or compile) every kernel now, e.g. before forking workers, so they inherit it."""
-    import numpy as _np
-
-    blocked = _np.zeros((1, 2), dtype=bool)
-    from ndrql.planning import rules as _rules
-
-    train(_rules.next_table(blocked), 0, 1, _np.zeros(2), _np.zeros((2, 4)), 0, 0.1, 0.95, 0, 8, 1, 1,
+    blocked = np.zeros((1, 2), dtype=bool)
+    train(rules.next_table(blocked), 0, 1, np.zeros(2), np.zeros((2, 4)), 0, 0.1, 0.95, 0, 8, 1, 1,
           -10.0, 40.0, -5.0)

@@ -22,7 +22,7 @@ __all__ = ["__version__", *_API]
 
 def __getattr__(name: str) -> Any:
     if name in _API:
-        value = getattr(importlib.import_module("ndrql.api"), name)
+        value = getattr(importlib.import_module("ndrql.api"), name)  # lazy: `import ndrql` stays light
         globals()[name] = value
         return value
     raise AttributeError(f"module 'ndrql' has no attribute {name!r}")

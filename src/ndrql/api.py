@@ -39,11 +39,18 @@ import numpy as np
 
 from ndrql.errors import NdrqlError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid
-from ndrql.pipeline.problem import check_map_size, check_points, read_map, scenario_points
+from ndrql.maps.world import world_to_pixel
+from ndrql.model.predict import load_predictor
+from ndrql.model.weights import resolve_weights
+from ndrql.pipeline.predictions import oracle_view, predict_region, prediction_quality
+from ndrql.pipeline.problem import build_grid, check_map_size, check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport
-from ndrql.pipeline.route import Route
+from ndrql.pipeline.route import Route, make_route
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import build_priors, downscale_priors, get_method
+from ndrql.planning.preset import load_preset, method_configs
+from ndrql.planning.runner import PlanJob, default_workers, plan as run_one, run_many
 
 Point = tuple[int, int]
 
@@ -69,8 +76,6 @@ class _Clock:
 
 def _world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) -> tuple[Point | None, float | None]:
     """A ``(x, y[, yaw])`` world point (metres) as a map pixel and its yaw."""
-    from ndrql.maps.world import world_to_pixel
-
     if given is None:
         return None, None
     vals = [float(v) for v in given]
@@ -83,9 +88,6 @@ def _fall_back(ms: list, region: np.ndarray, guideline_map: np.ndarray | None, g
                prior_config: PriorConfig, settings: PlanSettings, info: dict[str, Any]) -> list:
     """Judge the prediction (``info["prediction_quality"]``); when it is uninformative and ``settings.fallback``
     is set, each NDR method is replaced by the fallback (``info["fallback"]``), unless that one runs anyway."""
-    from ndrql.pipeline.predictions import prediction_quality
-    from ndrql.planning.methods import get_method
-
     quality = prediction_quality(region, guideline_map, grid_map.obstacles, pg, prior_config)
     info["prediction_quality"] = quality
     if quality["informative"] or settings.fallback is None:
@@ -147,11 +149,6 @@ def solve(
     that differ from their defaults win over the preset's (default ``None``: ``config`` and
     ``prior_config`` for every method, which by default are the paper-reproduction constants).
     """
-    from ndrql.pipeline.problem import build_grid
-    from ndrql.planning.preset import load_preset, method_configs
-    from ndrql.pipeline.route import make_route
-    from ndrql.planning.methods import build_priors, downscale_priors, get_method
-
     clock = _Clock()
     names = [methods] if isinstance(methods, str) else list(methods)
     ms = [get_method(n.strip() if isinstance(n, str) else n) for n in names]
@@ -198,7 +195,6 @@ def solve(
         if isinstance(predictions, str):
             if predictions != "oracle":
                 raise NdrqlError(f"predictions must be (region, guideline) arrays or 'oracle', got {predictions!r}")
-            from ndrql.pipeline.predictions import oracle_view
 
             with clock.stage("predict"):
                 view = oracle_view(pg)
@@ -213,10 +209,6 @@ def solve(
                     raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
                                      f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
         else:
-            from ndrql.model.predict import load_predictor
-            from ndrql.model.weights import resolve_weights
-            from ndrql.pipeline.predictions import predict_region
-
             with clock.stage("load"):
                 predictor = load_predictor(weights, settings.threads, settings.backend)
             info["backend"] = predictor.backend_name
@@ -246,10 +238,9 @@ def solve(
                 thresholds[m.name] = priors[m.name].threshold
 
     with clock.stage("startup"):
-        from ndrql.planning import kernel
+        from ndrql.planning import kernel  # lazy: loads numba
 
         kernel.warm_up()  # loads the compiled kernel from numba's disk cache (compiles on the very first run)
-    from ndrql.planning.runner import PlanJob, default_workers, plan as run_one, run_many
 
     jobs = [(m, s) for m in ms for s in seed_list]
     n_workers = default_workers() if workers is None else int(workers)

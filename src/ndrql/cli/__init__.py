@@ -16,6 +16,7 @@ import importlib
 import sys
 from typing import NoReturn
 
+from ndrql.cli.text import plain, short_usage
 from ndrql.version import __version__
 from ndrql.errors import NdrqlError
 
@@ -50,13 +51,9 @@ class _Parser(argparse.ArgumentParser):
     its help is plain text (no docstring markup). Subcommand parsers inherit it."""
 
     def error(self, message: str) -> "NoReturn":  # type: ignore[override]
-        from ndrql.cli.text import short_usage
-
         self.exit(2, f"ndrql: error: {one_line(message)} ({short_usage(self)}; see {self.prog} --help)\n")
 
     def format_help(self) -> str:
-        from ndrql.cli.text import plain
-
         return plain(super().format_help())
 
 
@@ -70,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
         try:
-            module = importlib.import_module(f"ndrql.cli.{name}")
+            module = importlib.import_module(f"ndrql.cli.{name}")  # lazy: subcommands by name
         except ModuleNotFoundError as exc:  # a subcommand under construction must not break the others
             if exc.name == f"ndrql.cli.{name}":
                 continue

@@ -5,6 +5,17 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, check_dpi,
+                              check_outputs, map_info, parse_scen, resolve_problem, save_figure, warnings_to_stderr,
+                              write_json)
+from ndrql.errors import MapFormatError
+from ndrql.limits import MAX_GRID_SIZE, check_int
+from ndrql.maps.astar import astar4, astar8
+from ndrql.maps.grid import PlanningGrid, grid_to_strings
+from ndrql.maps.readers import read_movingai_scen
+from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path, plot_planning_result
+from ndrql.viz.style import ASTAR_COLOR, legend_below
+
 EXAMPLES = """examples:
   ndrql astar map.png --start 25,179 --goal 167,5 --png out/path.png --json out/path.json
   ndrql astar --sample path-planning-dataset:seen:0 --png out.png --json out.json
@@ -13,9 +24,6 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_dpi_argument, add_max_pixels_argument, add_problem_arguments
-    from ndrql.limits import MAX_GRID_SIZE
-
     p = subparsers.add_parser(
         "astar",
         help="shortest path with A* (4-connected on the planning grid)",
@@ -41,10 +49,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
     """Fill ``--start``/``--goal`` from ``--scen FILE[:K]``; returns the problem and the scenario."""
-    from ndrql.cli.common import parse_scen, resolve_problem
-    from ndrql.errors import MapFormatError
-    from ndrql.maps.readers import read_movingai_scen
-
     path, k = parse_scen(args.scen)
     idx = 0 if k is None else k
     scenarios = read_movingai_scen(path)
@@ -61,9 +65,6 @@ def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import check_dpi, check_outputs, resolve_problem
-    from ndrql.limits import MAX_GRID_SIZE, check_int
-
     check_int(args.size, "--size", 1, MAX_GRID_SIZE)
     check_dpi(args)
     check_outputs(args.json, args.png)
@@ -80,10 +81,6 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
 
     ``args`` needs ``size``, ``octile``, ``json``, ``png`` and ``print_grid``.
     """
-    from ndrql.cli.common import check_dpi, map_info, save_figure, warnings_to_stderr, write_json
-    from ndrql.maps.astar import astar4, astar8
-    from ndrql.maps.grid import PlanningGrid, grid_to_strings
-
     grid_map = problem.grid_map
     result: dict[str, Any] = {"map": map_info(grid_map), **{k: v for k, v in problem.info.items() if k != "source"}}
     print(f"map: {grid_map.source} ({grid_map.height}x{grid_map.width}, {100 * grid_map.obstacle_ratio:.1f}% obstacles)")
@@ -103,9 +100,6 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
             print(f"wrote {write_json(args.json, result)}")
         if args.png:
             def draw(ax: Any) -> None:
-                from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path
-                from ndrql.viz.style import ASTAR_COLOR, legend_below
-
                 plot_occupancy(ax, grid_map.obstacles)
                 plot_path(ax, res.path, color=ASTAR_COLOR, label=f"octile A* ({res.cost:.1f})")[0].set_linestyle("--")
                 plot_endpoints(ax, problem.start, problem.goal)
@@ -143,8 +137,6 @@ def solve(problem: Any, args: argparse.Namespace, scen: Any = None) -> int:
     if args.json:
         print(f"wrote {write_json(args.json, result)}")
     if args.png:
-        from ndrql.viz.maps import plot_planning_result
-
         title = f"{grid_map.source}\nA* on the {pg.shape[0]}x{pg.shape[1]} planning grid: {res.moves} moves"
         print(f"wrote {save_figure(lambda ax: plot_planning_result(ax, grid_map.obstacles, pg.blocked, res.path, pg.source_start, pg.source_goal, title=title), args.png, dpi=check_dpi(args))}")
     return 0

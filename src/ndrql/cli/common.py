@@ -17,8 +17,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
+from ndrql.dataset.layout import load_sample
 from ndrql.errors import DatasetError, NdrqlError, PointError
+from ndrql.io import check_writable, save_figure as io_save_figure, to_jsonable, write_json as io_write_json
+from ndrql.limits import check_finite, check_int
 from ndrql.maps.grid import Cell, GridMap
+from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
+from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
+from ndrql.viz.maps import new_figure
+from ndrql.viz.style import DEFAULT_DPI
 
 SAMPLE_SPLITS = ("train", "seen", "unseen")
 
@@ -76,8 +83,6 @@ def parse_sample_spec(text: str) -> tuple[Path, str, int]:
 
 def load_sample_problem(spec: str) -> Problem:
     """Map, start and goal of a dataset sample given as ``DATASET_DIR:SPLIT:INDEX``."""
-    from ndrql.dataset.layout import load_sample
-
     root, split, index = parse_sample_spec(spec)
     if not root.is_dir():
         raise DatasetError(f"dataset directory not found: {root}")
@@ -107,8 +112,6 @@ def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = F
 
 def add_weights_argument(parser: argparse.ArgumentParser, default: str | None = None) -> None:
     """``--weights paper|general|FILE``; ``default`` names the shipped weights used without it."""
-    from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
-
     names = "|".join(SHIPPED_WEIGHTS)
     parser.add_argument("--weights", metavar=f"{names}|FILE",
                         help=f"NDR model weights: shipped {' or '.join(SHIPPED_WEIGHTS)}, or a checkpoint file "
@@ -117,8 +120,6 @@ def add_weights_argument(parser: argparse.ArgumentParser, default: str | None = 
 
 def add_max_pixels_argument(parser: argparse.ArgumentParser) -> None:
     """``--max-pixels N``: the largest map read (refused from its header before decoding)."""
-    from ndrql.maps.readers import MAX_MAP_PIXELS
-
     parser.add_argument("--max-pixels", type=int, default=MAX_MAP_PIXELS, metavar="N",
                         help=f"refuse maps with more pixels than this (default: {MAX_MAP_PIXELS:,} = 4096 x 4096)")
 
@@ -136,8 +137,6 @@ def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
     A map larger than ``args.max_pixels`` (when the subcommand has that flag, else the readers'
     default of 4096 x 4096) is refused before it is decoded.
     """
-    from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
-
     sample = getattr(args, "sample", None)
     if sample and args.map:
         raise NdrqlError("give either MAP or --sample, not both")
@@ -145,7 +144,6 @@ def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
         return load_sample_problem(sample)
     if not args.map:
         raise NdrqlError("no map given: pass MAP or --sample DATASET_DIR:SPLIT:INDEX")
-    from ndrql.limits import check_finite, check_int
 
     max_pixels = check_int(getattr(args, "max_pixels", MAX_MAP_PIXELS), "--max-pixels", 1)
     check_finite(args.threshold, "--threshold")
@@ -191,9 +189,6 @@ def map_info(grid_map: GridMap) -> dict[str, Any]:
 
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as indented JSON through :func:`ndrql.io.write_json` (``-`` writes to stdout)."""
-    from ndrql.io import to_jsonable
-    from ndrql.io import write_json as io_write_json
-
     if str(path) == "-":
         sys.stdout.write(json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n")
         return Path("-")
@@ -202,8 +197,6 @@ def write_json(path: str | Path, data: Any) -> Path:
 
 def check_outputs(*paths: str | Path | None) -> None:
     """Fail before the work starts when an output file could not be written (``None`` and ``-`` are skipped)."""
-    from ndrql.io import check_writable
-
     for path in paths:
         if path is not None and str(path) != "-":
             check_writable(path)
@@ -211,8 +204,6 @@ def check_outputs(*paths: str | Path | None) -> None:
 
 def add_dpi_argument(parser: argparse.ArgumentParser) -> None:
     """``--dpi N``: the resolution of the command's figures (:data:`ndrql.viz.style.DEFAULT_DPI` by default)."""
-    from ndrql.viz.style import DEFAULT_DPI
-
     parser.add_argument("--dpi", type=int, default=DEFAULT_DPI, metavar="N",
                         help=f"figure resolution in dots per inch, {MIN_DPI}..{MAX_DPI} (default: {DEFAULT_DPI})")
 
@@ -223,17 +214,11 @@ MIN_DPI, MAX_DPI = 30, 600
 
 def check_dpi(args: argparse.Namespace) -> int:
     """``args.dpi`` checked against :data:`MIN_DPI`..:data:`MAX_DPI` (the style's default when the command has no flag)."""
-    from ndrql.limits import check_int
-    from ndrql.viz.style import DEFAULT_DPI
-
     return check_int(getattr(args, "dpi", DEFAULT_DPI), "--dpi", MIN_DPI, MAX_DPI)
 
 
 def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 110) -> Path:
     """Create an Agg figure, call ``draw(ax)``, save it through :func:`ndrql.io.save_figure` (format from the extension)."""
-    from ndrql.io import save_figure as io_save_figure
-    from ndrql.viz.maps import new_figure
-
     fig = new_figure(figsize=figsize, dpi=dpi)
     ax = fig.add_subplot(1, 1, 1)
     draw(ax)

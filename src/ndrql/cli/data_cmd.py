@@ -17,7 +17,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
+from ndrql.viz.sheet import save_contact_sheet
 
 
 def _int_list(text: str) -> tuple[int, ...]:
@@ -51,9 +53,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_generate(args: argparse.Namespace) -> int:
-    from ndrql.dataset.generated import generate_set
-    from ndrql.synth.families import family_names
-    from ndrql.synth.generate import SetSpec
+    from ndrql.dataset.generated import generate_set  # lazy: loads scipy
+    from ndrql.synth.families import family_names  # lazy: loads scipy
+    from ndrql.synth.generate import SetSpec  # lazy: loads scipy
 
     families = family_names() if args.family.strip() == "all" else tuple(f.strip() for f in args.family.split(",") if f.strip())
     if not 1 <= args.workers <= 256:
@@ -67,9 +69,7 @@ def run_generate(args: argparse.Namespace) -> int:
 def run_show(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ndrql.dataset.generated import GeneratedSet
-    from ndrql.dataset.render import render
-    from ndrql.viz.sheet import save_contact_sheet
+    from ndrql.dataset.generated import GeneratedSet  # lazy: loads scipy
 
     if not 1 <= args.count <= 400:
         raise NdrqlError(f"--count must be 1..400, got {args.count}")

@@ -10,7 +10,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ndrql.cli.common import add_weights_argument
+from ndrql.api import PlanSettings, solve
+from ndrql.cli.common import add_weights_argument, warnings_to_stderr, write_json
+from ndrql.cli.plan_cmd import _save, _short, _summary
+from ndrql.io import write_text
+from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+from ndrql.maps.bundled import bundled_sample
+from ndrql.planning.results import summarize
+from ndrql.viz.plan import compare_figure, plan_figure
 
 DEMO_METHODS = ("QL", "IQL", "NDR-QL")
 
@@ -36,8 +43,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def table_markdown(report: Any) -> list[str]:
     """A Markdown table of the comparison: convergence, steps, episodes, path ratio per method."""
-    from ndrql.planning.results import summarize
-
     def f(v: Any, nd: int = 0) -> str:
         return "-" if v is None else f"{v:,.{nd}f}"
 
@@ -57,14 +62,6 @@ def table_markdown(report: Any) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
-
-    from ndrql.api import PlanSettings, solve
-    from ndrql.cli.common import warnings_to_stderr, write_json
-    from ndrql.cli.plan_cmd import _save, _short, _summary
-    from ndrql.maps.bundled import bundled_sample
-    from ndrql.viz.plan import compare_figure, plan_figure
-
-    from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 
     check_seeds(0, args.seeds)
     if args.workers is not None:
@@ -89,7 +86,6 @@ def run(args: argparse.Namespace) -> int:
         _save(plan_figure(report, method="NDR-QL"), str(out / "ndr-ql.png")),
         write_json(out / "results.json", report.to_dict()),
     ]
-    from ndrql.io import write_text
 
     written.insert(2, write_text(out / "table.md", head + "\n\n" + "\n".join(table) + "\n"))
     print(f"wrote {', '.join(str(p) for p in written)}")

@@ -10,7 +10,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ndrql.cli.common import add_weights_argument
+from ndrql.cli.common import add_weights_argument, check_outputs, write_json
+from ndrql.dataset.cache import load_split
+from ndrql.dataset.layout import CATEGORIES, check_root, default_root
+from ndrql.dataset.splits import train_val_split
+from ndrql.errors import DatasetError
+from ndrql.io import write_text
+from ndrql.limits import MAX_THREADS, check_int
+from ndrql.model.weights import resolve_weights
 
 EXAMPLES = """examples:
   ndrql eval --split seen
@@ -39,21 +46,12 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
     import torch
 
-    from ndrql.cli.common import write_json
-    from ndrql.dataset.cache import load_split
-    from ndrql.dataset.layout import CATEGORIES, check_root, default_root
-    from ndrql.dataset.splits import train_val_split
-    from ndrql.errors import DatasetError
-    from ndrql.model.weights import resolve_weights
-    from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
-    from ndrql.training.evaluate import category_rows, evaluate, markdown_table
-
-    from ndrql.limits import MAX_THREADS, check_int
+    from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint  # lazy: loads torch
+    from ndrql.training.evaluate import category_rows, evaluate, markdown_table  # lazy: loads torch
 
     check_int(args.batch_size, "--batch-size", 1, 4096)
     check_int(args.limit, "--limit", 0)
     check_int(args.threads, "--threads", 0, MAX_THREADS)
-    from ndrql.cli.common import check_outputs
 
     check_outputs(args.markdown, args.json)
     root = args.data or default_root()
@@ -80,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     mode = dict(ck["config"]).get("input_mode", "map")
     title = f"{args.split} ({len(indices)} samples, weights {weights.name})"
     if mode == "grid":
-        from ndrql.experiments.grid_eval import evaluate_grid_model
+        from ndrql.experiments.grid_eval import evaluate_grid_model  # lazy: loads torch and scipy and tqdm
 
         check_int(args.grid, "--grid", 8, 256)
         ge = evaluate_grid_model(model, data, indices, n=args.grid, encoding=encoding,
@@ -96,8 +94,6 @@ def run(args: argparse.Namespace) -> int:
     print(table)
     print(f"throughput: {res.images_per_s:.1f} images/s (batch {args.batch_size}, fp32, {torch.get_num_threads()} threads)")
     if args.markdown:
-        from ndrql.io import write_text
-
         write_text(args.markdown, table)
     if args.json:
         write_json(args.json, {"split": args.split, "weights": str(weights), "input_mode": mode,

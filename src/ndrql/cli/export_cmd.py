@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.limits import check_int
+from ndrql.model.export import export_onnx
+from ndrql.model.weights import resolve_weights
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("export-weights", help="slim fp16 inference checkpoint from a training checkpoint",
@@ -23,7 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_weights(args: argparse.Namespace) -> int:
-    from ndrql.model.checkpoint import export_weights
+    from ndrql.model.checkpoint import export_weights  # lazy: loads torch
 
     out = export_weights(args.checkpoint, args.out, half=not args.fp32)
     print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
@@ -31,11 +35,6 @@ def run_weights(args: argparse.Namespace) -> int:
 
 
 def run_onnx(args: argparse.Namespace) -> int:
-    from ndrql.model.export import export_onnx
-    from ndrql.model.weights import resolve_weights
-
-    from ndrql.limits import check_int
-
     check_int(args.size, "--size", 32, 4096)
     out = export_onnx(resolve_weights(args.weights), args.out, args.size)
     print(f"wrote {out}")

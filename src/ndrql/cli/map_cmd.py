@@ -4,6 +4,12 @@ from __future__ import annotations
 
 import argparse
 
+from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, load_map_argument, map_info,
+                              write_json)
+from ndrql.limits import MAX_GRID_SIZE, check_int
+from ndrql.maps.grid import planning_grid
+from ndrql.maps.writers import save_map
+
 EXAMPLES = """examples:
   ndrql map info warehouse.yaml --crop
   ndrql map info --sample path-planning-dataset:unseen:950
@@ -12,9 +18,6 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_map_arguments, add_max_pixels_argument
-    from ndrql.limits import MAX_GRID_SIZE
-
     p = subparsers.add_parser(
         "map", help="inspect or convert a map", description="Inspect or convert a map.",
         epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -42,11 +45,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import Problem, load_map_argument, map_info, write_json
-    from ndrql.maps.grid import planning_grid
-
-    from ndrql.limits import MAX_GRID_SIZE, check_int
-
     check_int(args.size, "--size", 1, MAX_GRID_SIZE)
     loaded = load_map_argument(args)
     grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
@@ -70,9 +68,6 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_convert(args: argparse.Namespace) -> int:
-    from ndrql.cli.common import load_map_argument
-    from ndrql.maps.writers import save_map
-
     grid_map = load_map_argument(args)
     out = save_map(grid_map, args.output)
     print(f"wrote {out} ({grid_map.height}x{grid_map.width})")

@@ -7,6 +7,7 @@ import dataclasses
 import json
 from typing import Any
 
+from ndrql.errors import NdrqlError
 from ndrql.planning.config import field_docs
 
 
@@ -50,8 +51,6 @@ def add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str
 
 def configs_from_flags(args: argparse.Namespace, specs: tuple[tuple[type, tuple[str, ...]], ...]) -> list:
     """Build each config class from its ``cfg_<name>`` flags; a bad value is one clear NdrqlError."""
-    from ndrql.errors import NdrqlError
-
     out = []
     for cls, names in specs:
         kwargs = {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}

@@ -16,7 +16,11 @@ import time
 from pathlib import Path
 from typing import Any, Sequence
 
+from ndrql.api import solve
 from ndrql.errors import NdrqlError
+from ndrql.io import to_jsonable
+from ndrql.maps.readers import read_movingai_scen
+from ndrql.pipeline.route import octile_cost
 
 
 def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
@@ -68,8 +72,6 @@ def _done(path: Path, key: dict[str, Any]) -> dict[int, dict[str, Any]]:
 
 def _append(path: Path, record: dict[str, Any]) -> None:
     """One JSON line, written in one call and flushed to disk (a crash leaves at most a cut last line)."""
-    from ndrql.io import to_jsonable
-
     line = (json.dumps(to_jsonable(record, strict=False), separators=(",", ":")) + "\n").encode()
     fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
     try:
@@ -80,8 +82,6 @@ def _append(path: Path, record: dict[str, Any]) -> None:
 
 
 def _record(index: int, scen: Any, key: dict[str, Any], report: Any, seconds: float) -> dict[str, Any]:
-    from ndrql.pipeline.route import octile_cost
-
     run = report.results[0]
     rec: dict[str, Any] = {**key, "scenario": index, "start": list(scen.start), "goal": list(scen.goal),
                            "optimal": scen.optimal_length, "ran": run.method, "converged": run.converged,
@@ -131,9 +131,6 @@ def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, m
               settings: Any, jsonl: str | None, echo: Any, solve_kw: dict[str, Any]) -> int:
     """Run the chosen scenarios of ``scen_path`` on ``grid_map``; print a line each and a summary."""
     from tqdm import tqdm
-
-    from ndrql.api import solve
-    from ndrql.maps.readers import read_movingai_scen
 
     scenarios = read_movingai_scen(scen_path)
     if not scenarios:

@@ -5,7 +5,22 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ndrql.cli.common import add_weights_argument
+from ndrql.api import PlanSettings, solve
+from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_weights_argument, check_dpi,
+                              check_outputs, load_map_argument, parse_point, parse_scen, warnings_to_stderr, write_json)
+from ndrql.cli.options import add_config_flags, configs_from_flags
+from ndrql.cli.plan_batch import run_batch
+from ndrql.cli.plan_report import summary_lines
+from ndrql.errors import NdrqlError
+from ndrql.io import save_figure, write_json as io_write_json, write_text
+from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
+from ndrql.model.predict import BACKENDS
+from ndrql.pipeline.settings import GRID_RULES
+from ndrql.planning.config import PriorConfig, QLConfig, field_docs
+from ndrql.planning.methods import get_method, load_prior_file
+from ndrql.planning.preset import load_preset, plan_default_preset
+from ndrql.viz.plan import compare_figure, plan_figure
 
 EXAMPLES = """examples:
   ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
@@ -40,11 +55,6 @@ _PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.options import add_config_flags
-    from ndrql.api import PlanSettings
-    from ndrql.cli.common import add_dpi_argument, add_problem_arguments
-    from ndrql.planning.config import PriorConfig, QLConfig, field_docs
-
     p = subparsers.add_parser(
         "plan",
         help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
@@ -73,9 +83,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--prior-from", metavar="FILE.npz|oracle",
                    help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]; "
                    "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")
-    from ndrql.model.predict import BACKENDS
-
-    from ndrql.pipeline.settings import GRID_RULES
 
     settings = PlanSettings()
     docs = field_docs(PlanSettings)
@@ -123,17 +130,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _preset(args: argparse.Namespace):
     """``--preset`` (default: :func:`ndrql.planning.preset.plan_default_preset`) with explicit flags on top."""
-    from ndrql.planning.preset import load_preset, plan_default_preset
-
     ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
     pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
     return load_preset(args.preset or plan_default_preset()).with_overrides(ql, pri)
 
 
 def _configs(args: argparse.Namespace):
-    from ndrql.cli.options import configs_from_flags
-    from ndrql.planning.config import PriorConfig, QLConfig
-
     ql_cfg, prior_cfg = configs_from_flags(args, ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)))
     return ql_cfg, prior_cfg
 
@@ -141,11 +143,8 @@ def _configs(args: argparse.Namespace):
 def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
     if not args.scen:
         if args.index is not None:
-            from ndrql.errors import NdrqlError
-
             raise NdrqlError("--index needs --scen FILE")
         return None, 0
-    from ndrql.cli.common import parse_scen
 
     path, k = parse_scen(args.scen)
     if args.index is None:
@@ -153,17 +152,11 @@ def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
     try:
         return path, int(args.index)
     except ValueError:
-        from ndrql.errors import NdrqlError
-
         raise NdrqlError(f"--index must be a scenario number K or a range A:B, got {str(args.index)[:40]!r}") from None
 
 
 def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg: Any) -> int:
     """``--all`` / ``--index A:B``: every chosen scenario with one method and one seed (:mod:`ndrql.cli.plan_batch`)."""
-    from ndrql.cli.common import Problem, load_map_argument, parse_scen, warnings_to_stderr
-    from ndrql.cli.plan_batch import run_batch
-    from ndrql.errors import NdrqlError
-
     if not args.scen:
         raise NdrqlError("--all and --index A:B need --scen FILE")
     bad = [f for f, v in (("--compare", args.compare), ("--start", args.start), ("--goal", args.goal),
@@ -187,8 +180,6 @@ def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg:
 
 def _summary(report: Any) -> list[str]:
     """The short summary printed by ``plan`` (:func:`ndrql.cli.plan_report.summary_lines`)."""
-    from ndrql.cli.plan_report import summary_lines
-
     return summary_lines(report)
 
 
@@ -204,8 +195,6 @@ def _short(path: str) -> str:
 
 
 def _save(fig: Any, path: str) -> Any:
-    from ndrql.io import save_figure
-
     return save_figure(fig, path)
 
 
@@ -213,16 +202,7 @@ def run(args: argparse.Namespace) -> int:
     import functools
     import sys
 
-    from ndrql.api import solve
-    from ndrql.cli.common import load_map_argument, parse_point, Problem, warnings_to_stderr, write_json
-    from ndrql.maps.world import parse_world_point
-    from ndrql.errors import NdrqlError
-    from ndrql.planning.methods import get_method, load_prior_file
-
-    from ndrql.limits import MAX_WORKERS, check_int, check_seeds
-
     seeds = check_seeds(args.seed, args.seeds)  # a range: --seeds is bounded, every seed below 2**63
-    from ndrql.cli.common import check_dpi, check_outputs
 
     check_dpi(args)
     check_outputs(args.json, args.png)  # before the work: an unwritable output is one line now, not after planning
@@ -263,8 +243,6 @@ def run(args: argparse.Namespace) -> int:
             raise NdrqlError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels, or "
                              f"{' and '.join(m + '-world' for m in missing)} X,Y in metres on ROS maps), or --scen FILE")
     if args.path_out:
-        from ndrql.maps.world import has_world_frame
-
         if not has_world_frame(grid_map):
             raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
                              "(a ROS map_server .yaml); use --json for the path in pixels")
@@ -295,8 +273,6 @@ def run(args: argparse.Namespace) -> int:
         if args.json != "-":
             echo(f"wrote {written}")
     if args.png:
-        from ndrql.viz.plan import compare_figure, plan_figure
-
         dpi = check_dpi(args)
         fig = plan_figure(report, dpi=dpi) if len(methods) == 1 else compare_figure(report, dpi=dpi)
         echo(f"wrote {_save(fig, args.png)}")
@@ -307,8 +283,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _settings(args: argparse.Namespace, sample: bool) -> Any:
     """:class:`PlanSettings` from the flags: the paper's grid for a dataset sample, the safe grid for a map file."""
-    from ndrql.api import PlanSettings
-
     rule = args.grid or ("area" if sample else "safe")
     smooth = args.smooth if args.smooth is not None else not sample
     fallback = args.fallback
@@ -327,10 +301,6 @@ def _xyyaw(point: Any) -> Any:
 
 def write_path(path: str, run: Any) -> Any:
     """Write ``run``'s final path as a nav_msgs/Path (YAML for ``.yaml``/``.yml``, else JSON)."""
-    from ndrql.errors import NdrqlError
-    from ndrql.io import write_json as io_write_json, write_text
-    from ndrql.maps.world import nav_path
-
     if run.route is None or run.route.poses is None:
         raise NdrqlError(f"{run.method} seed {run.seed} found no path to write to {path}")
     msg = nav_path(run.route.poses)

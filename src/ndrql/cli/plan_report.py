@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from ndrql.api import WORK_STAGES
+from ndrql.cli.text import text_table
+from ndrql.planning.results import summarize
+
 
 def fmt(v: Any, nd: int = 0) -> str:
     """``v`` with thousands separators and ``nd`` decimals; ``-`` for ``None``."""
@@ -23,9 +27,6 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
     Columns are as wide as their widest cell (:func:`ndrql.cli.text.text_table`); a note under the
     table says what ``short/long`` means.
     """
-    from ndrql.cli.text import text_table
-    from ndrql.planning.results import summarize
-
     header = ("method", "conv", "steps mean", "median", "95% CI", "episodes", "path/A*", "short/long")
     rows = []
     for m in methods:
@@ -124,8 +125,6 @@ def _vs_full(report: Any, length: float) -> str:
 
 def summary_lines(report: Any) -> list[str]:
     """The short summary printed by ``plan``: runs, A* optimum, NDR-QI threshold, path on the map, time per stage."""
-    from ndrql.api import WORK_STAGES
-
     lines = grid_lines(report)
     opt = report.astar_length
     single = len(report.methods) == 1 and len(report.seeds) <= 3

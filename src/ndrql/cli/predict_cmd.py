@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 
-from ndrql.cli.common import add_weights_argument
+from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_weights_argument,
+                              check_dpi, resolve_problem, save_figure)
+from ndrql.io import make_folder, save_npz
+from ndrql.limits import MAX_THREADS, check_int
+from ndrql.model.predict import BACKENDS, Predictor
+from ndrql.viz.prediction import plot_probability_overlay
 
 EXAMPLES = """examples:
   ndrql predict --sample path-planning-dataset:unseen:600 --out out/pred
@@ -13,9 +18,6 @@ EXAMPLES = """examples:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ndrql.cli.common import add_dpi_argument, add_max_pixels_argument, add_problem_arguments
-    from ndrql.model.predict import BACKENDS
-
     p = sub.add_parser("predict", help="predict the path region and guideline with the NDR model",
                        description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
                        "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size).",
@@ -35,12 +37,6 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     import numpy as np
-
-    from ndrql.cli.common import check_dpi, resolve_problem, save_figure
-    from ndrql.io import make_folder, save_npz
-    from ndrql.limits import MAX_THREADS, check_int
-    from ndrql.model.predict import Predictor
-    from ndrql.viz.prediction import plot_probability_overlay
 
     check_int(args.threads, "--threads", 1, MAX_THREADS)
     dpi = check_dpi(args)

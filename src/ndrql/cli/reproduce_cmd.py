@@ -7,7 +7,15 @@ import shlex
 import sys
 
 from ndrql.cli.common import add_weights_argument
+from ndrql.cli.options import add_config_flags, configs_from_flags
+from ndrql.errors import NdrqlError
+from ndrql.experiments.labels_check import labels_check
+from ndrql.experiments.presets import run_presets
+from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.model.weights import PAPER_WEIGHTS
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.preset import builtin_path, load_preset
+from ndrql.workers import ray_available
 
 TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "all")
 
@@ -36,9 +44,6 @@ _PRIOR_FLAGS = ("r_max", "g_row", "g_col", "omega_crf", "omega_qi")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from ndrql.cli.options import add_config_flags
-    from ndrql.planning.config import PriorConfig, QLConfig
-
     p = subparsers.add_parser(
         "reproduce",
         help="regenerate the paper's tables and figures (table1-4, dynamic, scale)",
@@ -86,12 +91,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _options(args: argparse.Namespace):
-    from ndrql.experiments.planning_runs import SweepOptions
-    from ndrql.planning.config import PriorConfig, QLConfig
-
-    from ndrql.cli.options import configs_from_flags
-
-    from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+    from ndrql.experiments.planning_runs import SweepOptions  # lazy: loads numba and tqdm
 
     cfgs = configs_from_flags(args, ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)))
     check_seeds(args.seed, args.seeds)
@@ -107,8 +107,6 @@ def _options(args: argparse.Namespace):
 
 def _presets(args: argparse.Namespace, target: str) -> list:
     """The presets to run ``target`` with (``--preset``, else the default), with explicit flags on top."""
-    from ndrql.planning.preset import builtin_path, load_preset
-
     names = args.preset
     if names is None:
         names = "spec,tuned" if target in ("table2", "table3", "scale") and builtin_path("tuned").is_file() else "spec"
@@ -116,8 +114,6 @@ def _presets(args: argparse.Namespace, target: str) -> list:
     pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
     out = [load_preset(n.strip()).with_overrides(ql, pri) for n in names.split(",") if n.strip()]
     if not out:
-        from ndrql.errors import NdrqlError
-
         raise NdrqlError("--preset is empty; give spec, tuned or a preset file")
     return out
 
@@ -125,26 +121,21 @@ def _presets(args: argparse.Namespace, target: str) -> list:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ndrql.errors import NdrqlError
-
     if args.executor == "ray":
-        from ndrql.workers import ray_available
-
         if not ray_available():
             raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)")
     if args.per_category < 1 or args.per_category > 300:
         raise NdrqlError(f"--per-category must be in 1..300, got {args.per_category}")
     opts = _options(args)
-    from ndrql.experiments.presets import run_presets
     targets = ["table1", "table3", "table2", "dynamic", "scale", "table4", "sizing", "labels"] if args.target == "all" else [args.target]
     log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
     for target in targets:
         out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
         if target in ("table3", "table2", "scale", "dynamic"):
-            from ndrql.experiments.dynamic import dynamic
-            from ndrql.experiments.scale import scale
-            from ndrql.experiments.table2 import table2
-            from ndrql.experiments.table3 import table3
+            from ndrql.experiments.dynamic import dynamic  # lazy: loads numba and tqdm
+            from ndrql.experiments.scale import scale  # lazy: loads numba and tqdm
+            from ndrql.experiments.table2 import table2  # lazy: loads numba and tqdm
+            from ndrql.experiments.table3 import table3  # lazy: loads numba and tqdm
 
             fns = {"table3": lambda o, d: table3(o, d, log=log), "table2": lambda o, d: table2(o, d, log=log),
                    "scale": lambda o, d: scale(o, d, per_category=args.per_category, log=log),
@@ -153,19 +144,16 @@ def run(args: argparse.Namespace) -> int:
                                 _presets(args, target), log=log)
             path = ", ".join(str(x) for x in paths)
         elif target == "table1":
-            from ndrql.experiments.table1 import table1
+            from ndrql.experiments.table1 import table1  # lazy: loads torch
 
             path = table1(out, data=args.data, weights=args.weights, rgp_weights=args.rgp_weights, limit=args.limit,
                           progress=not args.no_progress, command=opts.command, log=log)
         elif target == "labels":
-            from ndrql.experiments.labels_check import labels_check
-
             path = labels_check(out, data=args.data, limit=args.limit, seed=args.seed, command=opts.command,
                                 progress=not args.no_progress, log=log)
         elif target == "transfer":
-            from ndrql.dataset.mixture import parse_sizes
-            from ndrql.experiments.transfer import transfer
-            from ndrql.limits import check_int
+            from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
+            from ndrql.experiments.transfer import transfer  # lazy: loads scipy and tqdm
 
             if args.per_family is not None:
                 check_int(args.per_family, "--per-family", 1)
@@ -173,12 +161,12 @@ def run(args: argparse.Namespace) -> int:
                             seeds=args.seeds, seed0=args.seed, per_family=args.per_family, workers=args.workers,
                             executor=args.executor, progress=not args.no_progress, command=opts.command, log=log)
         elif target == "sizing":
-            from ndrql.experiments.sizing import sizing
+            from ndrql.experiments.sizing import sizing  # lazy: loads torch
 
             path = sizing(out, runs=args.runs, command=opts.command, data=args.data, limit=args.limit,
                           progress=not args.no_progress, log=log)
         else:
-            from ndrql.experiments.table4 import table4
+            from ndrql.experiments.table4 import table4  # lazy: loads torch and tqdm
 
             path = table4(out, data=args.data, epochs=args.epochs, run=args.run, runs=args.runs, workers=args.workers,
                           limit=args.limit, progress=not args.no_progress, command=opts.command, log=log)

@@ -18,18 +18,18 @@ import argparse
 from pathlib import Path
 
 from ndrql.cli.options import add_dataclass_options, dataclass_from_args
+from ndrql.dataset.cache import cache_dir
+from ndrql.dataset.layout import check_root, default_root
+from ndrql.errors import CheckpointError
+from ndrql.training.config import TrainConfig
 
 
 def default_run_dir(model: str) -> Path:
     """``$NDRQL_CACHE/runs/<model>``: training state stays outside the repository."""
-    from ndrql.dataset.cache import cache_dir
-
     return cache_dir() / "runs" / model
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from ndrql.training.config import TrainConfig
-
     p = sub.add_parser("train", help="train or resume an NDR model", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run-dir", type=Path, default=None, help="where checkpoints and metrics.csv go (default: $NDRQL_CACHE/runs/<model>)")
     p.add_argument("--resume", action="store_true", help="continue from <run-dir>/last.pt (same data order and schedule)")
@@ -39,11 +39,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ndrql.dataset.layout import check_root, default_root
-    from ndrql.training.config import TrainConfig
-    from ndrql.training.loop import train
+    from ndrql.training.loop import train  # lazy: loads torch
 
-    from ndrql.training.distributed import AMP_DTYPES, DEVICES, DeviceError, world_from_env
+    from ndrql.training.distributed import AMP_DTYPES, DEVICES, DeviceError, world_from_env  # lazy: loads torch
 
     cfg = dataclass_from_args(TrainConfig, args)
     if args.data is None and default_root() is not None:
@@ -52,8 +50,7 @@ def run(args: argparse.Namespace) -> int:
         raise DeviceError(f"unknown --device {cfg.device!r}; valid: {', '.join(DEVICES)}")
     if cfg.amp_dtype not in AMP_DTYPES:
         raise DeviceError(f"unknown --amp-dtype {cfg.amp_dtype!r}; valid: {', '.join(AMP_DTYPES)}")
-    from ndrql.errors import CheckpointError
-    from ndrql.model.registry import check_config
+    from ndrql.model.registry import check_config  # lazy: loads torch
 
     check_config(cfg.model_config())  # an unknown --model or a bad override: one line before any work
     run_dir = args.run_dir or default_run_dir(cfg.model)

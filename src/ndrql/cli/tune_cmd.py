@@ -6,8 +6,17 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ndrql.cli.common import add_weights_argument
+from ndrql.cli.common import add_weights_argument, check_outputs
+from ndrql.dataset.layout import resolve_root
+from ndrql.errors import NdrqlError
+from ndrql.limits import MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
+from ndrql.planning.methods import get_method
+from ndrql.planning.preset import write_preset
+from ndrql.tuning.objective import tuning_problems
+from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
+from ndrql.tuning.study import TuneConfig, best_trial, default_storage, finished, open_storage, run_study, study_name
+from ndrql.workers import process_pool
 
 EXAMPLES = """examples:
   ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 10 seeds -> results/tune/
@@ -51,9 +60,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _tune_config(args: argparse.Namespace, method: str):
-    from ndrql.limits import MAX_RUNS, SEED_LIMIT, check_int
-    from ndrql.tuning.study import TuneConfig
-
     check_int(args.trials, "--trials", 1, 100_000)
     check_int(args.samples, "--samples", 1, 12_000)
     check_int(args.seeds, "--seeds", 1, MAX_RUNS)
@@ -66,8 +72,6 @@ def _tune_config(args: argparse.Namespace, method: str):
 
 
 def _need_optuna() -> None:
-    from ndrql.errors import NdrqlError
-
     try:
         import optuna  # noqa: F401
     except ImportError:
@@ -75,11 +79,6 @@ def _need_optuna() -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ndrql.errors import NdrqlError
-    from ndrql.dataset.layout import resolve_root
-    from ndrql.limits import MAX_WORKERS, check_int
-    from ndrql.planning.methods import get_method
-
     check_int(args.workers, "--workers", 1, MAX_WORKERS)
     if args.export_preset is None and not args.method:
         raise NdrqlError("give --method NAME (or --export-preset FILE)")
@@ -89,13 +88,9 @@ def run(args: argparse.Namespace) -> int:
         raise NdrqlError("--methods is empty")
     cfgs = [_tune_config(args, m) for m in methods]
     if args.export_preset:
-        from ndrql.cli.common import check_outputs
-
         check_outputs(args.export_preset)
     _need_optuna()
     root = resolve_root(args.data)
-    from ndrql.tuning.objective import tuning_problems
-    from ndrql.tuning.study import default_storage
 
     storage = args.storage or default_storage(args.out)
     problems, skipped, digest = tuning_problems(root, args.samples, args.order_seed, args.weights,
@@ -105,8 +100,6 @@ def run(args: argparse.Namespace) -> int:
         f"({len(skipped)} skipped as disconnected on the planning grid); seeds 0..{args.seeds - 1}")
     if args.export_preset:
         return _export(args, cfgs, problems, storage, digest, log)
-    from ndrql.tuning.report import write_study_outputs
-    from ndrql.tuning.study import best_trial, run_study
 
     cfg = cfgs[0]
     study = run_study(cfg, problems, storage, digest, workers=args.workers, progress=not args.no_progress,
@@ -127,12 +120,6 @@ def run(args: argparse.Namespace) -> int:
 def _export(args, cfgs, problems, storage, digest, log) -> int:
     import optuna
 
-    from ndrql.errors import NdrqlError
-    from ndrql.planning.preset import write_preset
-    from ndrql.tuning.report import best_setting, check_presets, tuned_preset
-    from ndrql.tuning.study import finished, open_storage, study_name
-    from ndrql.workers import process_pool
-
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     settings, studies = {}, {}
     for cfg in cfgs:
@@ -148,7 +135,7 @@ def _export(args, cfgs, problems, storage, digest, log) -> int:
         log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}")
     cfg = cfgs[0]
     check_seeds = list(range(cfg.seeds, 2 * cfg.seeds))
-    from ndrql.planning import kernel
+    from ndrql.planning import kernel  # lazy: loads numba
 
     kernel.warm_up()
     with process_pool(args.workers, start_method="fork") as pool:

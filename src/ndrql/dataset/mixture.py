@@ -26,6 +26,7 @@ from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.generated import GeneratedSet
 from ndrql.dataset.render import Rendered, input_side, render
 from ndrql.errors import NdrqlError
+from ndrql.synth.labels import dilate_region, near_optimal_path
 
 #: Share of each generated set held out for validation (its last samples).
 VAL_FRACTION = 0.03
@@ -112,10 +113,7 @@ def render_source_sample(src: Source, i: int, mode: str, n: int) -> Rendered | N
     obstacles, start, goal, waypoints, stored_guide = src.raw(i)
     if mode == "map" and stored_guide is not None:
         if input_side("map", n) == obstacles.shape[0] == obstacles.shape[1]:
-            from ndrql.synth.labels import dilate_region
-
             return Rendered(obstacles, start, goal, stored_guide, dilate_region(stored_guide))
-        from ndrql.synth.labels import near_optimal_path
 
         waypoints = near_optimal_path(obstacles, start, goal)
     return render(mode, obstacles, start, goal, waypoints, n)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ndrql.errors import NdrqlError
+from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import group_sums
 from ndrql.maps.grid import MODEL_SIDE, bfs_distances, nearest_free_euclidean
 from ndrql.maps.safe import conservative_grid
@@ -71,8 +71,7 @@ def place_cells(obstacles: np.ndarray, blocked: np.ndarray, start: Point, goal: 
     """Start and goal cells on the safe grid as ``ndrql plan`` places them (a point whose cell is blocked
     moves to a nearby free cell it can see, :func:`ndrql.maps.sizing.place_point`); ``None`` when they
     fall in one cell or do not connect."""
-    from ndrql.errors import NoPathError
-    from ndrql.maps.sizing import place_point
+    from ndrql.maps.sizing import place_point  # lazy: loads numba
 
     try:
         s, _ = place_point(obstacles, blocked, start, n)

@@ -15,7 +15,8 @@ from ndrql.env.observe import (CHANNELS, PRIOR_CHANNELS, PRIORS, VIEWS, ego_view
 from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, DatasetSource, EnvProblem, GeneratorSource, map_problem
 from ndrql.errors import NdrqlError
-from ndrql.planning import rules
+from ndrql.model.predict import Predictor
+from ndrql.planning import priors, rules
 from ndrql.planning.config import PriorConfig, QLConfig
 
 #: Continuous rewards ``r_c``: none (Eq. 1 alone), D-CRF (Eq. 2) or NDR-CRF mixed with D-CRF (Eq. 4, needs a prior).
@@ -156,15 +157,11 @@ class GoalGridPathEnv(gym.Env):
             return oracle_prior(problem)
         if self.prior == "ndr":
             if self._predictor is None:
-                from ndrql.model.predict import Predictor  # loaded on first use: torch/ONNX only when asked for
-
                 self._predictor = Predictor.load(self.weights, threads=1)
             return ndr_prior(self._predictor, problem, self.grid_rule, self.size)
         return None
 
     def _r_c(self, problem: EnvProblem, prior: np.ndarray | None) -> np.ndarray:
-        from ndrql.planning import priors
-
         shape = problem.blocked.shape
         if self.continuous_reward == "d-crf":
             return priors.d_crf(shape, problem.goal, self.prior_config)

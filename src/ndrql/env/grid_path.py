@@ -12,7 +12,7 @@ from gymnasium import spaces
 from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
 from ndrql.errors import NdrqlError, PointError
-from ndrql.maps.grid import GridMap
+from ndrql.maps.grid import GridMap, bfs_distances
 from ndrql.planning import rules
 from ndrql.planning.config import QLConfig
 
@@ -202,8 +202,6 @@ class GridPathEnv(gym.Env):
     def _astar_length(self) -> int:
         """Moves of a shortest path from the agent's cell to the goal (4-connected BFS from the goal, cached)."""
         if self._goal_dist is None:
-            from ndrql.maps.grid import bfs_distances
-
             self._goal_dist = bfs_distances(self.blocked, self.goal)
         return int(self._goal_dist[rules.index_cell(self._s, self.width)])
 

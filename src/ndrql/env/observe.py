@@ -17,6 +17,9 @@ import numpy as np
 
 from ndrql.env.sources import EnvProblem
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import area_downscale
+from ndrql.maps.safe import cell_size_px
+from ndrql.synth.oracle import oracle_prediction
 
 Cell = tuple[int, int]
 
@@ -78,9 +81,6 @@ def goal_vector(agent: Cell, goal: Cell, side: int) -> np.ndarray:
 
 def oracle_prior(problem: EnvProblem) -> np.ndarray:
     """``(2, h, w)`` region and guideline of the oracle (:func:`ndrql.synth.oracle.oracle_prediction`) on the grid."""
-    from ndrql.maps.grid import area_downscale
-    from ndrql.synth.oracle import oracle_prediction
-
     region, guideline = oracle_prediction(problem.blocked, problem.start, problem.goal, px_per_cell=4)
     shape = problem.blocked.shape
     return np.stack([area_downscale(region, shape), area_downscale(guideline, shape)]).astype(np.float32)
@@ -88,11 +88,8 @@ def oracle_prior(problem: EnvProblem) -> np.ndarray:
 
 def _grid_area(values: np.ndarray, shape: tuple[int, int], rule: str, size: int) -> np.ndarray:
     """Map-resolution ``values`` averaged onto the planning cells (the safe grid's square cells for ``safe``)."""
-    from ndrql.maps.grid import area_downscale
-
     if rule != "safe":
         return area_downscale(values, shape)
-    from ndrql.maps.safe import cell_size_px
 
     cs = cell_size_px(values.shape, size)
     rows, cols = int(round(shape[0] * cs)), int(round(shape[1] * cs))

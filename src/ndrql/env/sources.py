@@ -24,8 +24,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ndrql.dataset.cache import load_split
+from ndrql.dataset.layout import check_root, normalize_split
 from ndrql.errors import NdrqlError, NoPathError, PointError
 from ndrql.maps.grid import GridMap, bfs_distances, nearest_free_bfs, planning_grid, point_to_cell
+from ndrql.maps.readers import load_map
+from ndrql.maps.safe import conservative_grid, point_to_square_cell
+from ndrql.synth.endpoints import sample_endpoints
 
 Cell = tuple[int, int]
 
@@ -104,8 +109,6 @@ def grid_problem(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int],
 def read_map(source: str | Path | GridMap | np.ndarray) -> tuple[np.ndarray, str]:
     """Obstacles (bool ``(H, W)``) and a name for a map file, a :class:`GridMap` or an array (non-zero = obstacle)."""
     if isinstance(source, (str, Path)):
-        from ndrql.maps.readers import load_map
-
         grid_map = load_map(source)
         return grid_map.obstacles, str(source)
     if isinstance(source, GridMap):
@@ -121,8 +124,6 @@ def planning_cells(obstacles: np.ndarray, size: int, rule: str = "area") -> np.n
     if rule == "area":
         return planning_grid(obstacles, size)
     if rule == "safe":
-        from ndrql.maps.safe import conservative_grid
-
         return conservative_grid(obstacles, size)
     raise NdrqlError(f"unknown planning-grid rule {rule!r}; valid: {', '.join(GRID_RULES)}")
 
@@ -130,8 +131,6 @@ def planning_cells(obstacles: np.ndarray, size: int, rule: str = "area") -> np.n
 def pixel_to_cell(point: Cell, shape: tuple[int, int], blocked_shape: tuple[int, int], size: int, rule: str) -> Cell:
     """The planning cell of map pixel ``point`` (row, col) under ``rule``; :class:`PointError` off the map."""
     if rule == "safe":
-        from ndrql.maps.safe import point_to_square_cell
-
         return point_to_square_cell(point, shape, size)
     return point_to_cell(point, shape, blocked_shape)
 
@@ -197,7 +196,7 @@ class GeneratorSource:
     """Start-goal distance, at least this fraction of the map side (the dataset uses 0.75)."""
 
     def __post_init__(self) -> None:
-        from ndrql.synth.families import MIN_SIDE, family_names
+        from ndrql.synth.families import MIN_SIDE, family_names  # lazy: loads scipy
 
         names = family_names()
         chosen = names if self.families is None else tuple(self.families)
@@ -214,8 +213,7 @@ class GeneratorSource:
 
     def draw(self, rng: np.random.Generator) -> EnvProblem:
         """A new map, start and goal, every choice from ``rng``."""
-        from ndrql.synth.endpoints import sample_endpoints
-        from ndrql.synth.families import generate_map
+        from ndrql.synth.families import generate_map  # lazy: loads scipy
 
         for _ in range(MAX_DRAWS):
             family = self.families[int(rng.integers(len(self.families)))]  # type: ignore[index]
@@ -244,8 +242,6 @@ class DatasetSource:
     """Planning-grid rule (:data:`GRID_RULES`)."""
 
     def __post_init__(self) -> None:
-        from ndrql.dataset.layout import check_root, normalize_split
-
         object.__setattr__(self, "split", normalize_split(self.split))
         check_root(self.root)
         if not 2 <= int(self.size) <= 201:
@@ -273,6 +269,4 @@ class DatasetSource:
 @lru_cache(maxsize=4)
 def _load_split(root: str, split: str) -> Any:
     """A decoded split, loaded once per process (read-only arrays; loading one takes about a second)."""
-    from ndrql.dataset.cache import load_split
-
     return load_split(root, split, progress=False)

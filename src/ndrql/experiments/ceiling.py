@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import PX_PER_CELL, input_side
+from ndrql.dataset.render import PX_PER_CELL, from_model_output, input_side, place_cells, to_model_input
 from ndrql.maps.grid import area_downscale
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -48,8 +48,6 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
               larger: tuple[int, ...] = ()) -> GridCase | None:
     """The safe-grid problem of a map at ``n`` cells (or at the first of ``larger`` on which it connects,
     like ``--size auto`` from ``n`` up), or ``None`` when start and goal connect on none of them."""
-    from ndrql.dataset.render import place_cells
-
     for size in (n, *larger):
         blocked = conservative_grid(obstacles, size)
         cells = place_cells(obstacles, blocked, start, goal, size)
@@ -70,8 +68,6 @@ def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.n
     ``grid``: the safe grid at 4 px per cell; ``map``: the map at ``4n + 1`` px; ``map201``: the map at
     201 px whatever the grid (the input of the paper's model before multi-scale training).
     """
-    from ndrql.dataset.render import from_model_output, to_model_input
-
     if mode == "grid":
         r, gl, _ = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
         return cell_means(r, case.blocked.shape), cell_means(gl, case.blocked.shape)

@@ -22,6 +22,7 @@ import numpy as np
 
 from ndrql.dataset.batches import make_batch
 from ndrql.dataset.cache import SplitArrays
+from ndrql.dataset.mixture import stack
 from ndrql.dataset.render import Rendered, render_grid
 from ndrql.experiments.transfer import larger_sizes
 from ndrql.pipeline.predictions import to_map_pixels
@@ -58,8 +59,6 @@ def evaluate_grid_model(model, data: SplitArrays, indices: np.ndarray, n: int = 
     import time
 
     from tqdm import tqdm
-
-    from ndrql.dataset.mixture import stack
 
     model.eval()
     idx = np.asarray(indices)

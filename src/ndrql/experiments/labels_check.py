@@ -23,7 +23,13 @@ from typing import Callable
 
 import numpy as np
 
-from ndrql.errors import NoPathError
+from ndrql.dataset.layout import CATEGORIES, check_root, count_samples, default_root, load_sample
+from ndrql.errors import DatasetError, NoPathError
+from ndrql.experiments.report import machine, machine_line, md_table
+from ndrql.io import make_folder, write_json, write_text
+from ndrql.synth.endpoints import sample_endpoints
+from ndrql.synth.labels import dilate_region, draw_guideline, make_labels, near_optimal_path
+from ndrql.training.metrics import f1_per_image
 
 SPLIT = "seen"
 QUANTILES = (0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0)
@@ -72,8 +78,6 @@ class SampleCheck:
 
 def f1(pred: np.ndarray, label: np.ndarray) -> float:
     """Pixel F1 of one image (the paper's per-image F1, :mod:`ndrql.training.metrics`)."""
-    from ndrql.training.metrics import f1_per_image
-
     return float(f1_per_image(pred[None], label[None])[0])
 
 
@@ -86,10 +90,7 @@ def sample_indices(limit: int | None, n: int) -> list[int]:
 
 def check_sample(root: str | Path, index: int, seed: int) -> SampleCheck:
     """Compare our labels, lengths and endpoints with dataset sample ``index`` of TEST/SEEN."""
-    from ndrql.dataset.layout import load_sample
-    from ndrql.maps.lines import polyline_length
-    from ndrql.synth.endpoints import sample_endpoints
-    from ndrql.synth.labels import dilate_region, draw_guideline, make_labels, near_optimal_path
+    from ndrql.maps.lines import polyline_length  # lazy: loads numba
 
     s = load_sample(root, SPLIT, index)
     draw_exact = bool(np.array_equal(draw_guideline(s.map.shape, s.waypoints), s.guideline))
@@ -126,9 +127,6 @@ def _quantile_row(name: str, values: list[float]) -> list[str]:
 
 def tables(checks: list[SampleCheck]) -> str:
     """The markdown report: label definition, F1 and lengths per category, length quantiles."""
-    from ndrql.dataset.layout import CATEGORIES
-    from ndrql.experiments.report import md_table
-
     n = len(checks)
     out = [
         f"Label definition, on the dataset's own paths ({n} TEST/SEEN samples): our drawing of its waypoints "
@@ -176,11 +174,6 @@ def tables(checks: list[SampleCheck]) -> str:
 def labels_check(out: str | Path, data: str | Path | None = None, limit: int | None = None, seed: int = 0,
                  command: str = "", progress: bool = True, log: Callable[[str], None] = print) -> Path:
     """Run the check on TEST/SEEN and write ``labels.md`` and ``summary.json`` under ``out``."""
-    from ndrql.dataset.layout import check_root, count_samples, default_root
-    from ndrql.errors import DatasetError
-    from ndrql.experiments.report import machine, machine_line
-    from ndrql.io import make_folder, write_json, write_text
-
     root = data or default_root()
     if root is None:
         raise DatasetError("dataset not found; pass --data DIR (the path-planning-dataset root)")

@@ -23,14 +23,19 @@ from typing import Callable
 import numpy as np
 
 from ndrql.dataset.cache import cache_dir
+from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.generated import GeneratedSet, generate_set, read_manifest
 from ndrql.dataset.render import render
+from ndrql.errors import NdrqlError
 from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_priors
 from ndrql.experiments.report import md_table
 from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.sweep import Task, run_sweep
-from ndrql.io import write_json, write_text
+from ndrql.io import file_digest, write_json, write_text
+from ndrql.model.predict import Predictor
+from ndrql.model.weights import resolve_weights
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.runner import plan
 from ndrql.synth.generate import SetSpec
 from ndrql.training.metrics import f1_per_image
 
@@ -39,8 +44,6 @@ ROWS = ("QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)")
 
 def eval_spec(name: str = "transfer") -> SetSpec:
     """The versioned evaluation set ``name`` of ``transfer_sets.json``."""
-    from ndrql.errors import NdrqlError
-
     data = json.loads(resources.files("ndrql.experiments").joinpath("transfer_sets.json").read_text())
     if name not in data["sets"]:
         raise NdrqlError(f"unknown evaluation set {name!r}; valid: {', '.join(data['sets'])}")
@@ -56,8 +59,6 @@ def eval_set(spec: SetSpec, progress: bool = True) -> GeneratedSet:
 
 
 def _runs(blocked, s, g, priors: dict, seeds: list[int], ql: QLConfig, pc: PriorConfig) -> dict:
-    from ndrql.planning.runner import plan
-
     out: dict = {}
     for row, pr in priors.items():
         method = row.split(" ")[0]
@@ -72,8 +73,6 @@ def _runs(blocked, s, g, priors: dict, seeds: list[int], ql: QLConfig, pc: Prior
 
 def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
     """Region and guideline F1 of the model against the labels of its input mode at this grid."""
-    from ndrql.dataset.encodings import encode_input
-
     # map-mode models see the map at 201 px whatever the grid (as in ndrql plan): labels at that scale
     r = render("grid", case.obstacles, case.start, case.goal, waypoints, case.n) if mode == "grid" else \
         render("map", case.obstacles, case.start, case.goal, waypoints, 50)
@@ -119,7 +118,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
 
 def larger_sizes(n: int) -> tuple[int, ...]:
     """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to ``min(2n, 128)``."""
-    from ndrql.maps.sizing import SIZE_LADDER
+    from ndrql.maps.sizing import SIZE_LADDER  # lazy: loads numba
 
     return tuple(s for s in SIZE_LADDER if n < s <= min(2 * n, 128))
 
@@ -178,10 +177,6 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
              seeds: int = 10, seed0: int = 0, per_family: int | None = None, workers: int = 2, executor: str = "process",
              progress: bool = True, command: str = "", log: Callable[[str], None] = print) -> Path:
     """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``."""
-    from ndrql.io import file_digest
-    from ndrql.model.predict import Predictor
-    from ndrql.model.weights import resolve_weights
-
     out = Path(out)
     wpath = resolve_weights(weights or None)
     predictor = Predictor.load(wpath, threads=1, backend="torch")

@@ -133,7 +133,7 @@ def shortest_path8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int
 
 def _search8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], corner_cutting: bool) -> AStarResult:
     # Imported here, not at the top: ``import ndrql.maps`` must not import numba (start-up time).
-    from ndrql.maps.astar_kernel import astar8_kernel
+    from ndrql.maps.astar_kernel import astar8_kernel  # lazy: loads numba
 
     blocked = np.ascontiguousarray(blocked, dtype=bool)
     h, w = blocked.shape

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from importlib import resources
 
 from ndrql.maps.grid import Cell, GridMap
+from ndrql.maps.readers import read_image
 
 
 @dataclass(frozen=True)
@@ -21,8 +22,6 @@ class BundledSample:
 
 def bundled_sample() -> BundledSample:
     """Load the bundled 201x201 sample (path-planning dataset, TEST/SEEN 906, GPLv3)."""
-    from ndrql.maps.readers import read_image
-
     data = resources.files("ndrql") / "data"
     meta = json.loads((data / "sample_map.json").read_text(encoding="utf-8"))
     with resources.as_file(data / meta["map"]) as path:

@@ -14,6 +14,8 @@ import torch
 
 from ndrql.version import __version__
 from ndrql.errors import CheckpointError
+from ndrql.io import atomic_write
+from ndrql.model.registry import build_model, check_config
 
 FORMAT = "ndrql-checkpoint"
 #: Bumped when the meaning of saved weights changes; older files give a clear error.
@@ -22,8 +24,6 @@ FORMAT_VERSION = 1
 
 def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> Path:
     """Write ``payload`` plus the format header to ``path`` (:func:`ndrql.io.atomic_write`)."""
-    from ndrql.io import atomic_write
-
     data = {"format": FORMAT, "format_version": FORMAT_VERSION, "ndrql_version": __version__, **payload}
     return atomic_write(path, lambda fh: torch.save(data, fh))
 
@@ -46,7 +46,6 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
         )
     if "config" not in data or "model" not in data:
         raise CheckpointError(f"{path} lacks the model config or weights")
-    from ndrql.model.registry import check_config
 
     try:
         check_config(data["config"])
@@ -63,8 +62,6 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
 
 def model_from_checkpoint(data: dict[str, Any]) -> torch.nn.Module:
     """Rebuild the network from a loaded checkpoint's config and load its weights (fp32)."""
-    from ndrql.model.registry import build_model
-
     try:
         model = build_model(dict(data["config"]))
     except (ValueError, TypeError) as exc:

@@ -6,14 +6,14 @@ import warnings
 from pathlib import Path
 
 from ndrql.errors import NdrqlError
+from ndrql.io import atomic_path
 
 
 def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
     """Export the model in ``weights`` to ONNX at ``size`` x ``size``, dynamic batch (written by :mod:`ndrql.io`)."""
     import torch
 
-    from ndrql.io import atomic_path
-    from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint  # lazy: loads torch
 
     data = load_checkpoint(weights)
     model = model_from_checkpoint(data).eval()

@@ -15,9 +15,13 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from ndrql.dataset.cache import cache_dir
+from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import from_model_output, to_model_input
-from ndrql.errors import CheckpointError, PointError
+from ndrql.errors import CheckpointError, NdrqlError, PointError
+from ndrql.io import file_digest, write_json
 from ndrql.maps.grid import MODEL_SIDE
+from ndrql.model.export import export_onnx
 from ndrql.model.weights import resolve_weights
 
 Point = tuple[int, int]
@@ -132,9 +136,6 @@ class _OnnxRunner:
 def onnx_cache_path(weights: Path, side: int = MODEL_SIDE) -> Path:
     """Where the ONNX export of ``weights`` for ``side`` x ``side`` inputs is kept:
     ``$NDRQL_CACHE/onnx/<sha256 of the file>.onnx`` (201 px) or ``<sha256>-<side>.onnx``."""
-    from ndrql.dataset.cache import cache_dir
-    from ndrql.io import file_digest
-
     suffix = "" if side == MODEL_SIDE else f"-{side}"
     return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}{suffix}.onnx"
 
@@ -150,8 +151,6 @@ def _onnx_model(weights: Path, rebuild: bool = False, side: int = MODEL_SIDE) ->
     import json
     import warnings
 
-    from ndrql.io import file_digest, write_json
-
     onnx_path = onnx_cache_path(weights, side)
     meta_path = onnx_path.with_suffix(".json")
     try:
@@ -166,8 +165,7 @@ def _onnx_model(weights: Path, rebuild: bool = False, side: int = MODEL_SIDE) ->
             return onnx_path, meta["config"]
         if recorded:
             warnings.warn(f"the cached ONNX export {onnx_path} is damaged; exporting it again", stacklevel=3)
-    from ndrql.model.export import export_onnx
-    from ndrql.model.checkpoint import load_checkpoint
+    from ndrql.model.checkpoint import load_checkpoint  # lazy: loads torch
 
     config = dict(load_checkpoint(weights)["config"])
     exported = config.get("guideline_decoder", True)
@@ -229,8 +227,6 @@ class Predictor:
     @classmethod
     def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto") -> "Predictor":
         """Load weights from ``path`` (default: :func:`default_weights_path`) on ``backend`` (:data:`BACKENDS`)."""
-        from ndrql.errors import NdrqlError
-
         if backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {backend!r}; valid: {', '.join(BACKENDS)}")
         path = resolve_weights(path)
@@ -257,7 +253,7 @@ class Predictor:
             else:
                 if backend == "onnx":
                     raise NdrqlError(f"{path} holds a model without a guideline output; the ONNX backend needs both outputs")
-        from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
+        from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint  # lazy: loads torch
 
         data = load_checkpoint(path)
         config = dict(data["config"])
@@ -271,8 +267,6 @@ class Predictor:
 
     def predict(self, obstacles: np.ndarray, start: Point, goal: Point) -> Prediction:
         """Region and guideline probabilities for one map, at the map's own resolution."""
-        from ndrql.dataset.encodings import encode_input
-
         obstacles = np.asarray(obstacles, bool)
         for name, p in (("start", start), ("goal", goal)):
             if not (0 <= p[0] < obstacles.shape[0] and 0 <= p[1] < obstacles.shape[1]):

@@ -13,9 +13,11 @@ from typing import Any, Callable
 
 from torch import nn
 
+from ndrql.dataset.encodings import ENCODINGS
 from ndrql.errors import brief
 from ndrql.model.backbone import STDC_DEPTHS
 from ndrql.model.ndr import NDRConfig, NDRNet
+from ndrql.model.rgp import RGPConfig, RGPNet
 
 
 def _build_ndr(cfg: dict) -> nn.Module:
@@ -23,8 +25,6 @@ def _build_ndr(cfg: dict) -> nn.Module:
 
 
 def _build_rgp(cfg: dict) -> nn.Module:
-    from ndrql.model.rgp import RGPConfig, RGPNet
-
     return RGPNet(RGPConfig.from_dict(cfg))
 
 
@@ -58,8 +58,6 @@ CHOICES: dict[str, tuple[str, ...]] = {"backbone": tuple(STDC_DEPTHS)}
 
 def _config_class(arch: str) -> Any:
     if arch == "rgp":
-        from ndrql.model.rgp import RGPConfig
-
         return RGPConfig
     return NDRConfig
 
@@ -88,8 +86,6 @@ def _check_field(name: str, value: Any, default: Any) -> None:
     if name in CHOICES and value not in CHOICES[name]:
         raise ValueError(f"unknown {name} {brief(value)} in the model config; valid: {', '.join(CHOICES[name])}")
     if name == "encoding":
-        from ndrql.dataset.encodings import ENCODINGS
-
         if value not in ENCODINGS:
             raise ValueError(f"unknown encoding {brief(value)}; valid: {', '.join(ENCODINGS)}")
 

@@ -15,7 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from ndrql.maps.grid import GridMap, PlanningGrid
+from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.render import PX_PER_CELL, grid_input, point_on_grid, to_model_input
+from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid, area_downscale
+from ndrql.maps.safe import grid_shape
+from ndrql.model.predict import load_predictor
+from ndrql.planning.priors import adaptive_threshold
+from ndrql.synth.oracle import oracle_prediction
 
 Point = tuple[int, int]
 
@@ -43,9 +49,6 @@ def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict
     obstacle is moved to the nearest free pixel there. That is reported with a warning (the model
     then sees the point somewhere else; planning still uses the exact point).
     """
-    from ndrql.dataset.render import point_on_grid, to_model_input
-    from ndrql.maps.grid import MODEL_SIDE
-
     h, w = obstacles.shape
     _, s_in, g_in, scale = to_model_input(obstacles, start, goal)
     nh = max(1, round(h * scale))
@@ -62,8 +65,6 @@ def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict
 
 def _grid_to_map(prob: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     """Probabilities at 4 px per planning cell -> the map's pixels (nearest sample; for figures and JSON)."""
-    from ndrql.dataset.render import PX_PER_CELL
-
     h, w = grid.source_shape
     ch, cw = grid.cell_size
     rows = np.minimum(((np.arange(h) + 0.5) / ch * PX_PER_CELL).astype(int), prob.shape[0] - 1)
@@ -73,9 +74,6 @@ def _grid_to_map(prob: np.ndarray, grid: PlanningGrid) -> np.ndarray:
 
 def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Probabilities drawn at 4 px per cell (possibly padded) -> the planning grid of ``shape``: exact 4x4 means."""
-    from ndrql.dataset.render import PX_PER_CELL
-    from ndrql.maps.grid import area_downscale
-
     h, w = shape
     return area_downscale(np.asarray(prob, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
 
@@ -83,10 +81,6 @@ def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
     """Probabilities at 4 px per cell of a grid of ``n`` cells -> the map's pixels: each pixel takes the
     mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as :func:`ndrql.maps.safe.conservative_grid`)."""
-    from ndrql.dataset.render import PX_PER_CELL
-    from ndrql.maps.grid import area_downscale
-    from ndrql.maps.safe import grid_shape
-
     rows, cols = grid_shape(shape, n)
     cells = area_downscale(np.asarray(prob, np.float64)[:rows * PX_PER_CELL, :cols * PX_PER_CELL], (rows, cols))
     longest = max(shape)
@@ -99,9 +93,6 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,
                     goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any]]:
     """A grid-mode model's region and guideline at 4 px per cell of the planning grid ``blocked`` (padded to
     a square of ``4 max(h, w)`` px), and what it saw."""
-    from ndrql.dataset.encodings import encode_input
-    from ndrql.dataset.render import grid_input
-
     img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
     r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
     info = {"mode": "grid", "side": int(img.shape[0]), "start": list(s), "goal": list(g)}
@@ -110,8 +101,6 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,
 
 def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any]) -> ModelView:
     """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid."""
-    from ndrql.dataset.render import PX_PER_CELL
-
     h, w = grid.shape
     crop = lambda a: np.asarray(a, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL]  # noqa: E731
     return ModelView(region=_grid_to_map(crop(region_px), grid),
@@ -124,9 +113,6 @@ def oracle_view(grid: PlanningGrid) -> ModelView:
     """The oracle's region and guideline: the planning grid's own shortest path drawn like the dataset's labels
     (:func:`ndrql.synth.oracle.oracle_prediction`). A diagnostic of how far the model is from a perfect
     prediction, never a method: it needs the answer."""
-    from ndrql.dataset.render import PX_PER_CELL
-    from ndrql.synth.oracle import oracle_prediction
-
     region, guide = oracle_prediction(grid.blocked, grid.start, grid.goal, PX_PER_CELL)
     return _on_grid(region, guide, grid, {"oracle": True, "px_per_cell": PX_PER_CELL})
 
@@ -166,8 +152,6 @@ def predict_priors(
     much slower); ``backend``: see :func:`~ndrql.model.predict.load_predictor`. The guideline is
     ``None`` for a model without the guideline decoder.
     """
-    from ndrql.model.predict import load_predictor
-
     predictor = load_predictor(weights, threads, backend)
     pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal))
     guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
@@ -190,8 +174,6 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
     or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
     the map (the model draws its path through walls).
     """
-    from ndrql.planning.priors import adaptive_threshold
-
     thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
     reasons = []
     if thd is None or thd < MIN_THRESHOLD:

@@ -23,6 +23,8 @@ import numpy as np
 
 from ndrql.errors import MapFormatError, NoPathError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
+from ndrql.maps.readers import load_map, read_movingai_scen
+from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
 Point = tuple[int, int]
@@ -81,16 +83,12 @@ def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, 
             raise MapFormatError(f"a map array must be non-empty and 2-D, got shape {map_or_path.shape}")
         return GridMap(map_or_path != 0, source="array")
     if isinstance(map_or_path, (str, os.PathLike)):
-        from ndrql.maps.readers import load_map
-
         return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
     raise MapFormatError(f"cannot read a map from {type(map_or_path).__name__}; pass a file path, a GridMap or a 2-D array")
 
 
 def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> tuple[Point, Point, dict[str, Any]]:
     """Start and goal ``(row, col)`` of scenario ``index`` in a MovingAI ``.scen`` file, checked against the map."""
-    from ndrql.maps.readers import read_movingai_scen
-
     scenarios = read_movingai_scen(scen)
     if not 0 <= index < len(scenarios):
         raise MapFormatError(f"scenario {index} not in {scen} (it has {len(scenarios)} scenarios, 0..{len(scenarios) - 1})")
@@ -150,7 +148,7 @@ def _area_grid(check_map: np.ndarray, start: Point, goal: Point, size: int) -> P
 
 
 def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, max_size: int) -> int | None:
-    from ndrql.maps.sizing import ladder, try_size
+    from ndrql.maps.sizing import ladder, try_size  # lazy: loads numba
 
     for s in ladder(check_map.shape, max_size):
         if s > size and try_size(check_map, start, goal, s, 1.0).grid_length is not None:
@@ -160,8 +158,7 @@ def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, m
 
 def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Point, size: int,
                max_size: int) -> PlanningGrid:
-    from ndrql.maps.safe import cell_size_px, conservative_grid
-    from ndrql.maps.sizing import connected4, place_point
+    from ndrql.maps.sizing import connected4, place_point  # lazy: loads numba
 
     blocked = conservative_grid(check_map, size)
     cells, snapped = [], []
@@ -191,8 +188,6 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
     """
     import time
 
-    from ndrql.maps.safe import inflate, radius_to_px
-
     t0 = time.perf_counter()
     radius_px = radius_to_px(settings.robot_radius, grid_map.resolution)
     check_map = inflate(grid_map.obstacles, radius_px) if radius_px >= 1 else grid_map.obstacles
@@ -204,7 +199,7 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
         pg = _area_grid(check_map, start, goal, int(size))
     else:
         if size == "auto":
-            from ndrql.maps.sizing import choose_size, full_route
+            from ndrql.maps.sizing import choose_size, full_route  # lazy: loads numba
 
             route = full_route(check_map, start, goal, radius_px)
             auto = choose_size(check_map, start, goal, route.cost, settings.max_size, settings.tolerance)

@@ -14,7 +14,7 @@ from ndrql.pipeline.problem import GridSetup
 from ndrql.pipeline.route import Route
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.results import PlanResult
+from ndrql.planning.results import PlanResult, summarize
 
 Point = tuple[int, int]
 
@@ -133,8 +133,6 @@ class PlanReport:
 
     def to_dict(self, include_records: bool = False) -> dict[str, Any]:
         """The JSON form written by ``ndrql plan --json`` (plain types only)."""
-        from ndrql.planning.results import summarize
-
         gm = self.grid_map
         map_info: dict[str, Any] = {"source": gm.source, "height": gm.height, "width": gm.width,
                                     "obstacle_ratio": round(gm.obstacle_ratio, 6)}

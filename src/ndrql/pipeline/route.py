@@ -26,7 +26,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import NoPathError
+from ndrql.maps.astar import shortest_path8
 from ndrql.maps.grid import GridMap, PlanningGrid
+from ndrql.maps.world import path_yaws, pixels_to_world
 
 #: Pixels around the two points of an end leg searched for a full-map path (the whole map if that fails).
 LEG_MARGIN = 64
@@ -62,8 +64,6 @@ class Route:
 
     def to_dict(self, grid_map: GridMap, digits: int = 3) -> dict[str, Any]:
         """JSON form: lengths in px (and m), collisions with their pixels (and world points), the paths."""
-        from ndrql.maps.world import pixels_to_world
-
         def pts(a: np.ndarray) -> list[list[float]]:
             return [[round(float(r), digits), round(float(c), digits)] for r, c in a]
 
@@ -95,8 +95,7 @@ class Route:
 
 def _leg(check_map: np.ndarray, a: Sequence[float], b: Sequence[float]) -> list[tuple[float, float]]:
     """Points from ``a`` to ``b`` (``b`` included, ``a`` not): straight when free, else the full map's shortest path."""
-    from ndrql.maps.astar import shortest_path8
-    from ndrql.maps.lines import segment_free
+    from ndrql.maps.lines import segment_free  # lazy: loads numba
 
     b = (float(b[0]), float(b[1]))
     if segment_free(check_map, a, b):
@@ -139,8 +138,7 @@ def grid_polyline(check_map: np.ndarray, grid: PlanningGrid, cells: Sequence[Seq
 def make_route(check_map: np.ndarray, grid: PlanningGrid, cells: Sequence[Sequence[int]], grid_map: GridMap, *,
                smooth: bool, start_yaw: float | None = None, goal_yaw: float | None = None) -> Route:
     """The route of a learned path ``cells`` (planning-grid cells from start to goal), checked on ``check_map``."""
-    from ndrql.maps.lines import polyline_collisions, polyline_length, shortcut
-    from ndrql.maps.world import path_yaws, pixels_to_world
+    from ndrql.maps.lines import polyline_collisions, polyline_length, shortcut  # lazy: loads numba
 
     poly = grid_polyline(check_map, grid, cells)
     hits = tuple(polyline_collisions(check_map, poly))

@@ -19,8 +19,15 @@ from typing import Any
 
 import numpy as np
 
+from ndrql.dataset.layout import load_sample
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.io import file_digest, save_npz
+from ndrql.maps.astar import astar4
+from ndrql.maps.grid import PlanningGrid
+from ndrql.model.predict import Predictor
+from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
+from ndrql.pipeline.predictions import cell_means, predict_on_grid, to_map_pixels
+from ndrql.planning.methods import downscale_priors
 
 
 @dataclass(frozen=True)
@@ -54,10 +61,6 @@ class Problem:
 def load_problem(root: str | Path, split: str, index: int, size: int = 50) -> Problem:
     """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
     4-connected on the planning grid (docs/method.md: experiments skip such samples and count them)."""
-    from ndrql.dataset.layout import load_sample
-    from ndrql.maps.astar import astar4
-    from ndrql.maps.grid import PlanningGrid
-
     s = load_sample(root, split, index)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # snapping is expected on some samples; the grid records it
@@ -82,8 +85,6 @@ class PredictionCache:
     """NDR predictions per sample, made once and kept on disk (module docstring)."""
 
     def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1):
-        from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
-
         self.dir = Path(cache_dir)
         self.weights = resolve_weights(weights, PAPER_WEIGHTS)
         if not self.weights.is_file():
@@ -118,15 +119,11 @@ class PredictionCache:
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
                 pass  # a damaged cache entry is predicted again
         if self._predictor is None:
-            from ndrql.model.predict import Predictor
-
             # torch, not ONNX Runtime: the tables in docs/results.md were made with it, and the two
             # backends differ by ~1e-4 in probability, which could move a run; same numbers on re-runs
             self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
         mode = getattr(self._predictor, "input_mode", "map")
         if mode == "grid":
-            from ndrql.pipeline.predictions import predict_on_grid
-
             region, guideline, _ = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
         else:
             pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
@@ -144,8 +141,6 @@ class PredictionCache:
         model's cell means drawn back on the map's pixels)."""
         mode, region, guideline = self._entry(p)
         if mode == "grid":
-            from ndrql.pipeline.predictions import to_map_pixels
-
             n = max(p.blocked.shape)
             return (to_map_pixels(region, p.obstacles.shape, n).astype(np.float32),
                     to_map_pixels(guideline, p.obstacles.shape, n).astype(np.float32))
@@ -156,12 +151,8 @@ class PredictionCache:
         prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells."""
         from dataclasses import replace
 
-        from ndrql.planning.methods import downscale_priors
-
         mode, region, guideline = self._entry(p)
         if mode == "grid":
-            from ndrql.pipeline.predictions import cell_means
-
             r = np.clip(cell_means(region, p.blocked.shape), 0, 1)
             g = np.clip(cell_means(guideline, p.blocked.shape), 0, 1)
         else:

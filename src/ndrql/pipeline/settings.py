@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ndrql.errors import NdrqlError
+from ndrql.limits import MAX_GRID_SIZE
+from ndrql.model.predict import BACKENDS
+from ndrql.planning.methods import get_method
 
 #: Planning-grid rules: ``safe`` (square cells, a cell blocked when any pixel is an obstacle; the
 #: default on a user's map) and ``area`` (the paper's rule: area average, blocked at >= 0.5).
@@ -74,17 +77,13 @@ class PlanSettings:
         if self.max_map_pixels < 1:
             raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
         if self.fallback is not None:
-            from ndrql.planning.methods import get_method
-
             fb = get_method(self.fallback)
             if fb.needs_ndr:
                 raise NdrqlError(f"the fallback {fb.name} uses the model itself; give a method without it (QL, IQL, ...)")
             object.__setattr__(self, "fallback", fb.name)
-        from ndrql.limits import MAX_GRID_SIZE
 
         if not 2 <= self.max_size <= MAX_GRID_SIZE:
             raise NdrqlError(f"the grid size limit must be in 2..{MAX_GRID_SIZE}, got {self.max_size}")
-        from ndrql.model.predict import BACKENDS
 
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")

@@ -30,7 +30,7 @@ __all__ = sorted(_EXPORTS)
 
 def __getattr__(name: str) -> Any:
     if name in _EXPORTS:
-        value = getattr(importlib.import_module(f"ndrql.planning.{_EXPORTS[name]}"), name)
+        value = getattr(importlib.import_module(f"ndrql.planning.{_EXPORTS[name]}"), name)  # lazy: names load on use
         globals()[name] = value
         return value
     raise AttributeError(f"module 'ndrql.planning' has no attribute {name!r}")

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import area_downscale
 from ndrql.planning import priors as P
 from ndrql.planning.config import PriorConfig
 
@@ -170,8 +171,6 @@ def downscale_priors(
     region: np.ndarray | None, guideline: np.ndarray | None, shape: tuple[int, int]
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Region and guideline at the map's resolution -> planning grid, by area averaging (docs/method.md)."""
-    from ndrql.maps.grid import area_downscale
-
     out = []
     for name, arr in (("region", region), ("guideline", guideline)):
         if arr is None:

@@ -38,7 +38,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ndrql.errors import NdrqlError, brief
+from ndrql.io import write_json
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import get_method
 
 FORMAT = "ndrql-preset"
 #: Version of the preset file format this module reads and writes.
@@ -91,8 +93,6 @@ class Preset:
 
     def setting(self, method: str) -> MethodSetting:
         """The constants of ``method`` (its entry, else the fallback entry, else ``default``)."""
-        from ndrql.planning.methods import get_method
-
         try:
             name = get_method(method).name
         except NdrqlError:  # a table's own row (e.g. Table 2's D-C+N-C) is not a registry method
@@ -171,7 +171,6 @@ def preset_from_dict(data: Any, source: str = "") -> Preset:
     methods_in = data.get("methods", {})
     if not isinstance(methods_in, dict):
         raise PresetError(f"{where}: 'methods' must be a mapping of method name to constants")
-    from ndrql.planning.methods import get_method
 
     methods = {}
     for key, val in methods_in.items():
@@ -201,8 +200,6 @@ def preset_to_dict(p: Preset) -> dict[str, Any]:
 
 def write_preset(path: str | os.PathLike, p: Preset) -> Path:
     """Write ``p`` as a preset file (atomically, :mod:`ndrql.io`)."""
-    from ndrql.io import write_json
-
     return write_json(path, preset_to_dict(p), indent=2)
 
 

@@ -18,12 +18,12 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy import ndimage
 
 from ndrql.planning import rules
 from ndrql.planning.config import PriorConfig
 
-_FOUR = ndimage.generate_binary_structure(2, 1)
+#: 4-connectivity for :func:`scipy.ndimage.label` (``generate_binary_structure(2, 1)``).
+_FOUR = np.array([[False, True, False], [True, True, True], [False, True, False]])
 
 
 class ThresholdWarning(UserWarning):
@@ -82,6 +82,8 @@ def region_connects(
     inside = (np.asarray(region) > thd) & ~np.asarray(blocked, dtype=bool)
     if not (inside[tuple(start)] and inside[tuple(goal)]):
         return False
+    from scipy import ndimage  # scipy loads when a region is searched, not when the planners are imported
+
     labels, _ = ndimage.label(inside, structure=_FOUR)
     return bool(labels[tuple(start)] == labels[tuple(goal)])
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ndrql.errors import PointError
+from ndrql.maps.astar import astar4
 from ndrql.planning import rng, rules
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Priors, build_priors, get_method
@@ -45,8 +46,6 @@ def _check_problem(blocked: np.ndarray, start, goal) -> tuple[np.ndarray, tuple[
 
 def astar_length(blocked: np.ndarray, start, goal) -> int:
     """Optimal 4-connected length (moves) by A*; raises :class:`NoPathError` when unreachable."""
-    from ndrql.maps.astar import astar4
-
     return int(astar4(blocked, start, goal).moves)
 
 
@@ -82,7 +81,7 @@ def plan(
     cells = h * w
     if priors.r_c.shape != (h, w) or priors.q0.shape != (cells, 4):
         raise ValueError(f"priors do not fit a {h}x{w} grid: r_c {priors.r_c.shape}, q0 {priors.q0.shape}")
-    from ndrql.planning import kernel
+    from ndrql.planning import kernel  # lazy: loads numba
 
     nxt = rules.next_table(blocked)
     q = np.array(priors.q0, dtype=np.float64, order="C", copy=True)
@@ -202,7 +201,7 @@ def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "pr
     with tqdm(total=len(jobs), desc="runs", unit="run", disable=None if progress else True, leave=False) as bar:
         executor = pick_executor(backend, workers, len(jobs))
         if executor != "serial":
-            from ndrql.planning import kernel
+            from ndrql.planning import kernel  # lazy: loads numba
 
             kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
         if executor != "process":  # in this process or on threads: one call per job

@@ -8,15 +8,30 @@ The labels come with it: :func:`make_labels` draws the dataset's guideline and r
 (:mod:`ndrql.synth.labels`), :func:`sample_endpoints` draws start/goal pairs like the dataset's
 (:mod:`ndrql.synth.endpoints`), :func:`oracle_prediction` draws the labels of a planning grid's own
 path (:mod:`ndrql.synth.oracle`). These search and draw with :mod:`ndrql.maps` (one layer down),
-whose numba kernels load on first use.
+whose numba kernels load on first use. The names below load on first use as well.
 """
 
-from ndrql.synth.endpoints import sample_endpoints
-from ndrql.synth.families import FAMILIES, Family, family_names, generate_map
-from ndrql.synth.labels import (GUIDE_PX, REGION_PX, Labels, dilate_region, draw_guideline, make_labels,
-                                near_optimal_path)
-from ndrql.synth.oracle import oracle_prediction
+from __future__ import annotations
 
-__all__ = ["FAMILIES", "Family", "family_names", "generate_map",
-           "GUIDE_PX", "REGION_PX", "Labels", "dilate_region", "draw_guideline", "make_labels", "near_optimal_path",
-           "sample_endpoints", "oracle_prediction"]
+import importlib
+from typing import Any
+
+#: Public names and the module each lives in; they load on first use, so that a module that needs
+#: only the labels (:mod:`ndrql.synth.labels`, numpy) does not pay for the map engine (scipy).
+_EXPORTS = {
+    "sample_endpoints": "endpoints",
+    "FAMILIES": "families", "Family": "families", "family_names": "families", "generate_map": "families",
+    "GUIDE_PX": "labels", "REGION_PX": "labels", "Labels": "labels", "dilate_region": "labels",
+    "draw_guideline": "labels", "make_labels": "labels", "near_optimal_path": "labels",
+    "oracle_prediction": "oracle",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f"ndrql.synth.{_EXPORTS[name]}"), name)  # lazy: names load on use
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ndrql.synth' has no attribute {name!r}")

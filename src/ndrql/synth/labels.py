@@ -27,6 +27,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ndrql.maps.astar import shortest_path8
+
 #: Guideline width of the dataset's labels (``cv2.line`` thickness), in pixels.
 GUIDE_PX = 2
 #: Region window of the dataset's labels (``cv2.dilate`` with ``ones((30, 30))``), in pixels.
@@ -53,8 +55,7 @@ def near_optimal_path(obstacles: np.ndarray, start: Sequence[int], goal: Sequenc
     is free. Raises :class:`~ndrql.errors.PointError` for a point off the map or on an obstacle and
     :class:`~ndrql.errors.NoPathError` when the two are not connected.
     """
-    from ndrql.maps.astar import shortest_path8
-    from ndrql.maps.lines import shortcut
+    from ndrql.maps.lines import shortcut  # lazy: loads numba
 
     obstacles = np.asarray(obstacles, dtype=bool)
     path = np.asarray(shortest_path8(obstacles, start, goal).path, dtype=np.int64).reshape(-1, 2)
@@ -68,7 +69,7 @@ def draw_guideline(shape: Sequence[int], waypoints: np.ndarray, thickness: int =
     (``LINE_8``); a single waypoint gives its end cap. Float waypoints are drawn at sub-pixel
     positions (as OpenCV's ``shift`` argument would).
     """
-    from ndrql.maps.raster import draw_polyline
+    from ndrql.maps.raster import draw_polyline  # lazy: loads numba
 
     return draw_polyline((int(shape[0]), int(shape[1])), np.asarray(waypoints).reshape(-1, 2), thickness)
 

@@ -101,7 +101,7 @@ class TrainConfig:
 
     def model_config(self) -> dict:
         """Model config dict: preset + overrides + the input encoding."""
-        from ndrql.model.registry import preset
+        from ndrql.model.registry import preset  # lazy: loads torch
 
         overrides = dict(self.model_overrides)
         if self.encoding:

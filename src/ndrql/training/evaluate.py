@@ -115,7 +115,7 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
                       batch_size: int = 16) -> dict[str, float]:
     """Mean region and guideline F1 (percent) on rendered inputs (``(group, Rendered)`` pairs, any sides),
     overall and per group (``region_f1/<group>``)."""
-    from ndrql.dataset.mixture import stack
+    from ndrql.dataset.mixture import stack  # lazy: loads scipy
 
     model.eval()
     rf: list[float] = []

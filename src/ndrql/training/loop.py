@@ -29,6 +29,7 @@ from torch import nn
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.splits import train_val_split
 from ndrql.errors import CheckpointError
+from ndrql.io import atomic_write, make_folder
 from ndrql.model.registry import build_model
 from ndrql.training import distributed as D
 from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
@@ -53,8 +54,6 @@ def peak_lr(cfg: TrainConfig, world_size: int) -> float:
 
 def write_metrics_row(path: Path, row: dict) -> None:
     """Append one row to the metrics CSV (header written once); rewrite it through :func:`ndrql.io.atomic_write`."""
-    from ndrql.io import atomic_write
-
     rows = []
     if path.exists():
         with path.open() as f:
@@ -151,6 +150,7 @@ def _on_rank0(world: D.World, fn):
 
 def build_mixture(cfg: TrainConfig, progress: bool):
     """The mixture of ``cfg.sources`` (:mod:`ndrql.dataset.mixture`); returns (mixture, train ids, val ids, paper data)."""
+    # lazy: loads scipy
     from ndrql.dataset.mixture import Mixture, generated_source, paper_source, parse_sizes, parse_sources
 
     sources, paper = [], None
@@ -216,8 +216,6 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
     if resume and not last_path.is_file():
         raise CheckpointError(f"--resume: there is no {last_path} to continue; drop --resume to start a new run")
     if main:
-        from ndrql.io import make_folder
-
         make_folder(run_dir)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)

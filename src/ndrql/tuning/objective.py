@@ -25,15 +25,19 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ndrql.pipeline.samples import Problem
+from ndrql.dataset.cache import cache_dir, load_split
+from ndrql.dataset.splits import train_val_split
+from ndrql.errors import NoPathError
+from ndrql.maps.astar import astar4
+from ndrql.maps.grid import PlanningGrid
+from ndrql.pipeline.samples import PredictionCache, Problem
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import build_priors, get_method
+from ndrql.planning.runner import plan
 
 
 def validation_ids(root: str | Path, val_fraction: float = 0.05, split_seed: int = 0) -> np.ndarray:
     """TRAIN sample indices of the shipped model's validation split (sorted; module docstring)."""
-    from ndrql.dataset.cache import load_split
-    from ndrql.dataset.splits import train_val_split
-
     train = load_split(root, "train", progress=False)
     seen = load_split(root, "seen", progress=False)
     _, val = train_val_split(train, seen, val_fraction=val_fraction, seed=split_seed)
@@ -51,12 +55,6 @@ def train_problems(root: str | Path, ids: Sequence[int], k: int, weights: str | 
     """The first ``k`` of TRAIN samples ``ids`` that are connected on the planning grid, with NDR
     predictions attached; also the skipped ids and the weights' digest. Reads TRAIN only."""
     from tqdm import tqdm
-
-    from ndrql.dataset.cache import cache_dir, load_split
-    from ndrql.errors import NoPathError
-    from ndrql.pipeline.samples import PredictionCache
-    from ndrql.maps.astar import astar4
-    from ndrql.maps.grid import PlanningGrid
 
     train = load_split(root, "train", progress=False)
     preds = PredictionCache(cache_dir() / "tune" / "predictions", weights)
@@ -91,9 +89,6 @@ def run_problem(p: Problem, method: str, seeds: Sequence[int], ql: QLConfig, pc:
                 stop_on_failure: bool = False) -> list[tuple[bool, int, float]]:
     """``(converged, steps, greedy path / A*)`` per seed on one problem (steps: every step of a failed
     run); with ``stop_on_failure`` the seeds after the first run that did not converge are skipped."""
-    from ndrql.planning.methods import build_priors, get_method
-    from ndrql.planning.runner import plan
-
     m = get_method(method)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # NDR-QI's "no threshold connects" warning: the runs show its effect

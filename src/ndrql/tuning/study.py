@@ -34,10 +34,13 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ndrql.errors import NdrqlError
+from ndrql.io import make_folder
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
+from ndrql.planning.methods import get_method
 from ndrql.tuning.objective import Evaluation, evaluate
+from ndrql.workers import process_pool
 
 
 @dataclass(frozen=True)
@@ -74,8 +77,6 @@ class TuneConfig:
     """A running trial without a heartbeat for this long is failed and retried."""
 
     def __post_init__(self) -> None:
-        from ndrql.planning.methods import get_method
-
         object.__setattr__(self, "method", get_method(self.method).name)
         for name, low in (("trials", 1), ("samples", 1), ("seeds", 1), ("chunk", 1), ("max_episodes", 1),
                           ("startup_trials", 1), ("prune_warmup", 0), ("heartbeat", 1), ("grace", 1)):
@@ -105,8 +106,6 @@ def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str
 
 def default_storage(out_dir: str | Path) -> str:
     """SQLite file ``<out_dir>/studies.db`` as an Optuna storage URL (the folder is created)."""
-    from ndrql.io import make_folder
-
     folder = make_folder(out_dir)
     return f"sqlite:///{(folder / 'studies.db').resolve()}"
 
@@ -309,8 +308,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     import optuna
     from tqdm import tqdm
 
-    from ndrql.planning import kernel
-    from ndrql.workers import process_pool
+    from ndrql.planning import kernel  # lazy: loads numba
 
     if not problems:
         raise NdrqlError("no planning problems to tune on")

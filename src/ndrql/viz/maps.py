@@ -8,6 +8,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ndrql.maps.grid import cell_to_point
+from ndrql.viz.style import (ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, GOAL_COLOR, OBSTACLE_COLOR, START_COLOR,
+                             legend_below)
+
 
 def new_figure(figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 100) -> Any:
     """A matplotlib ``Figure`` bound to the Agg canvas, independent of pyplot and its backend."""
@@ -55,8 +59,6 @@ def plot_path(ax: Any, path: Sequence[Sequence[float]], *, color: str = "tab:red
 
 def plot_endpoints(ax: Any, start: Sequence[float], goal: Sequence[float], *, size: float = 80) -> list[Any]:
     """Mark start (green circle) and goal (blue star), points as ``(row, col)``; returns both artists."""
-    from ndrql.viz.style import GOAL_COLOR, START_COLOR
-
     s = ax.scatter([start[1]], [start[0]], s=size, c=START_COLOR, marker="o", edgecolors="white", label="start", zorder=4)
     g = ax.scatter([goal[1]], [goal[0]], s=size * 1.6, c=GOAL_COLOR, marker="*", edgecolors="white", label="goal", zorder=4)
     return [s, g]
@@ -70,9 +72,6 @@ def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, pa
     Cell centres are converted with :func:`ndrql.maps.grid.cell_to_point`; returns every artist drawn.
     """
     from matplotlib.patches import Patch
-
-    from ndrql.maps.grid import cell_to_point
-    from ndrql.viz.style import ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, OBSTACLE_COLOR, legend_below
 
     obstacles = np.asarray(obstacles, dtype=bool)
     h, w = obstacles.shape

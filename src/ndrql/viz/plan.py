@@ -12,6 +12,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ndrql.maps.astar import astar4
+from ndrql.maps.grid import cell_to_point
+from ndrql.planning.methods import get_method
 from ndrql.viz.maps import frame_map, new_figure, plot_endpoints, plot_occupancy, plot_path
 
 from ndrql.viz.style import (ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, GUIDELINE_RGB, METHOD_COLORS,  # noqa: F401
@@ -58,8 +61,6 @@ def plot_plan(
     path, and every collision with an obstacle as a red cross.
     """
     from matplotlib.patches import Patch
-
-    from ndrql.maps.grid import cell_to_point
 
     obstacles = np.asarray(obstacles, dtype=bool)
     blocked = np.asarray(blocked, dtype=bool)
@@ -137,8 +138,6 @@ def plot_convergence(ax: Any, steps: Mapping[str, Sequence[int | None]], *, titl
 
 
 def _astar(report: Any) -> list[list[int]]:
-    from ndrql.maps.astar import astar4
-
     return [list(c) for c in astar4(report.grid.blocked, report.grid.start, report.grid.goal).path]
 
 
@@ -175,8 +174,6 @@ def plan_figure(report: Any, method: str | None = None, seed: int | None = None,
 def compare_figure(report: Any, dpi: int = 110) -> Any:
     """Every method's first-seed path side by side (NDR overlay on the NDR methods' panels) and,
     with several seeds, a last panel of convergence steps."""
-    from ndrql.planning.methods import get_method
-
     methods = list(report.methods)
     with_steps = len(report.seeds) > 1
     n = len(methods) + int(with_steps)

@@ -7,6 +7,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.viz.maps import plot_endpoints, plot_occupancy
+from ndrql.viz.style import GUIDELINE_CMAP, REGION_CMAP, legend_below, probability_colorbar
 
 
 def plot_probability_overlay(ax: Any, obstacles: np.ndarray, prob: np.ndarray, *, cmap: str | None = None,
@@ -18,8 +19,6 @@ def plot_probability_overlay(ax: Any, obstacles: np.ndarray, prob: np.ndarray, *
 
     ``kind`` (``region`` or ``guideline``) picks the colour map of ``plan``'s figures unless ``cmap`` is given.
     """
-    from ndrql.viz.style import GUIDELINE_CMAP, REGION_CMAP, legend_below, probability_colorbar
-
     cmap = cmap or (GUIDELINE_CMAP if kind == "guideline" else REGION_CMAP)
     masked = np.ma.masked_less(np.asarray(prob, float), 0.02)
     image = ax.imshow(masked, cmap=cmap, vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest", zorder=1)

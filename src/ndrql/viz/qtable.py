@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ndrql.planning.rules import ACTION_NAMES
+from ndrql.viz.maps import plot_occupancy
 
 
 def qtable_triangles(shape: tuple[int, int]) -> np.ndarray:
@@ -58,8 +59,6 @@ def plot_qtable(ax: Any, q: np.ndarray, shape: tuple[int, int], *, blocked: np.n
     coll.set_clim(vmin, vmax)
     artists: list[Any] = [ax.add_collection(coll)]
     if blocked is not None:
-        from ndrql.viz.maps import plot_occupancy
-
         artists.append(plot_occupancy(ax, blocked, color="black", zorder=2))
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)

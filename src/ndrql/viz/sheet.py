@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ndrql.io import save_figure
+
 #: Colours shared with the plan figures: region green, guideline orange.
 REGION_RGB = (0.2, 0.7, 0.3)
 GUIDE_RGB = (1.0, 0.55, 0.0)
@@ -57,6 +59,5 @@ def save_contact_sheet(items: list, path: str | Path, title: str = "") -> Path:
     fig = Figure(figsize=(2.2 * cols, 2.3 * rows + 0.4))
     draw_sheet(fig, items, title)
     fig.tight_layout()
-    from ndrql.io import save_figure
 
     return save_figure(fig, Path(path), dpi=110)

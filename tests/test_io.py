@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from ndrql import io as nio
+from ndrql.io import atomic as nio_atomic
 from ndrql.errors import NdrqlError, OutputError
 
 
@@ -159,9 +160,9 @@ def test_os_error_inside_the_write_is_one_output_error(tmp_path):
 
 
 def test_named_temporary_fallback_leaves_no_debris_and_sweeps_stale(tmp_path, monkeypatch):
-    monkeypatch.setattr(nio, "_anonymous_supported", lambda: False)
+    monkeypatch.setattr(nio_atomic, "_anonymous_supported", lambda: False)
     # debris of a killed writer (a pid that cannot be running) and of a live one (ours: kept)
-    stale = tmp_path / f".out.bin.{2**22 + 12345}.deadbeef{nio._TMP_SUFFIX}"
+    stale = tmp_path / f".out.bin.{2**22 + 12345}.deadbeef{nio_atomic._TMP_SUFFIX}"
     stale.write_bytes(b"junk")
     nio.write_bytes(tmp_path / "out.bin", b"data")
     assert _listing(tmp_path) == ["out.bin"]

@@ -9,7 +9,6 @@ source pixels, and a description for reports). Every bad input raises an
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import warnings
 from contextlib import contextmanager
@@ -19,7 +18,7 @@ from typing import Any, Callable, Iterator
 
 from ndrql.dataset.layout import load_sample
 from ndrql.errors import DatasetError, NdrqlError, PointError
-from ndrql.io import check_writable, save_figure as io_save_figure, to_jsonable, write_json as io_write_json
+from ndrql.io import check_writable, json_text, save_figure as io_save_figure, write_json as io_write_json
 from ndrql.limits import check_finite, check_int
 from ndrql.maps.grid import Cell, GridMap
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
@@ -190,7 +189,7 @@ def map_info(grid_map: GridMap) -> dict[str, Any]:
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as indented JSON through :func:`ndrql.io.write_json` (``-`` writes to stdout)."""
     if str(path) == "-":
-        sys.stdout.write(json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n")
+        sys.stdout.write(json_text(data) + "\n")
         return Path("-")
     return io_write_json(path, data)
 

@@ -18,7 +18,7 @@ from typing import Any, Sequence
 
 from ndrql.api import solve
 from ndrql.errors import NdrqlError
-from ndrql.io import to_jsonable
+from ndrql.io import json_text
 from ndrql.maps.readers import read_movingai_scen
 from ndrql.pipeline.route import octile_cost
 
@@ -72,7 +72,7 @@ def _done(path: Path, key: dict[str, Any]) -> dict[int, dict[str, Any]]:
 
 def _append(path: Path, record: dict[str, Any]) -> None:
     """One JSON line, written in one call and flushed to disk (a crash leaves at most a cut last line)."""
-    line = (json.dumps(to_jsonable(record, strict=False), separators=(",", ":")) + "\n").encode()
+    line = (json_text(record, indent=None, strict=False) + "\n").encode()
     fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
     try:
         os.write(fd, line)

@@ -11,7 +11,6 @@ workers die with the process that started them (:mod:`ndrql.workers`).
 
 from __future__ import annotations
 
-import hashlib
 import os
 import warnings
 import zipfile
@@ -23,7 +22,7 @@ import numpy as np
 
 from ndrql.dataset import layout
 from ndrql.errors import DatasetError
-from ndrql.io import file_digest, save_npz, write_text
+from ndrql.io import data_digest, file_digest, save_npz, write_text
 from ndrql.workers import process_pool
 
 CACHE_VERSION = 1
@@ -83,7 +82,7 @@ def _decode_map(args: tuple[str, str, int]) -> np.ndarray:
 
 def cache_path(root: str | Path, split: str) -> Path:
     """Where the cache of ``split`` of the dataset at ``root`` lives (keyed by the root's real path)."""
-    key = hashlib.sha1(str(Path(root).resolve()).encode()).hexdigest()[:10]
+    key = data_digest(str(Path(root).resolve()), algorithm="sha1")[:10]
     return cache_dir() / "dataset" / f"{key}-v{CACHE_VERSION}" / f"{split}.npz"
 
 

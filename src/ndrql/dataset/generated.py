@@ -23,7 +23,7 @@ from typing import Callable
 import numpy as np
 
 from ndrql.errors import DatasetError, NdrqlError
-from ndrql.io import save_npz, write_text
+from ndrql.io import save_npz, write_json
 from ndrql.synth.generate import RawSample, SetSpec, generate_sample
 from ndrql.workers import process_pool
 
@@ -102,7 +102,7 @@ def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bo
         if root.exists() and any(root.iterdir()):
             raise NdrqlError(f"--out {root} is a non-empty directory without a manifest; choose an empty or new one")
         root.mkdir(parents=True, exist_ok=True)
-        write_text(root / "manifest.json", json.dumps(manifest, indent=1) + "\n")
+        write_json(root / "manifest.json", manifest, indent=1)
     todo = [k for k in range(n_shards(spec.count, shard_size)) if not shard_path(root, k).exists()]
     done = spec.count - sum(min(spec.count, (k + 1) * shard_size) - k * shard_size for k in todo)
     if log and done:

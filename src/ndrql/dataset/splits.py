@@ -7,16 +7,16 @@ appears in TEST/SEEN, so checkpoints are not picked on the seen test maps.
 
 from __future__ import annotations
 
-import hashlib
 
 import numpy as np
 
 from ndrql.dataset.cache import SplitArrays
+from ndrql.io import data_digest
 
 
 def map_hashes(maps_packed: np.ndarray) -> list[str]:
     """Content hash of each packed map."""
-    return [hashlib.sha1(m.tobytes()).hexdigest() for m in maps_packed]
+    return [data_digest(m, algorithm="sha1") for m in maps_packed]
 
 
 def train_val_split(train: SplitArrays, seen: SplitArrays | None, val_fraction: float = 0.05, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

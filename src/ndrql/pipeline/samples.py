@@ -10,7 +10,6 @@ so a different model never reuses a stale prediction.
 
 from __future__ import annotations
 
-import hashlib
 import zipfile
 import warnings
 from dataclasses import dataclass
@@ -21,7 +20,7 @@ import numpy as np
 
 from ndrql.dataset.layout import load_sample
 from ndrql.errors import NdrqlError, NoPathError
-from ndrql.io import file_digest, save_npz
+from ndrql.io import data_digest, file_digest, save_npz
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PlanningGrid
 from ndrql.model.predict import Predictor
@@ -107,9 +106,8 @@ class PredictionCache:
         """``(mode, region, guideline)`` as the model drew them (float32): at the map's resolution for
         ``map``-mode models, at 4 px per cell of the planning grid for ``grid``-mode ones."""
         path = self.path(p)
-        key = np.packbits(p.obstacles).tobytes() + repr((p.source_start, p.source_goal)).encode()
-        key += np.packbits(p.blocked).tobytes() + repr((p.start, p.goal)).encode()  # grid models see the grid
-        inputs = hashlib.sha256(key).hexdigest()[:16]
+        inputs = data_digest(np.packbits(p.obstacles), repr((p.source_start, p.source_goal)),
+                             np.packbits(p.blocked), repr((p.start, p.goal)))[:16]  # grid models see the grid
         if path.is_file():
             try:
                 with np.load(path, allow_pickle=False) as d:

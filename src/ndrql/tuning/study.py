@@ -25,7 +25,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import sys
@@ -34,7 +33,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ndrql.errors import NdrqlError
-from ndrql.io import make_folder
+from ndrql.io import data_digest, make_folder
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
@@ -101,7 +100,7 @@ def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str
     """``<method>-<digest>``: the digest covers everything that defines the objective."""
     blob = json.dumps([S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
                        cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest], sort_keys=True)
-    return f"{cfg.method}-{hashlib.sha256(blob.encode()).hexdigest()[:10]}"
+    return f"{cfg.method}-{data_digest(blob)[:10]}"
 
 
 def default_storage(out_dir: str | Path) -> str:

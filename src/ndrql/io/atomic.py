@@ -1,56 +1,17 @@
-"""Output files, in one place: the atomic writer, JSON, NPZ, figures, folders and file digests.
-
-Every file ndrql writes (maps, JSON reports, figures, arrays, checkpoints, caches, ONNX exports)
-goes through :func:`atomic_write`, which behaves like a careful Unix tool:
-
-- a regular file is replaced atomically: the data goes to a temporary file in the target's folder,
-  is flushed to disk (``fsync``) and renamed over the target, so a reader sees the old file or the
-  whole new one, never a part. On Linux the temporary file is anonymous (``O_TMPFILE``) until it
-  is complete, so not even ``kill -9`` leaves a half-written file behind; elsewhere a named
-  temporary file is removed on any error, and ones left by killed processes are swept up by the
-  next write of the same file;
-- a symlink is followed: the file it points to is written and the link stays a link;
-- an existing FIFO, character device (``/dev/null``, a terminal) or other non-regular file is
-  written directly, never replaced; a directory or socket in the way is an error;
-- a new file gets ``0666 & ~umask`` permissions (like ``>`` in a shell), a replaced file keeps its
-  mode; missing parent folders are created;
-- every failure is one :class:`~ndrql.errors.OutputError` line and leaves no temporary file.
-
-Layering: this module sits at the bottom of the package. It imports the standard library and
-:mod:`ndrql.errors` only (numpy and matplotlib objects are only handled when passed in), so any
-layer may use it.
-"""
+"""The atomic writer behind every file ndrql writes (:mod:`ndrql.io` describes the rules it follows)."""
 
 from __future__ import annotations
 
 import errno
 import functools
-import hashlib
-import json
-import math
 import os
 import secrets
 import stat
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO, Any, Callable, Iterator, Mapping
+from typing import IO, Any, Callable, Iterator
 
 from ndrql.errors import OutputError
-
-__all__ = [
-    "OutputError",
-    "atomic_path",
-    "atomic_write",
-    "check_writable",
-    "file_digest",
-    "make_folder",
-    "save_figure",
-    "save_npz",
-    "to_jsonable",
-    "write_bytes",
-    "write_json",
-    "write_text",
-]
 
 _TMP_SUFFIX = ".ndrql-tmp"
 """Suffix of named temporary files (used where anonymous ones are not available)."""
@@ -369,60 +330,3 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
 def write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` to ``path`` as UTF-8 (:func:`atomic_write`)."""
     return atomic_write(path, lambda fh: fh.write(text), mode="w")
-
-
-def to_jsonable(obj: Any, *, strict: bool = True) -> Any:
-    """``obj`` with numpy arrays and scalars, tuples and paths turned into JSON types.
-
-    ``strict``: NaN and infinities become ``None`` (standard JSON); otherwise they are kept (Python's
-    ``NaN``/``Infinity`` extension, which :mod:`json` reads back exactly).
-    """
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v, strict=strict) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v, strict=strict) for v in obj]
-    if isinstance(obj, os.PathLike):
-        return os.fspath(obj)
-    if hasattr(obj, "tolist") and hasattr(obj, "dtype"):  # numpy array or scalar
-        return to_jsonable(obj.tolist(), strict=strict)
-    if strict and isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-def write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2, strict: bool = True) -> Path:
-    """Write ``obj`` as JSON (:func:`to_jsonable`), indented or compact (``indent=None``).
-
-    ``strict=False`` keeps NaN and infinities so that the file reads back to the same numbers.
-    """
-    separators = (",", ":") if indent is None else None
-    text = json.dumps(to_jsonable(obj, strict=strict), indent=indent, separators=separators, allow_nan=not strict)
-    return write_text(path, text + "\n")
-
-
-def save_npz(path: str | os.PathLike, arrays: Mapping[str, Any] | None = None, *, compressed: bool = True,
-             **named: Any) -> Path:
-    """Write arrays (a mapping and/or keywords) as an ``.npz`` archive, zip-compressed by default."""
-    import numpy as np
-
-    contents = {**(arrays or {}), **named}
-    save = np.savez_compressed if compressed else np.savez
-    return atomic_write(path, lambda fh: save(fh, **contents))
-
-
-def save_figure(fig: Any, path: str | os.PathLike, **savefig_kw: Any) -> Path:
-    """Save a matplotlib figure in the format of ``path``'s extension (PNG when there is none)."""
-    fmt = Path(path).suffix.lstrip(".").lower() or "png"
-    supported = fig.canvas.get_supported_filetypes()
-    if fmt not in supported:
-        raise OutputError(f"cannot save a figure as {fmt!r}; use one of {', '.join(sorted(supported))}")
-    return atomic_write(path, lambda fh: fig.savefig(fh, format=fmt, **savefig_kw))
-
-
-def file_digest(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's bytes, as 64 hex digits (read in 1 MB chunks)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()

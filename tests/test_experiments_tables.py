@@ -1,4 +1,4 @@
-"""Experiment pieces: warm starts through plan(keep_q=True), Table 2 variants, plots, the fixed
+"""Experiment pieces: warm starts through run_plan(keep_q=True), Table 2 variants, plots, the fixed
 maps' selection rule, and the reproduce CLI (bad input; a real table on the dataset)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from ndrql.experiments.scale import scale_refs
 from ndrql.experiments.table2 import TABLE2_ROWS
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Priors, build_priors
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 
 
 def _grid():
@@ -25,17 +25,17 @@ def _grid():
 
 def test_keep_q_returns_final_table_and_warm_start_reconverges_fast():
     b, s, g = _grid()
-    cold = plan(b, s, g, "QL", seed=3, keep_q=True)
+    cold = run_plan(b, s, g, "QL", seed=3, keep_q=True)
     assert cold.converged and cold.q_table.shape == (400, 4)
     assert "q_table" not in cold.to_dict() and "q_table" not in cold.to_json()
     pri = build_priors("QL", b, s, g)
-    warm = plan(b, s, g, "QL", seed=3, priors=Priors(pri.r_c, cold.q_table, None))
+    warm = run_plan(b, s, g, "QL", seed=3, priors=Priors(pri.r_c, cold.q_table, None))
     assert warm.converged
     # a converged table is already stable: the greedy path holds for W episodes straight away
     assert warm.convergence_episode <= 2 * 20 < cold.convergence_episode
     assert warm.convergence_steps < cold.convergence_steps / 5
     # keep_q does not change the run itself
-    assert plan(b, s, g, "QL", seed=3).same_run(cold)
+    assert run_plan(b, s, g, "QL", seed=3).same_run(cold)
 
 
 def test_table2_rows_compose_as_the_registry():
@@ -75,7 +75,7 @@ def test_plots_take_ax_and_return_artists():
     from ndrql.viz.qtable import plot_qtable, qtable_triangles
 
     b, s, g = _grid()
-    r = plan(b, s, g, "IQL", seed=0, keep_records=True, keep_q=True)
+    r = run_plan(b, s, g, "IQL", seed=0, keep_records=True, keep_q=True)
     fig = new_figure()
     ax = fig.subplots(2, 2)
     arts = plot_training_curves(ax[0, 0], ax[0, 1], r.records.to_dict(), convergence_episode=r.convergence_episode)

@@ -13,7 +13,7 @@ from scipy import ndimage
 
 from ndrql.errors import NoPathError, PointError
 from ndrql.maps.astar import astar4, path_is_valid
-from ndrql.planning import METHODS, PlanJob, QLConfig, plan, run_many
+from ndrql.planning import METHODS, PlanJob, QLConfig, run_many, run_plan
 from ndrql.planning.results import PlanResult, summarize
 
 
@@ -70,7 +70,7 @@ class PlanningMethodBase:
     method = "QL"
 
     def run(self, problem, seed=0, **kw):
-        return plan(problem["blocked"], problem["start"], problem["goal"], self.method, seed,
+        return run_plan(problem["blocked"], problem["start"], problem["goal"], self.method, seed,
                     region=problem["region"], guideline=problem["guideline"], **kw)
 
     def test_converges_to_a_valid_path(self, problem):
@@ -137,17 +137,17 @@ def test_threshold_reported_only_with_ndr_qi():
     blocked, start, goal = room_map()
     region = blurred_path(blocked, start, goal, 2.0)
     guide = blurred_path(blocked, start, goal, 0.7)
-    assert plan(blocked, start, goal, "IQL").threshold is None
-    thd = plan(blocked, start, goal, "N-Q", region=region).threshold
+    assert run_plan(blocked, start, goal, "IQL").threshold is None
+    thd = run_plan(blocked, start, goal, "N-Q", region=region).threshold
     assert thd is not None and 0 < thd <= 0.99
-    assert plan(blocked, start, goal, "NDR-QL", region=region, guideline=guide).threshold == thd
+    assert run_plan(blocked, start, goal, "NDR-QL", region=region, guideline=guide).threshold == thd
 
 
 def test_unreachable_goal_is_a_clear_error():
     blocked = np.zeros((8, 8), dtype=bool)
     blocked[4, :] = True
     with pytest.raises(NoPathError, match="start"):
-        plan(blocked, (0, 0), (7, 7), "QL")
+        run_plan(blocked, (0, 0), (7, 7), "QL")
 
 
 @pytest.mark.parametrize("start,goal,match", [((0, 0), (9, 9), "off"), ((4, 0), (7, 7), "blocked"), ((1, 1), (1, 1), "same")])
@@ -155,7 +155,7 @@ def test_bad_points_are_clear_errors(start, goal, match):
     blocked = np.zeros((8, 8), dtype=bool)
     blocked[4, :4] = True
     with pytest.raises(PointError, match=match):
-        plan(blocked, start, goal, "QL")
+        run_plan(blocked, start, goal, "QL")
 
 
 def test_parallelism_does_not_change_results():

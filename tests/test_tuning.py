@@ -88,7 +88,7 @@ def test_evaluation_known_answers():
 
 
 def test_evaluate_matches_single_runs_and_ignores_chunking_and_workers():
-    from ndrql.planning.runner import plan
+    from ndrql.planning.runner import run_plan
     from ndrql.workers import process_pool
 
     seeds = [0, 1]
@@ -97,7 +97,7 @@ def test_evaluate_matches_single_runs_and_ignores_chunking_and_workers():
     assert stopped == ""
     for p in PROBLEMS:
         for s, (conv, steps, ratio) in zip(seeds, one.runs[p.key]):
-            r = plan(p.blocked, p.start, p.goal, "NDR-QL", s, ql, pc, region=p.region, guideline=p.guideline)
+            r = run_plan(p.blocked, p.start, p.goal, "NDR-QL", s, ql, pc, region=p.region, guideline=p.guideline)
             assert conv == r.converged and steps == r.convergence_steps
             assert ratio == pytest.approx(r.path_length / p.astar) and ratio >= 1.0  # never shorter than A*
     chunked, _ = evaluate(PROBLEMS, "NDR-QL", seeds, ql, pc, chunk=1)

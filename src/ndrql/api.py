@@ -10,17 +10,17 @@
 planning grid, the model's predictions, the NDR-QI thresholds and the time of every stage; the
 ``ndrql plan`` and ``ndrql demo`` commands are thin wrappers around it.
 
-The pipeline (:mod:`ndrql.pipeline`): read the map (image, ROS ``map_server`` YAML, MovingAI
-``.map``, ``.npy``, or an array) -> check start and goal (on the map, not on an obstacle pixel; ROS
-maps also take them in metres) -> inflate obstacles by the robot's radius -> planning grid (on a
-user's map the safe grid: square cells, a cell blocked when any pixel is an obstacle, at the coarsest
-size that keeps the route; :meth:`PlanSettings.paper` gives the paper's 50x50 area-averaged grid) ->
-the NDR model predicts region and guideline at the map's resolution
-(:func:`ndrql.pipeline.predictions.predict_region`) -> area-averaged to the planning grid -> priors
-of each method (Eqs. 2-7) -> Q-learning to convergence (Eq. 1) -> each learned path as a polyline on
-the full map, checked for collisions, shortcut by line of sight, and as world poses
-(:mod:`ndrql.pipeline.route`). The model is loaded once per process and reused
-(:func:`ndrql.model.predict.load_predictor`); torch and numba are imported only when needed.
+The pipeline (:mod:`ndrql.pipeline`), as :func:`solve` reads top to bottom: read the map (image, ROS
+``map_server`` YAML, MovingAI ``.map``, ``.npy``, or an array) -> place start and goal (on the map,
+not on an obstacle pixel; ROS maps also take them in metres) -> inflate obstacles by the robot's
+radius -> planning grid (on a user's map the safe grid: square cells, a cell blocked when any pixel is
+an obstacle, at the coarsest size that keeps the route; :meth:`PlanSettings.paper` gives the paper's
+50x50 area-averaged grid) -> the NDR model predicts region and guideline
+(:func:`ndrql.pipeline.predictions.predict_for`), on the planning grid -> priors of each method
+(Eqs. 2-7) -> Q-learning to convergence (Eq. 1) -> each learned path as a polyline on the full map,
+checked for collisions, shortcut by line of sight, and as world poses (:mod:`ndrql.pipeline.route`).
+The model is loaded once per process and reused (:func:`ndrql.model.predict.load_predictor`); torch
+and numba are imported only when needed.
 
 Bad input raises an :class:`~ndrql.errors.NdrqlError` subclass with a one-line message (the CLI
 prints it and exits with 2).
@@ -28,83 +28,19 @@ prints it and exits with 2).
 
 from __future__ import annotations
 
-import dataclasses
 import os
-import time
-import warnings
-from contextlib import contextmanager
-from typing import Any, Iterator, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
-from ndrql.errors import NdrqlError, PointError
-from ndrql.maps.grid import GridMap, PlanningGrid
-from ndrql.maps.world import world_to_pixel
-from ndrql.model.predict import load_predictor
-from ndrql.model.weights import resolve_weights
-from ndrql.pipeline.predictions import oracle_view, predict_region, prediction_quality
-from ndrql.pipeline.problem import build_grid, check_map_size, check_points, read_map, scenario_points
-from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport
-from ndrql.pipeline.route import Route, make_route
+from ndrql.errors import NdrqlError, PointError  # noqa: F401 (NdrqlError: what bad input raises, for callers)
+from ndrql.pipeline.predictions import Predicted, predict_for
+from ndrql.pipeline.problem import build_grid, check_map_size, check_points, place_points, read_map, scenario_points
+from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
+from ndrql.pipeline.runs import check_workers, learn, method_priors, methods_named, seeds_given
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.methods import build_priors, downscale_priors, get_method
 from ndrql.planning.preset import load_preset, method_configs
-from ndrql.planning.runner import PlanJob, default_workers, plan as run_one, run_many
-
-Point = tuple[int, int]
-
-# ------------------------------------------------------------------------------------------ helpers
-
-
-class _Clock:
-    """Wall and CPU time per named stage (accumulating)."""
-
-    def __init__(self) -> None:
-        self.wall: dict[str, float] = {s: 0.0 for s in STAGES}
-        self.cpu: dict[str, float] = {s: 0.0 for s in STAGES}
-
-    @contextmanager
-    def stage(self, name: str) -> Iterator[None]:
-        w, c = time.perf_counter(), time.process_time()
-        try:
-            yield
-        finally:
-            self.wall[name] += time.perf_counter() - w
-            self.cpu[name] += time.process_time() - c
-
-
-def _world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) -> tuple[Point | None, float | None]:
-    """A ``(x, y[, yaw])`` world point (metres) as a map pixel and its yaw."""
-    if given is None:
-        return None, None
-    vals = [float(v) for v in given]
-    if len(vals) not in (2, 3):
-        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {tuple(given)!r}")
-    return world_to_pixel(grid_map, vals[0], vals[1], name), (vals[2] if len(vals) == 3 else None)
-
-
-def _fall_back(ms: list, region: np.ndarray, guideline_map: np.ndarray | None, grid_map: GridMap, pg: PlanningGrid,
-               prior_config: PriorConfig, settings: PlanSettings, info: dict[str, Any]) -> list:
-    """Judge the prediction (``info["prediction_quality"]``); when it is uninformative and ``settings.fallback``
-    is set, each NDR method is replaced by the fallback (``info["fallback"]``), unless that one runs anyway."""
-    quality = prediction_quality(region, guideline_map, grid_map.obstacles, pg, prior_config)
-    info["prediction_quality"] = quality
-    if quality["informative"] or settings.fallback is None:
-        return ms
-    fb = get_method(settings.fallback)
-    if any(m.name == fb.name for m in ms):
-        return ms
-    info["fallback"] = {"requested": [m.name for m in ms if m.needs_ndr], "ran": fb.name, "reasons": quality["reasons"]}
-    out = []
-    for m in ms:
-        m2 = fb if m.needs_ndr else m
-        if all(x.name != m2.name for x in out):
-            out.append(m2)
-    return out
-
-
-# --------------------------------------------------------------------------------------------- API
 
 
 def solve(
@@ -149,16 +85,9 @@ def solve(
     that differ from their defaults win over the preset's (default ``None``: ``config`` and
     ``prior_config`` for every method, which by default are the paper-reproduction constants).
     """
-    clock = _Clock()
-    names = [methods] if isinstance(methods, str) else list(methods)
-    ms = [get_method(n.strip() if isinstance(n, str) else n) for n in names]
-    if not ms:
-        raise NdrqlError("no method given")
-    if len({m.name for m in ms}) != len(ms):
-        raise NdrqlError(f"a method is listed twice: {', '.join(m.name for m in ms)}")
-    seed_list = list(range(int(seeds))) if isinstance(seeds, (int, np.integer)) else [int(s) for s in seeds]
-    if not seed_list:
-        raise NdrqlError("no seed given")
+    clock = StageClock()
+    ms = methods_named(methods)
+    seed_list = seeds_given(seeds)
     info = dict(info or {})
     preset_obj = None if preset is None else load_preset(preset)
     consts = lambda name: method_configs(preset_obj, name, config, prior_config)  # noqa: E731
@@ -169,113 +98,33 @@ def solve(
         grid_map = read_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
         info.setdefault("source", grid_map.source)
         check_map_size(grid_map, settings)
-        if scen is not None:
-            s_start, s_goal, s_info = scenario_points(scen, scen_index, grid_map)
-            start = start if start is not None else s_start
-            goal = goal if goal is not None else s_goal
-            info.update(s_info)
-        w_start, start_yaw = _world_point(grid_map, start_world, "start")
-        w_goal, goal_yaw = _world_point(grid_map, goal_world, "goal")
-        for name, px, w in (("start", start, w_start), ("goal", goal, w_goal)):
-            if px is not None and w is not None:
-                raise PointError(f"give the {name} in pixels or in world coordinates, not both")
-        start = w_start if w_start is not None else start
-        goal = w_goal if w_goal is not None else goal
-        start, goal = check_points(grid_map, start, goal)  # type: ignore[arg-type]
+        start, goal, start_yaw, goal_yaw = place_points(grid_map, start, goal, scen=scen, scen_index=scen_index,
+                                                        start_world=start_world, goal_world=goal_world, info=info)
     with clock.stage("grid"):
         pg, setup = build_grid(grid_map, start, goal, settings)
         if pg.start == pg.goal:
             raise PointError(f"start and goal fall in the same planning cell {pg.start}; nothing to plan "
                              f"(use a finer grid with --size or points further apart)")
-
-    region_map = guideline_map = region = guideline = None
-    used_weights = None
-    view = None
+    pred = Predicted()
     if any(m.needs_ndr for m in ms):
-        if isinstance(predictions, str):
-            if predictions != "oracle":
-                raise NdrqlError(f"predictions must be (region, guideline) arrays or 'oracle', got {predictions!r}")
-
-            with clock.stage("predict"):
-                view = oracle_view(pg)
-            info["model_input"] = view.info
-            info["prior_from"] = "oracle"
-            used_weights = "oracle priors"
-            region_map, guideline_map = view.region, view.guideline
-        elif predictions is not None:
-            region_map, guideline_map = predictions
-            for name, arr in (("region", region_map), ("guideline", guideline_map)):
-                if arr is not None and np.shape(arr) != grid_map.shape:
-                    raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
-                                     f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
-        else:
-            with clock.stage("load"):
-                predictor = load_predictor(weights, settings.threads, settings.backend)
-            info["backend"] = predictor.backend_name
-            used_weights = str(resolve_weights(weights))
-            with clock.stage("predict"):
-                view = predict_region(predictor, grid_map, pg, start, goal)
-                info["model_input"] = view.info
-                region_map, guideline_map = view.region, view.guideline
-        needs_guide = [m.name for m in ms if m.needs_guideline]
-        if guideline_map is None and needs_guide:
-            raise NdrqlError(f"{', '.join(needs_guide)} need the guideline prediction, which "
-                             f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
-        with clock.stage("predict"):
-            if view is not None and view.region_grid is not None:  # predicted on the planning grid itself
-                region, guideline = view.region_grid, view.guideline_grid
-            else:
-                region, guideline = downscale_priors(region_map, guideline_map, pg.shape)
-            # the prediction's quality is judged with the given prior_config, whatever the preset
-            ms = _fall_back(ms, region, guideline_map, grid_map, pg, prior_config, settings, info)
-
-    priors = {}
-    thresholds: dict[str, float | None] = {}
+        pred, ms = predict_for(ms, predictions, weights, grid_map, pg, start, goal, settings, prior_config, clock, info)
     with clock.stage("priors"):
-        for m in ms:
-            priors[m.name] = build_priors(m, pg.blocked, pg.start, pg.goal, region, guideline, consts(m.name)[1])
-            if m.n_qi:
-                thresholds[m.name] = priors[m.name].threshold
-
+        priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts)
     with clock.stage("startup"):
         from ndrql.planning import kernel  # lazy: loads numba
 
         kernel.warm_up()  # loads the compiled kernel from numba's disk cache (compiles on the very first run)
-
-    jobs = [(m, s) for m in ms for s in seed_list]
-    n_workers = default_workers() if workers is None else int(workers)
-    if n_workers < 1:
-        raise NdrqlError(f"workers must be >= 1, got {workers}")
-    with clock.stage("learn"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
-        if n_workers == 1 or len(jobs) == 1:
-            from tqdm import tqdm  # progress: a bar of finished runs on stderr, on a terminal only
-
-            results = [run_one(pg.blocked, pg.start, pg.goal, m.name, s, *consts(m.name),
-                               priors=priors[m.name], keep_records=keep_records)
-                       for m, s in tqdm(jobs, desc="runs", unit="run", disable=None if progress else True, leave=False)]
-        else:
-            results = run_many([PlanJob(pg.blocked, pg.start, pg.goal, m.name, s, *consts(m.name), region, guideline,
-                                        keep_records) for m, s in jobs], workers=n_workers, progress=progress)
-
+    n_workers = check_workers(workers)
+    with clock.stage("learn"):
+        results = learn(pg, ms, seed_list, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
+                        progress)
     with clock.stage("route"):
-        routes: dict[tuple[tuple[int, int], ...], Route] = {}  # seeds often agree on the path: check it once
-        runs = []
-        for r in results:
-            route = None
-            if r.path:
-                key = tuple((int(a), int(b)) for a, b in r.path)
-                if key not in routes:
-                    routes[key] = make_route(setup.check_map, pg, r.path, grid_map, smooth=settings.smoothing,
-                                             start_yaw=start_yaw, goal_yaw=goal_yaw)
-                route = routes[key]
-            fields = {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
-            runs.append(PlannedRun(**fields, route=route))
+        runs = planned_runs(results, setup.check_map, pg, grid_map, settings.smoothing, start_yaw, goal_yaw)
 
     return PlanReport(
         grid_map=grid_map, start=start, goal=goal, grid=pg, methods=tuple(m.name for m in ms),
-        seeds=tuple(seed_list), results=tuple(runs), region=region_map, guideline=guideline_map,
-        thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=used_weights,
+        seeds=tuple(seed_list), results=tuple(runs), region=pred.region_map, guideline=pred.guideline_map,
+        thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=pred.weights,
         info=info, config=consts(ms[0].name)[0], prior_config=consts(ms[0].name)[1], setup=setup, settings=settings,
     )
 

@@ -20,7 +20,7 @@ from ndrql.maps.grid import area_downscale
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.pipeline.predictions import cell_means, predict_on_grid
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 from ndrql.synth.oracle import oracle_prediction
 
 Point = tuple[int, int]
@@ -107,7 +107,7 @@ def run_case(case: GridCase, priors: dict[str, tuple[np.ndarray, np.ndarray] | N
     for row, pr in priors.items():
         method = row.split(" ")[0]
         region, guide = pr if pr is not None else (None, None)
-        runs = [plan(case.blocked, case.start_cell, case.goal_cell, method, s, config, prior_config, region, guide) for s in seeds]
+        runs = [run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, config, prior_config, region, guide) for s in seeds]
         out.steps[row] = [int(r.convergence_steps if r.converged else r.total_steps) for r in runs]
         out.ratio[row] = [float(r.length_ratio) for r in runs if r.converged and r.length_ratio is not None]
         out.threshold[row] = runs[0].threshold if hasattr(runs[0], "threshold") else None

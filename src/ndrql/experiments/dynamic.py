@@ -37,7 +37,7 @@ from ndrql.maps.grid import PlanningGrid, cell_to_point
 from ndrql.planning import kernel
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 from ndrql.viz.reproduce import dynamic_figure
 
 DYNAMIC_VERSION = 1
@@ -113,11 +113,11 @@ def chain_task(stages: list[tuple[np.ndarray, tuple, tuple, Any, Any]], method: 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             pri = build_priors(method, blocked, start, goal, region, guideline, pc)
-        scratch = plan(blocked, start, goal, method, seed, ql, pc, priors=pri, keep_q=True)
+        scratch = run_plan(blocked, start, goal, method, seed, ql, pc, priors=pri, keep_q=True)
         if prev_q is None:
             warm = scratch
         else:
-            warm = plan(blocked, start, goal, method, seed, ql, pc,
+            warm = run_plan(blocked, start, goal, method, seed, ql, pc,
                         priors=Priors(pri.r_c, prev_q, pri.threshold), keep_q=True)
         prev_q = warm.q_table
         keep = ("converged", "convergence_steps", "convergence_episode", "path_length", "astar_length", "length_ratio", "path")
@@ -144,7 +144,7 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
     b0 = preds.attach(base)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r0 = plan(b0.blocked, b0.start, b0.goal, "NDR-QL", opts.seed0, *method_configs(opts, "NDR-QL"),
+        r0 = run_plan(b0.blocked, b0.start, b0.goal, "NDR-QL", opts.seed0, *method_configs(opts, "NDR-QL"),
                   region=b0.region, guideline=b0.guideline)
     scen_b = advance_stages(base, r0.path or [])
     scenarios = {"a": scen_a, "b": scen_b}

@@ -25,7 +25,7 @@ from ndrql.experiments.report import machine, md_table, pct, planning_header, sa
 from ndrql.io import write_json, write_text
 from ndrql.planning.methods import Method, build_priors
 from ndrql.planning.results import PlanResult
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 from ndrql.viz.reproduce import curves_figure, maps_figure
 
 #: The curves figure shows at most this many methods (the last ones: NDR-QL and its closest rows).
@@ -105,7 +105,7 @@ def replay(p: Problem, m: Method, run: dict, opts: SweepOptions) -> PlanResult:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         pri = build_priors(m, p.blocked, p.start, p.goal, p.region, p.guideline, pc)
-    return plan(p.blocked, p.start, p.goal, m, run["seed"], ql, pc, priors=pri, keep_q=True)
+    return run_plan(p.blocked, p.start, p.goal, m, run["seed"], ql, pc, priors=pri, keep_q=True)
 
 
 def _figures(problems: Sequence[Problem], labels: Sequence[str], methods: Sequence[Method], results: dict,

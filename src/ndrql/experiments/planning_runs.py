@@ -27,7 +27,7 @@ from ndrql.planning import kernel
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, build_priors
 from ndrql.planning.preset import preset_to_dict
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 
 #: Bump when a change in this module changes task results (forces recomputation of stored tasks).
 TASK_VERSION = 1
@@ -85,7 +85,7 @@ def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int]
         pri = build_priors(method, blocked, start, goal, region, guideline, pc)
     runs = []
     for s in seeds:
-        r = plan(blocked, start, goal, method, s, ql, pc, priors=pri, keep_records=(s == records_seed))
+        r = run_plan(blocked, start, goal, method, s, ql, pc, priors=pri, keep_records=(s == records_seed))
         runs.append(r.to_dict(include_records=(s == records_seed)))
     return {"variant": method.name, "threshold": pri.threshold, "warnings": [str(w.message) for w in caught],
             "runs": runs}

@@ -35,7 +35,7 @@ from ndrql.io import file_digest, write_json, write_text
 from ndrql.model.predict import Predictor
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 from ndrql.synth.generate import SetSpec
 from ndrql.training.metrics import f1_per_image
 
@@ -63,7 +63,7 @@ def _runs(blocked, s, g, priors: dict, seeds: list[int], ql: QLConfig, pc: Prior
     for row, pr in priors.items():
         method = row.split(" ")[0]
         region, guide = (np.asarray(pr[0]), np.asarray(pr[1])) if pr is not None else (None, None)
-        runs = [plan(blocked, s, g, method, seed, ql, pc, region, guide) for seed in seeds]
+        runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide) for seed in seeds]
         out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
                     "converged": [bool(r.converged) for r in runs],
                     "ratio": [float(r.length_ratio) if r.converged and r.length_ratio is not None else None for r in runs],

@@ -4,9 +4,15 @@ Layering: below :mod:`ndrql.api` and :mod:`ndrql.cli` (which call it), above :mo
 :mod:`ndrql.model` and :mod:`ndrql.planning` (which it calls); it never imports upwards.
 
 - :mod:`ndrql.pipeline.settings`: :class:`PlanSettings`, how a map becomes a planning problem;
-- :mod:`ndrql.pipeline.problem`: reading and checking the map and points, building the planning grid
-  (the paper's area rule or the safe grid, ``--size auto``, the robot's inflation);
-- :mod:`ndrql.pipeline.predictions`: the one place that asks the NDR model for region and guideline;
+- :mod:`ndrql.pipeline.problem`: reading and checking the map and points (pixels, metres or a MovingAI
+  scenario), building the planning grid (the paper's area rule or the safe grid, ``--size auto``, the
+  robot's inflation);
+- :mod:`ndrql.pipeline.predictions`: the one place that asks the NDR model (or the oracle) for region and
+  guideline, and judges whether the prediction can guide planning;
+- :mod:`ndrql.pipeline.runs`: the methods and seeds of a plan, each method's priors, the Q-learning runs;
 - :mod:`ndrql.pipeline.route`: a learned grid path as a polyline on the full map, its collisions, the
-  shortcut path, world poses.
+  shortcut path, world poses;
+- :mod:`ndrql.pipeline.report`: the stage clock, the runs with their routes, :class:`PlanReport`;
+- :mod:`ndrql.pipeline.samples`: dataset samples as planning problems (:class:`Problem`, the one
+  problem type of the experiments and the tuning search) and their cached predictions.
 """

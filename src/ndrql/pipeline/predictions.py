@@ -11,15 +11,21 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, grid_input, point_on_grid, to_model_input
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid, area_downscale
+from ndrql.errors import NdrqlError
 from ndrql.maps.safe import grid_shape
 from ndrql.model.predict import load_predictor
+from ndrql.model.weights import resolve_weights
+from ndrql.pipeline.report import StageClock
+from ndrql.pipeline.settings import PlanSettings
+from ndrql.planning.config import PriorConfig
+from ndrql.planning.methods import Method, downscale_priors, get_method
 from ndrql.planning.priors import adaptive_threshold
 from ndrql.synth.oracle import oracle_prediction
 
@@ -190,3 +196,89 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
             reasons.append("the guideline is empty")
     return {"informative": not reasons, "threshold": thd, "guideline_on_obstacles": on_obstacles,
             "reasons": reasons}
+
+
+def fall_back(ms: Sequence[Method], region: np.ndarray, guideline_map: np.ndarray | None, grid_map: GridMap,
+              grid: PlanningGrid, prior_config: PriorConfig, fallback: str | None, info: dict[str, Any]) -> list[Method]:
+    """Judge the prediction (``info["prediction_quality"]``); when it is uninformative and ``fallback`` is
+    set, each NDR method is replaced by the fallback (``info["fallback"]``), unless that one runs anyway."""
+    quality = prediction_quality(region, guideline_map, grid_map.obstacles, grid, prior_config)
+    info["prediction_quality"] = quality
+    if quality["informative"] or fallback is None:
+        return list(ms)
+    fb = get_method(fallback)
+    if any(m.name == fb.name for m in ms):
+        return list(ms)
+    info["fallback"] = {"requested": [m.name for m in ms if m.needs_ndr], "ran": fb.name, "reasons": quality["reasons"]}
+    out: list[Method] = []
+    for m in ms:
+        m2 = fb if m.needs_ndr else m
+        if all(x.name != m2.name for x in out):
+            out.append(m2)
+    return out
+
+
+@dataclass(frozen=True)
+class Predicted:
+    """Region and guideline for one plan: the model's, the oracle's or given arrays."""
+
+    region_map: np.ndarray | None = None
+    """Region at the map's resolution (report, figures, JSON)."""
+    guideline_map: np.ndarray | None = None
+    """Guideline at the map's resolution."""
+    region: np.ndarray | None = None
+    """Region on the planning grid (what the priors use)."""
+    guideline: np.ndarray | None = None
+    """Guideline on the planning grid."""
+    weights: str | None = None
+    """What made them: the weights file, ``"oracle priors"``, or ``None`` for given arrays."""
+
+
+def predict_for(ms: Sequence[Method], predictions: tuple[np.ndarray, np.ndarray | None] | str | None,
+                weights: str | os.PathLike | None, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point,
+                settings: PlanSettings, prior_config: PriorConfig, clock: StageClock,
+                info: dict[str, Any]) -> tuple[Predicted, list[Method]]:
+    """The predictions the NDR methods in ``ms`` need, and the methods to run after :func:`fall_back`.
+
+    ``predictions``: ``None`` (the model in ``weights``, loaded once per process), ``"oracle"``
+    (:func:`oracle_view`) or ``(region, guideline)`` at the map's resolution. Times the ``load`` and
+    ``predict`` stages on ``clock``; records what the model saw in ``info``.
+    """
+    view = None
+    used_weights = None
+    if isinstance(predictions, str):
+        if predictions != "oracle":
+            raise NdrqlError(f"predictions must be (region, guideline) arrays or 'oracle', got {predictions!r}")
+        with clock.stage("predict"):
+            view = oracle_view(grid)
+        info["model_input"] = view.info
+        info["prior_from"] = "oracle"
+        used_weights = "oracle priors"
+        region_map, guideline_map = view.region, view.guideline
+    elif predictions is not None:
+        region_map, guideline_map = predictions
+        for name, arr in (("region", region_map), ("guideline", guideline_map)):
+            if arr is not None and np.shape(arr) != grid_map.shape:
+                raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
+                                 f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
+    else:
+        with clock.stage("load"):
+            predictor = load_predictor(weights, settings.threads, settings.backend)
+        info["backend"] = predictor.backend_name
+        used_weights = str(resolve_weights(weights))
+        with clock.stage("predict"):
+            view = predict_region(predictor, grid_map, grid, start, goal)
+            info["model_input"] = view.info
+            region_map, guideline_map = view.region, view.guideline
+    needs_guide = [m.name for m in ms if m.needs_guideline]
+    if guideline_map is None and needs_guide:
+        raise NdrqlError(f"{', '.join(needs_guide)} need the guideline prediction, which "
+                         f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
+    with clock.stage("predict"):
+        if view is not None and view.region_grid is not None:  # predicted on the planning grid itself
+            region, guideline = view.region_grid, view.guideline_grid
+        else:
+            region, guideline = downscale_priors(region_map, guideline_map, grid.shape)
+        # the prediction's quality is judged with the given prior_config, whatever the preset
+        ms = fall_back(ms, region, guideline_map, grid_map, grid, prior_config, settings.fallback, info)
+    return Predicted(region_map, guideline_map, region, guideline, used_weights), list(ms)

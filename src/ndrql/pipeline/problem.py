@@ -23,6 +23,7 @@ import numpy as np
 
 from ndrql.errors import MapFormatError, NoPathError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
+from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import load_map, read_movingai_scen
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
@@ -117,6 +118,40 @@ def check_points(grid_map: GridMap, start: Sequence[int], goal: Sequence[int]) -
             raise PointError(f"{name} {r},{c} is on an obstacle of the map")
         out.append((r, c))
     return out[0], out[1]
+
+
+def world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) -> tuple[Point | None, float | None]:
+    """A ``(x, y[, yaw])`` world point (metres) as a map pixel and its yaw."""
+    if given is None:
+        return None, None
+    vals = [float(v) for v in given]
+    if len(vals) not in (2, 3):
+        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {tuple(given)!r}")
+    return world_to_pixel(grid_map, vals[0], vals[1], name), (vals[2] if len(vals) == 3 else None)
+
+
+def place_points(grid_map: GridMap, start: Sequence[int] | None, goal: Sequence[int] | None, *,
+                 scen: str | os.PathLike | None = None, scen_index: int = 0, start_world: Sequence[float] | None = None,
+                 goal_world: Sequence[float] | None = None,
+                 info: dict[str, Any] | None = None) -> tuple[Point, Point, float | None, float | None]:
+    """Start and goal in checked map pixels, and their yaws, from pixels, world points or MovingAI scenario
+    ``scen_index`` of ``scen`` (pixels given win over the scenario's; a point in pixels and in metres is an
+    error). The scenario's record goes into ``info``."""
+    if scen is not None:
+        s_start, s_goal, s_info = scenario_points(scen, scen_index, grid_map)
+        start = start if start is not None else s_start
+        goal = goal if goal is not None else s_goal
+        if info is not None:
+            info.update(s_info)
+    w_start, start_yaw = world_point(grid_map, start_world, "start")
+    w_goal, goal_yaw = world_point(grid_map, goal_world, "goal")
+    for name, px, w in (("start", start, w_start), ("goal", goal, w_goal)):
+        if px is not None and w is not None:
+            raise PointError(f"give the {name} in pixels or in world coordinates, not both")
+    start = w_start if w_start is not None else start
+    goal = w_goal if w_goal is not None else goal
+    s, g = check_points(grid_map, start, goal)  # type: ignore[arg-type]
+    return s, g, start_yaw, goal_yaw
 
 
 def check_map_size(grid_map: GridMap, settings: PlanSettings) -> None:

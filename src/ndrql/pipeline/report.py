@@ -4,14 +4,16 @@
 from __future__ import annotations
 
 import dataclasses
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 
 from ndrql.maps.grid import GridMap, PlanningGrid
 from ndrql.pipeline.problem import GridSetup
-from ndrql.pipeline.route import Route
+from ndrql.pipeline.route import Route, make_route
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.results import PlanResult, summarize
@@ -25,6 +27,23 @@ Point = tuple[int, int]
 STAGES: tuple[str, ...] = ("startup", "map", "grid", "load", "predict", "priors", "learn", "route")
 #: The stages that make up the work for one map after start-up (the 0.5 s budget of issue 6).
 WORK_STAGES: tuple[str, ...] = ("load", "predict", "priors", "learn")
+
+
+class StageClock:
+    """Wall and CPU time per named stage of :data:`STAGES` (accumulating)."""
+
+    def __init__(self) -> None:
+        self.wall: dict[str, float] = {s: 0.0 for s in STAGES}
+        self.cpu: dict[str, float] = {s: 0.0 for s in STAGES}
+
+    @contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        w, c = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            self.wall[name] += time.perf_counter() - w
+            self.cpu[name] += time.process_time() - c
 
 
 @dataclass(frozen=True)
@@ -179,3 +198,22 @@ class PlanReport:
         if self.setup is not None:
             out["planning_grid"] = self.setup.to_dict(pg, gm.resolution)
         return out
+
+
+def planned_runs(results: Sequence[PlanResult], check_map: np.ndarray, grid: PlanningGrid, grid_map: GridMap,
+                 smooth: bool, start_yaw: float | None = None, goal_yaw: float | None = None) -> list[PlannedRun]:
+    """Each run with its learned path on the full map (:func:`~ndrql.pipeline.route.make_route`); runs
+    whose seeds agree on the path share one route (it is checked once)."""
+    routes: dict[tuple[tuple[int, int], ...], Route] = {}
+    runs = []
+    for r in results:
+        route = None
+        if r.path:
+            key = tuple((int(a), int(b)) for a, b in r.path)
+            if key not in routes:
+                routes[key] = make_route(check_map, grid, r.path, grid_map, smooth=smooth, start_yaw=start_yaw,
+                                         goal_yaw=goal_yaw)
+            route = routes[key]
+        fields = {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
+        runs.append(PlannedRun(**fields, route=route))
+    return runs

@@ -2,7 +2,7 @@
 
 Light on import (names load on first use; numba only when a run starts)::
 
-    from ndrql.planning import plan, run_many, PlanJob, QLConfig, PriorConfig, METHODS
+    from ndrql.planning import run_plan, run_many, PlanJob, QLConfig, PriorConfig, METHODS
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ _EXPORTS = {
     "EpisodeRecords": "results",
     "PlanResult": "results",
     "PlanJob": "runner",
-    "plan": "runner",
+    "run_plan": "runner",
     "run_many": "runner",
 }
 

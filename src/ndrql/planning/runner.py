@@ -1,4 +1,4 @@
-"""Running Q-learning: one run (:func:`plan`) and many runs in parallel (:func:`run_many`).
+"""Running Q-learning: one run (:func:`run_plan`) and many runs in parallel (:func:`run_many`).
 
 The contract at this seam: a planning grid (bool ``(H, W)``, ``True`` = blocked), start and goal
 ``(row, col)`` on it, a method name, a seed, configs and (for N-* methods) region and guideline
@@ -49,7 +49,7 @@ def astar_length(blocked: np.ndarray, start, goal) -> int:
     return int(astar4(blocked, start, goal).moves)
 
 
-def plan(
+def run_plan(
     blocked: np.ndarray,
     start,
     goal,
@@ -139,7 +139,7 @@ def plan(
 
 @dataclass(frozen=True)
 class PlanJob:
-    """One run for :func:`run_many`: the arguments of :func:`plan`."""
+    """One run for :func:`run_many`: the arguments of :func:`run_plan`."""
 
     blocked: np.ndarray
     start: tuple[int, int]
@@ -154,7 +154,7 @@ class PlanJob:
 
 
 def _run_job(job: PlanJob) -> PlanResult:
-    return plan(
+    return run_plan(
         job.blocked,
         job.start,
         job.goal,

@@ -33,7 +33,7 @@ from ndrql.maps.grid import PlanningGrid
 from ndrql.pipeline.samples import PredictionCache, Problem
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import build_priors, get_method
-from ndrql.planning.runner import plan
+from ndrql.planning.runner import run_plan
 
 
 def validation_ids(root: str | Path, val_fraction: float = 0.05, split_seed: int = 0) -> np.ndarray:
@@ -96,7 +96,7 @@ def run_problem(p: Problem, method: str, seeds: Sequence[int], ql: QLConfig, pc:
                            p.guideline if m.needs_ndr else None, pc)
     out = []
     for s in seeds:
-        r = plan(p.blocked, p.start, p.goal, m, int(s), ql, pc, priors=pri, astar=p.astar)
+        r = run_plan(p.blocked, p.start, p.goal, m, int(s), ql, pc, priors=pri, astar=p.astar)
         ratio = float(r.length_ratio) if r.converged and r.length_ratio is not None else math.nan
         steps = r.convergence_steps if r.converged else r.total_steps  # a failed run counts every step it took
         out.append((bool(r.converged), int(steps), ratio))

@@ -1,0 +1,75 @@
+"""Methods and seeds of a plan, each method's priors on the planning grid, and the Q-learning runs."""
+
+from __future__ import annotations
+
+import warnings
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ndrql.errors import NdrqlError
+from ndrql.maps.grid import PlanningGrid
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import Method, Priors, build_priors, get_method
+from ndrql.planning.results import PlanResult
+from ndrql.planning.runner import PlanJob, default_workers, run_many, run_plan
+
+#: A method's constants by name: ``name -> (QLConfig, PriorConfig)``.
+Constants = Callable[[str], tuple[QLConfig, PriorConfig]]
+
+
+def methods_named(methods: Sequence[str | Method] | str) -> list[Method]:
+    """The methods to run, each once; :class:`NdrqlError` for none, an unknown name or a repeated one."""
+    names = [methods] if isinstance(methods, str) else list(methods)
+    ms = [get_method(n.strip() if isinstance(n, str) else n) for n in names]
+    if not ms:
+        raise NdrqlError("no method given")
+    if len({m.name for m in ms}) != len(ms):
+        raise NdrqlError(f"a method is listed twice: {', '.join(m.name for m in ms)}")
+    return ms
+
+
+def seeds_given(seeds: Sequence[int] | int) -> list[int]:
+    """A list of seeds, or ``N`` for ``0..N-1``; :class:`NdrqlError` for none."""
+    out = list(range(int(seeds))) if isinstance(seeds, (int, np.integer)) else [int(s) for s in seeds]
+    if not out:
+        raise NdrqlError("no seed given")
+    return out
+
+
+def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray | None, guideline: np.ndarray | None,
+                  consts: Constants) -> tuple[dict[str, Priors], dict[str, float | None]]:
+    """Each method's priors (Eqs. 2-7) and the NDR-QI threshold (Eq. 7) of those that use it."""
+    priors: dict[str, Priors] = {}
+    thresholds: dict[str, float | None] = {}
+    for m in ms:
+        priors[m.name] = build_priors(m, grid.blocked, grid.start, grid.goal, region, guideline, consts(m.name)[1])
+        if m.n_qi:
+            thresholds[m.name] = priors[m.name].threshold
+    return priors, thresholds
+
+
+def check_workers(workers: int | None) -> int:
+    """Worker processes for the runs (default: all cores); :class:`NdrqlError` below 1."""
+    n = default_workers() if workers is None else int(workers)
+    if n < 1:
+        raise NdrqlError(f"workers must be >= 1, got {workers}")
+    return n
+
+
+def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts: Constants,
+          priors: dict[str, Priors], region: np.ndarray | None, guideline: np.ndarray | None, workers: int,
+          keep_records: bool = False, progress: bool = False) -> list[PlanResult]:
+    """Every method with every seed (methods outer): in this process with the given priors, or on
+    ``workers`` processes (:func:`~ndrql.planning.runner.run_many`, which rebuilds the same priors)."""
+    jobs = [(m, s) for m in ms for s in seeds]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
+        if workers == 1 or len(jobs) == 1:
+            from tqdm import tqdm  # progress: a bar of finished runs on stderr, on a terminal only
+
+            return [run_plan(grid.blocked, grid.start, grid.goal, m.name, s, *consts(m.name), priors=priors[m.name],
+                             keep_records=keep_records)
+                    for m, s in tqdm(jobs, desc="runs", unit="run", disable=None if progress else True, leave=False)]
+        return run_many([PlanJob(grid.blocked, grid.start, grid.goal, m.name, s, *consts(m.name), region, guideline,
+                                 keep_records) for m, s in jobs], workers=workers, progress=progress)

@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ndrql.dataset.layout import (COST_DIR, GUIDE_DIR, MAP_DIR, POINTS_DIR, REGION_DIR, SIDE, SPLITS,
-                                  WAYPOINTS_DIR, dilate_region)
+from ndrql.dataset.layout import (COST_DIR, GUIDE_DIR, MAP_DIR, POINTS_DIR, REGION_DIR, SPLITS, WAYPOINTS_DIR,
+                                  dilate_region)
+from ndrql.maps.grid import MODEL_SIDE as SIDE
 
 
 def draw_polyline(points: np.ndarray, side: int = SIDE) -> np.ndarray:

@@ -30,6 +30,7 @@ import torch
 import torch.multiprocessing as mp
 
 from ndrql.dataset import layout
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.dataset.batches import train_batches
 from ndrql.dataset.cache import cache_path, load_split, pack
 from ndrql.dataset.splits import train_val_split
@@ -47,7 +48,7 @@ def write_synthetic_dataset(root: Path, seed: int = 0) -> Path:
     for folder in layout.SPLITS.values():
         (root / folder / layout.MAP_DIR).mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
-    side = layout.SIDE
+    side = MODEL_SIDE
     maps = rng.random((N_MAPS, side, side)) < 0.1  # distinct random maps: each its own validation group
 
     def split_arrays(n: int, map_index: np.ndarray, maps_: np.ndarray) -> dict:

@@ -11,7 +11,7 @@ from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_pro
 from ndrql.errors import MapFormatError
 from ndrql.limits import MAX_GRID_SIZE, check_int
 from ndrql.maps.astar import astar4, astar8
-from ndrql.maps.grid import PlanningGrid, grid_to_strings
+from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid, grid_to_strings
 from ndrql.maps.readers import read_movingai_scen
 from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path, plot_planning_result
 from ndrql.viz.style import ASTAR_COLOR, legend_below
@@ -36,8 +36,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen: take start and goal from scenario K (default 0)")
-    p.add_argument("--size", type=int, default=50, metavar="N",
-                   help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: 50, paper)")
+    p.add_argument("--size", type=int, default=PLANNING_SIZE, metavar="N",
+                   help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: {PLANNING_SIZE}, paper)")
     add_max_pixels_argument(p)
     p.add_argument("--octile", action="store_true", help="8-connected octile A* on the full-resolution map")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")

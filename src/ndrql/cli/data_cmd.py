@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import MODEL_SIDE, PLANNING_SIZE
 from ndrql.viz.sheet import save_contact_sheet
 
 
@@ -36,7 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     g = dsub.add_parser("generate", help="write a generated set (resumable, deterministic per seed)")
     g.add_argument("--family", required=True, help="families, comma-separated (ndrql.synth.families), or 'all'")
     g.add_argument("--count", type=int, required=True, help="number of samples")
-    g.add_argument("--size", type=_int_list, default=(201,), help="map sides in px, comma-separated; each sample draws one (default: 201)")
+    g.add_argument("--size", type=_int_list, default=(MODEL_SIDE,),
+                   help=f"map sides in px, comma-separated; each sample draws one (default: {MODEL_SIDE})")
     g.add_argument("--seed", type=int, default=0, help="seed of the set (default: 0)")
     g.add_argument("--out", type=Path, required=True, help="output directory (new, empty, or a partial run of the same set)")
     g.add_argument("--workers", type=int, default=1, help="processes (default: 1; results do not depend on it)")
@@ -47,7 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--png", type=Path, required=True, help="output PNG")
     s.add_argument("--count", type=int, default=16, help="samples drawn, spread over the set (default: 16)")
     s.add_argument("--mode", default="map", help="input mode to render: map or grid (default: map)")
-    s.add_argument("--grid", type=int, default=50, help="planning grid size to render for (default: 50)")
+    s.add_argument("--grid", type=int, default=PLANNING_SIZE, help=f"planning grid size to render for (default: {PLANNING_SIZE})")
     s.set_defaults(func=run_show)
     p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
 

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from ndrql.limits import check_int
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.model.export import export_onnx
 from ndrql.model.weights import resolve_weights
 
@@ -19,10 +20,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_weights)
 
     q = sub.add_parser("export-onnx", help="export the NDR model to ONNX (for ONNX Runtime inference)",
-                       description="Export a checkpoint to ONNX with a fixed 201x201 input (batch dimension dynamic).")
+                       description=f"Export a checkpoint to ONNX with a fixed {MODEL_SIDE}x{MODEL_SIDE} input (batch dimension dynamic).")
     q.add_argument("--weights", help="checkpoint (default: the shipped model)")
     q.add_argument("--out", required=True, help="output .onnx file")
-    q.add_argument("--size", type=int, default=201, help="input side (default: 201)")
+    q.add_argument("--size", type=int, default=MODEL_SIDE, help=f"input side (default: {MODEL_SIDE})")
     q.set_defaults(func=run_onnx)
 
 

@@ -7,7 +7,7 @@ import argparse
 from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, load_map_argument, map_info,
                               write_json)
 from ndrql.limits import MAX_GRID_SIZE, check_int
-from ndrql.maps.grid import planning_grid
+from ndrql.maps.grid import PLANNING_SIZE, planning_grid
 from ndrql.maps.writers import save_map
 
 EXAMPLES = """examples:
@@ -30,7 +30,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_map_arguments(info)
     add_max_pixels_argument(info)
-    info.add_argument("--size", type=int, default=50, metavar="N", help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: 50)")
+    info.add_argument("--size", type=int, default=PLANNING_SIZE, metavar="N",
+                      help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: {PLANNING_SIZE})")
     info.add_argument("--json", metavar="FILE", help="also write the information as JSON ('-' for stdout)")
     info.set_defaults(func=run_info)
 

@@ -23,6 +23,7 @@ import numpy as np
 from ndrql.dataset import layout
 from ndrql.errors import DatasetError
 from ndrql.io import data_digest, file_digest, save_npz, write_text
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.workers import process_pool
 
 CACHE_VERSION = 1
@@ -38,7 +39,7 @@ def pack(mask: np.ndarray) -> np.ndarray:
     return np.packbits(mask.astype(bool), axis=-1)
 
 
-def unpack(packed: np.ndarray, width: int = layout.SIDE) -> np.ndarray:
+def unpack(packed: np.ndarray, width: int = MODEL_SIDE) -> np.ndarray:
     """Inverse of :func:`pack`."""
     return np.unpackbits(packed, axis=-1, count=width).astype(bool)
 
@@ -68,8 +69,8 @@ def _decode_sample(args: tuple[str, str, int]) -> tuple:
     root, split, i = args
     s = layout.load_sample(root, split, i)
     orig = s.region_original
-    if orig is not None and orig.shape != (layout.SIDE, layout.SIDE):
-        orig = layout.resize_bilinear_cv2(orig.astype(np.uint8) * 255, layout.SIDE, layout.SIDE) > 127
+    if orig is not None and orig.shape != (MODEL_SIDE, MODEL_SIDE):
+        orig = layout.resize_bilinear_cv2(orig.astype(np.uint8) * 255, MODEL_SIDE, MODEL_SIDE) > 127
     elif orig is None:
         orig = s.region
     return (s.start + s.goal, pack(s.guideline), pack(s.region), pack(orig))

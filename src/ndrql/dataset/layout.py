@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ndrql.errors import DatasetError
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.labels import dilate_region  # the label definition's one home (re-exported here)
 
 #: Split name on the CLI -> folder inside the dataset root.
@@ -27,7 +28,6 @@ CATEGORIES: dict[str, tuple[str, ...]] = {
     "seen": ("GAPS", "BUGTRAP&BLOCKS", "BLOCKS", "GAPS&BLOCKS"),
     "unseen": ("BUGTRAP", "BUGTRAPS", "MAZE", "NARROW PASSAGE"),
 }
-SIDE = 201
 MAP_DIR = "MAP [ORIGINAL]"
 POINTS_DIR = "COORDINATE [TARGET&GOAL]"
 WAYPOINTS_DIR = "COORDINATE [SIGNIFICANT WAYPOINT]"
@@ -147,8 +147,8 @@ def load_map(root: str | Path, split: str, index: int) -> np.ndarray:
     split = normalize_split(split)
     check_index(split, index)
     gray = read_gray(Path(root) / SPLITS[split] / MAP_DIR / f"{map_index(split, index)}.jpg")
-    if gray.shape != (SIDE, SIDE):  # UNSEEN 900..1199 are 256x256
-        gray = resize_bilinear_cv2(gray, SIDE, SIDE)
+    if gray.shape != (MODEL_SIDE, MODEL_SIDE):  # UNSEEN 900..1199 are 256x256
+        gray = resize_bilinear_cv2(gray, MODEL_SIDE, MODEL_SIDE)
         return gray <= 127
     return gray < 128
 
@@ -205,7 +205,7 @@ def load_sample(root: str | Path, split: str, index: int) -> Sample:
     guideline = read_gray(base / GUIDE_DIR / f"{index}.jpg") >= 128
     region_raw = read_gray(base / REGION_DIR / f"{index}.jpg") >= 128
     broken = split == "unseen" and index >= 900
-    if broken or region_raw.shape != (SIDE, SIDE):
+    if broken or region_raw.shape != (MODEL_SIDE, MODEL_SIDE):
         region, original = dilate_region(guideline), region_raw
     else:
         region, original = region_raw, None

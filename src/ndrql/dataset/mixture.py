@@ -26,6 +26,7 @@ from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.generated import GeneratedSet
 from ndrql.dataset.render import Rendered, input_side, render
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.labels import dilate_region, near_optimal_path
 
 #: Share of each generated set held out for validation (its last samples).
@@ -130,7 +131,7 @@ def augment(r: Rendered, k: int) -> Rendered:
 
 def batch_size_for(side: int, batch_size: int) -> int:
     """Samples per step at input side ``side``: about ``batch_size`` 201-px inputs' worth of pixels."""
-    return max(2, int(round(batch_size * (201 / side) ** 2)))
+    return max(2, int(round(batch_size * (MODEL_SIDE / side) ** 2)))
 
 
 def stack(items: list[Rendered], encoding: str):

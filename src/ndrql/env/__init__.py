@@ -21,13 +21,14 @@ import gymnasium as gym
 from ndrql.env.goal_path import GoalGridPathEnv
 from ndrql.env.grid_path import DEFAULT_MAP, GridPathEnv
 from ndrql.env.sources import DatasetSource, EnvProblem, GeneratorSource, grid_problem, map_problem
+from ndrql.maps.grid import PLANNING_SIZE
 
 ENV_ID = "ndrql/GridPath-v0"
 RANDOM_ENV_ID = "ndrql/GridPathRandom-v0"
 
 #: ``TimeLimit`` of ``ndrql/GridPath-v0``: 4 x cells of the paper's 50x50 planning grid (the env's own
 #: cap, ``4 * h * w``, ends smaller grids' episodes first).
-GRID_PATH_MAX_STEPS = 4 * 50 * 50
+GRID_PATH_MAX_STEPS = 4 * PLANNING_SIZE * PLANNING_SIZE
 #: ``TimeLimit`` of ``ndrql/GridPathRandom-v0``: 4 x cells of its default 16x16 grid.
 RANDOM_MAX_STEPS = 4 * 16 * 16
 

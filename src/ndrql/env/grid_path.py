@@ -12,7 +12,7 @@ from gymnasium import spaces
 from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
 from ndrql.errors import NdrqlError, PointError
-from ndrql.maps.grid import GridMap, bfs_distances
+from ndrql.maps.grid import PLANNING_SIZE, GridMap, bfs_distances
 from ndrql.planning import rules
 from ndrql.planning.config import QLConfig
 
@@ -119,7 +119,7 @@ class GridPathEnv(gym.Env):
         render_mode: str | None = None,
         cell_px: int = 8,
         map: MapLike | None = None,  # noqa: A002  (the name users pass to gym.make)
-        size: int = 50,
+        size: int = PLANNING_SIZE,
         grid_rule: str = "area",
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:

@@ -27,7 +27,8 @@ import numpy as np
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.layout import check_root, normalize_split
 from ndrql.errors import NdrqlError, NoPathError, PointError
-from ndrql.maps.grid import GridMap, bfs_distances, nearest_free_bfs, planning_grid, point_to_cell
+from ndrql.maps.grid import (MODEL_SIDE, PLANNING_SIZE, GridMap, bfs_distances, nearest_free_bfs, planning_grid,
+                             point_to_cell)
 from ndrql.maps.readers import load_map
 from ndrql.maps.safe import conservative_grid, point_to_square_cell
 from ndrql.synth.endpoints import sample_endpoints
@@ -139,7 +140,7 @@ def map_problem(
     source: str | Path | GridMap | np.ndarray,
     start: Sequence[int],
     goal: Sequence[int],
-    size: int = 50,
+    size: int = PLANNING_SIZE,
     rule: str = "area",
     obstacles: np.ndarray | None = None,
     name: str | None = None,
@@ -236,7 +237,7 @@ class DatasetSource:
     """Dataset root in its original layout (the folder holding ``TRAIN`` and ``TEST``)."""
     split: str = "train"
     """``train``, ``seen`` or ``unseen``."""
-    size: int = 50
+    size: int = PLANNING_SIZE
     """Planning-grid cells on a side (the paper: 50)."""
     rule: str = "area"
     """Planning-grid rule (:data:`GRID_RULES`)."""
@@ -244,8 +245,8 @@ class DatasetSource:
     def __post_init__(self) -> None:
         object.__setattr__(self, "split", normalize_split(self.split))
         check_root(self.root)
-        if not 2 <= int(self.size) <= 201:
-            raise NdrqlError(f"size must be between 2 and 201, got {self.size}")
+        if not 2 <= int(self.size) <= MODEL_SIDE:
+            raise NdrqlError(f"size must be between 2 and {MODEL_SIDE}, got {self.size}")
         if self.rule not in GRID_RULES:
             raise NdrqlError(f"unknown planning-grid rule {self.rule!r}; valid: {', '.join(GRID_RULES)}")
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, from_model_output, input_side, place_cells, to_model_input
-from ndrql.maps.grid import area_downscale
+from ndrql.maps.grid import MODEL_SIDE, area_downscale
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.pipeline.predictions import cell_means, predict_on_grid
@@ -71,7 +71,7 @@ def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.n
     if mode == "grid":
         r, gl, _ = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
         return cell_means(r, case.blocked.shape), cell_means(gl, case.blocked.shape)
-    side = 201 if mode == "map201" else input_side("map", case.n)
+    side = MODEL_SIDE if mode == "map201" else input_side("map", case.n)
     img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)
     r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
     shape = case.obstacles.shape

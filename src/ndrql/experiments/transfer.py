@@ -32,6 +32,7 @@ from ndrql.experiments.report import md_table
 from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import file_digest, write_json, write_text
+from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.predict import Predictor
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -75,7 +76,7 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
     """Region and guideline F1 of the model against the labels of its input mode at this grid."""
     # map-mode models see the map at 201 px whatever the grid (as in ndrql plan): labels at that scale
     r = render("grid", case.obstacles, case.start, case.goal, waypoints, case.n) if mode == "grid" else \
-        render("map", case.obstacles, case.start, case.goal, waypoints, 50)
+        render("map", case.obstacles, case.start, case.goal, waypoints, PLANNING_SIZE)
     if r is None:
         return float("nan"), float("nan")
     reg, gl = predictor.predict_batch(encode_input(r.obstacles, r.start, r.goal, predictor.encoding)[None])

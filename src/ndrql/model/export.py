@@ -7,9 +7,10 @@ from pathlib import Path
 
 from ndrql.errors import NdrqlError
 from ndrql.io import atomic_path
+from ndrql.maps.grid import MODEL_SIDE
 
 
-def export_onnx(weights: str | Path, out: str | Path, size: int = 201) -> Path:
+def export_onnx(weights: str | Path, out: str | Path, size: int = MODEL_SIDE) -> Path:
     """Export the model in ``weights`` to ONNX at ``size`` x ``size``, dynamic batch (written by :mod:`ndrql.io`)."""
     import torch
 

@@ -22,7 +22,7 @@ from ndrql.dataset.layout import load_sample
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.io import data_digest, file_digest, save_npz
 from ndrql.maps.astar import astar4
-from ndrql.maps.grid import PlanningGrid
+from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
 from ndrql.model.predict import Predictor
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 from ndrql.pipeline.predictions import cell_means, predict_on_grid, to_map_pixels
@@ -57,7 +57,7 @@ class Problem:
         return f"{self.split}-{self.index}"
 
 
-def load_problem(root: str | Path, split: str, index: int, size: int = 50) -> Problem:
+def load_problem(root: str | Path, split: str, index: int, size: int = PLANNING_SIZE) -> Problem:
     """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
     4-connected on the planning grid (docs/method.md: experiments skip such samples and count them)."""
     s = load_sample(root, split, index)
@@ -69,7 +69,8 @@ def load_problem(root: str | Path, split: str, index: int, size: int = 50) -> Pr
                    np.array(pg.blocked), tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
 
 
-def load_problems(root: str | Path, refs: list[tuple[str, int]], size: int = 50) -> tuple[list[Problem], list[dict]]:
+def load_problems(root: str | Path, refs: list[tuple[str, int]],
+                  size: int = PLANNING_SIZE) -> tuple[list[Problem], list[dict]]:
     """Problems for ``(split, index)`` pairs, and the skipped ones with the reason."""
     out, skipped = [], []
     for split, index in refs:

@@ -6,14 +6,13 @@ from dataclasses import dataclass
 
 from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_GRID_SIZE
+from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.predict import BACKENDS
 from ndrql.planning.methods import get_method
 
 #: Planning-grid rules: ``safe`` (square cells, a cell blocked when any pixel is an obstacle; the
 #: default on a user's map) and ``area`` (the paper's rule: area average, blocked at >= 0.5).
 GRID_RULES: tuple[str, ...] = ("safe", "area")
-#: Side of the paper's planning grid (201 px -> 50 cells), the ``area`` rule's default size.
-PAPER_SIZE = 50
 #: Above this many cells on the longer side ``plan`` warns that Q-learning may take minutes.
 SLOW_SIZE = 256
 
@@ -91,7 +90,7 @@ class PlanSettings:
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":
         """The paper's setting (docs/method.md): area rule, 50 cells, no smoothing, no fallback; used on the dataset."""
-        kw = {"grid": "area", "size": PAPER_SIZE, "smooth": False, "fallback": None}
+        kw = {"grid": "area", "size": PLANNING_SIZE, "smooth": False, "fallback": None}
         kw.update(overrides)
         return cls(**kw)
 
@@ -99,7 +98,7 @@ class PlanSettings:
     def grid_size(self) -> int | str:
         """The size in effect: the given one, else auto (safe) or 50 (area)."""
         if self.size is None:
-            return "auto" if self.grid == "safe" else PAPER_SIZE
+            return "auto" if self.grid == "safe" else PLANNING_SIZE
         return self.size
 
     @property

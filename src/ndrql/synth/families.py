@@ -22,6 +22,7 @@ from typing import Callable
 import numpy as np
 
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.buildings import office, ros_scan, warehouse
 from ndrql.synth.layouts import expand_grid, perfect_maze, recursive_division
 from ndrql.synth.shapes import (check_range, disc, feature_px, fill_to_density, loguniform, orient, paint_rects,
@@ -321,7 +322,7 @@ def scatter(rng: np.random.Generator, height: int, width: int, *, density: float
 
     def draw() -> np.ndarray:
         d = density if density is not None else rng.uniform(0.05, 0.35)
-        s = size if size is not None else max(1, int(round(rng.uniform(2, 12) * (max(L, 201) / 201) ** rng.random())))
+        s = size if size is not None else max(1, int(round(rng.uniform(2, 12) * (max(L, MODEL_SIDE) / MODEL_SIDE) ** rng.random())))
         q = squares if squares is not None else float(rng.choice([0.0, 1.0, rng.random()]))
         diameters = np.arange((s + 3) // 4, s + 1)
         mean_area = (1 - q) * np.mean([disc(int(k)).sum() for k in diameters]) + q * np.mean(diameters**2.0)

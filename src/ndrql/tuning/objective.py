@@ -29,7 +29,7 @@ from ndrql.dataset.cache import cache_dir, load_split
 from ndrql.dataset.splits import train_val_split
 from ndrql.errors import NoPathError
 from ndrql.maps.astar import astar4
-from ndrql.maps.grid import PlanningGrid
+from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
 from ndrql.pipeline.samples import PredictionCache, Problem
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import build_priors, get_method
@@ -69,7 +69,7 @@ def train_problems(root: str | Path, ids: Sequence[int], k: int, weights: str | 
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                pg = PlanningGrid.from_map(obstacles, (r0, c0), (r1, c1), size=50)
+                pg = PlanningGrid.from_map(obstacles, (r0, c0), (r1, c1), size=PLANNING_SIZE)
             opt = int(astar4(pg.blocked, pg.start, pg.goal).moves)
         except NoPathError:
             skipped.append(int(i))

@@ -1,6 +1,6 @@
 """Tabular Q-learning (docs/method.md) compiled with numba: the whole run in one call.
 
-:func:`train` runs every episode (epsilon-greedy with random tie-breaking, the update of docs/method.md,
+:func:`train` runs every episode (epsilon-greedy with random tie-breaking, the Q-update :func:`rules.q_update`,
 visited-cell tracking per episode) and, after each episode, the deterministic greedy rollout that
 decides convergence (docs/method.md). Nothing runs in Python per step or per episode. The reward and the
 transition are :func:`ndrql.planning.rules.step`, compiled here; the random stream is xoshiro256**
@@ -185,7 +185,7 @@ def train(
             s2, r, outcome = _step(nxt, goal, r_c, visited, mark, s, a, r_collision, r_goal, r_revisit)
             n += 1
             ret += r
-            if outcome == GOAL:
+            if outcome == GOAL:  # the Q-update, rules.q_update, inlined
                 q[s, a] += alpha * (r - q[s, a])
                 reached = True
                 break

@@ -95,7 +95,8 @@ def adaptive_threshold(
     goal: tuple[int, int],
     cfg: PriorConfig = PriorConfig(),
 ) -> float | None:
-    """Eq. 7's ``thd``: from ``thd_start`` down by ``thd_step`` until the region connects (Sec. 3.3).
+    """The threshold ``thd`` of Eq. 7 (:func:`region_mask`): from ``thd_start`` down by ``thd_step`` until the
+    region connects start and goal (Sec. 3.3).
 
     Returns the highest such threshold (rounded to 1e-9, so 0.99, 0.98, ... exactly), or ``None``
     when not even ``thd = 0`` connects start and goal.

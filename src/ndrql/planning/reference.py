@@ -94,11 +94,10 @@ def train(
             )
             n += 1
             ret += r
+            rules.q_update(q, s, a, r, s2, outcome == rules.GOAL, config.alpha, config.gamma)
             if outcome == rules.GOAL:
-                q[s, a] += config.alpha * (r - q[s, a])
                 reached = True
                 break
-            q[s, a] += config.alpha * (r + config.gamma * q[s2].max() - q[s, a])
             s = int(s2)
         total += n
         out.steps.append(n)

@@ -3,8 +3,9 @@
 The compiled kernel (:mod:`ndrql.planning.kernel`), the numpy reference
 (:mod:`ndrql.planning.reference`) and the Gymnasium environment (:mod:`ndrql.env`) all use the
 functions below: :func:`next_table` fixes where each action leads, :func:`step` fixes the reward,
-the visited-cell bookkeeping and termination. :func:`step` and :func:`greedy_action` are written in
-the subset of Python that numba compiles; the kernel compiles these very functions.
+the visited-cell bookkeeping and termination, :func:`q_update` the learning rule. :func:`step`,
+:func:`greedy_action` and :func:`max_q` are written in the subset of Python that numba compiles; the
+kernel compiles these very functions (and inlines :func:`q_update`, which the reference calls).
 
 States are flat cell indices ``s = row * W + col`` of the planning grid. Obstacle cells are never
 states; their rows of the transition table point to themselves.
@@ -55,7 +56,7 @@ def next_table(blocked: np.ndarray) -> np.ndarray:
 
 
 def step(nxt, goal, r_c, visited, mark, s, a, r_collision, r_goal, r_revisit):
-    """One move of Eq. 1 from cell ``s`` with action ``a``: returns ``(s_next, reward, outcome)``.
+    """Eq. 1: one move from cell ``s`` with action ``a``; returns ``(s_next, reward, outcome)``.
 
     - blocked or off the map: ``r_collision``, the agent stays (``s_next == s``), outcome ``COLLISION``;
     - the goal: ``r_goal``, outcome ``GOAL`` (the episode ends);
@@ -104,6 +105,16 @@ def max_q(q, s):
     ab = a if a >= b else b
     cd = c if c >= d else d
     return ab if ab >= cd else cd
+
+
+def q_update(q, s, a, r, s2, terminal, alpha, gamma):
+    """Q-update (docs/method.md): ``Q(s, a) += alpha * (r + gamma * max_a' Q(s', a') - Q(s, a))`` after the
+    move ``s -a-> s2`` with reward ``r``; without the bootstrap term when the move ends the episode
+    (``terminal``: it reached the goal)."""
+    if terminal:
+        q[s, a] += alpha * (r - q[s, a])
+    else:
+        q[s, a] += alpha * (r + gamma * max_q(q, s2) - q[s, a])
 
 
 def cell_index(cell, width: int) -> int:

@@ -17,6 +17,7 @@ from ndrql.dataset.splits import train_val_split
 from ndrql.errors import DatasetError
 from ndrql.io import write_text
 from ndrql.limits import MAX_THREADS, check_int
+from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.weights import resolve_weights
 
 EXAMPLES = """examples:
@@ -35,8 +36,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--batch-size", type=int, default=32, help="images per forward pass (default: 32)")
     p.add_argument("--limit", type=int, default=0, help="score only the first N samples (0 = all)")
     p.add_argument("--threads", type=int, default=0, help="torch threads (0 = all cores)")
-    p.add_argument("--grid", type=int, default=50, metavar="N",
-                   help="grid-mode models: planning grid the model sees (default: 50, the paper's); ignored for map-mode models")
+    p.add_argument("--grid", type=int, default=PLANNING_SIZE, metavar="N",
+                   help=f"grid-mode models: planning grid the model sees (default: {PLANNING_SIZE}, the paper's); "
+                   "ignored for map-mode models")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
     p.add_argument("--json", metavar="FILE", help="also write the numbers as JSON")
     p.set_defaults(func=run)

@@ -1,4 +1,7 @@
-"""Shared fixtures: the real dataset (skipped when absent) and the console script."""
+"""Shared fixtures: the real dataset (skipped when absent), the console script, the model weights, a tiny dataset.
+
+Shared functions live in ``tests/helpers`` (``helpers.cli``: run the console script, check a one-line error).
+"""
 
 from __future__ import annotations
 
@@ -9,9 +12,8 @@ from pathlib import Path
 
 import pytest
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-#: The dataset lives beside the repository: ``../shared/data/path-planning-dataset``.
-DATASET_DIR = (REPO_ROOT.parent / "shared" / "data" / "path-planning-dataset").resolve()
+from helpers import DATASET_DIR
+from helpers.synthetic_dataset import make_tiny_dataset
 
 
 @pytest.fixture(scope="session")
@@ -58,8 +60,6 @@ def model_weights() -> Path:
 @pytest.fixture(scope="module")
 def tiny_dataset(tmp_path_factory, monkeypatch_module):
     """A 16-sample TRAIN / 4-sample TEST dataset in the original layout, with its own cache dir."""
-    from synthetic_dataset import make_tiny_dataset
-
     root = make_tiny_dataset(tmp_path_factory.mktemp("tiny") / "ds", n_train=16, n_test=4)
     monkeypatch_module.setenv("NDRQL_CACHE", str(tmp_path_factory.mktemp("cache")))
     return root

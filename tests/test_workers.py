@@ -16,9 +16,10 @@ from pathlib import Path
 
 import pytest
 
+from helpers import TESTS_DIR
+
 pytestmark = pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc (Linux)")
 
-TESTS = Path(__file__).resolve().parent
 
 
 def _children(pid: int) -> set[int]:
@@ -44,8 +45,9 @@ def _alive(pid: int) -> bool:
 
 
 def _kill_parent_and_check(code: str, workers: int, tmp_path: Path, wait: float = 20) -> None:
+    python_path = os.pathsep.join(filter(None, [str(TESTS_DIR), os.environ.get("PYTHONPATH")]))  # helpers, same ndrql
     proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], cwd=tmp_path,
-                            env={**os.environ, "NDRQL_CACHE": str(tmp_path / "cache"), "PYTHONPATH": str(TESTS)},
+                            env={**os.environ, "NDRQL_CACHE": str(tmp_path / "cache"), "PYTHONPATH": python_path},
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 120
@@ -114,7 +116,7 @@ def test_dataset_decode_workers_die_with_their_parent(tmp_path):
     code = """
     import time
     import ndrql.dataset.cache as cache
-    from synthetic_dataset import make_tiny_dataset
+    from helpers.synthetic_dataset import make_tiny_dataset
 
     def slow_decode(args):
         time.sleep(300)

@@ -3,16 +3,13 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
 
 from ndrql.maps.astar import astar4, path_is_valid
 
-
-def run(exe, *args, cwd=None):
-    return subprocess.run([*exe, "plan", *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=300)
+from helpers.cli import assert_one_line_error, run_cli
 
 
 @pytest.fixture
@@ -42,8 +39,8 @@ def check_json(data, seeds, methods):
 
 def test_plan_map_file_json_and_png(ndrql_exe, room_npy, tmp_path):
     out, png = tmp_path / "o" / "plan.json", tmp_path / "plan.png"
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--method", "IQL", "--seeds", "3",
-            "--seed", "5", "--json", out, "--png", png, "--records")
+    r = run_cli(ndrql_exe, "plan", room_npy, "--start", "0,0", "--goal", "99,99", "--method", "IQL", "--seeds", "3",
+                "--seed", "5", "--json", out, "--png", png, "--records")
     assert r.returncode == 0, r.stderr
     assert "IQL seed 5: converged" in r.stdout and "A* optimum" in r.stdout
     data = json.loads(out.read_text())
@@ -59,8 +56,8 @@ def test_plan_map_file_json_and_png(ndrql_exe, room_npy, tmp_path):
 def test_same_seed_same_json_any_workers(ndrql_exe, room_npy, tmp_path):
     a, b = tmp_path / "a.json", tmp_path / "b.json"
     common = [room_npy, "--start", "0,0", "--goal", "99,99", "--method", "QL", "--seeds", "4"]
-    assert run(ndrql_exe, *common, "--workers", "1", "--json", a).returncode == 0
-    assert run(ndrql_exe, *common, "--workers", "2", "--json", b).returncode == 0
+    assert run_cli(ndrql_exe, "plan", *common, "--workers", "1", "--json", a).returncode == 0
+    assert run_cli(ndrql_exe, "plan", *common, "--workers", "2", "--json", b).returncode == 0
     ra, rb = (json.loads(p.read_text())["runs"] for p in (a, b))
     for x, y in zip(ra, rb):
         x.pop("wall_time"), y.pop("wall_time")
@@ -68,7 +65,8 @@ def test_same_seed_same_json_any_workers(ndrql_exe, room_npy, tmp_path):
 
 
 def test_compare_prints_a_table(ndrql_exe, room_npy):
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--compare", "QL,IQL,O-QL", "--seeds", "3")
+    r = run_cli(ndrql_exe, "plan", room_npy, "--start", "0,0", "--goal", "99,99", "--compare", "QL,IQL,O-QL",
+                "--seeds", "3")
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     assert any(line.startswith("method") and "steps mean" in line for line in lines)
@@ -78,7 +76,8 @@ def test_compare_prints_a_table(ndrql_exe, room_npy):
 
 def test_not_converged_is_reported(ndrql_exe, room_npy, tmp_path):
     out = tmp_path / "nc.json"
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--method", "QL", "--max-episodes", "2", "--json", out)
+    r = run_cli(ndrql_exe, "plan", room_npy, "--start", "0,0", "--goal", "99,99", "--method", "QL",
+                "--max-episodes", "2", "--json", out)
     assert r.returncode == 0, r.stderr
     assert "NOT converged" in r.stdout
     data = json.loads(out.read_text())
@@ -97,10 +96,8 @@ def test_not_converged_is_reported(ndrql_exe, room_npy, tmp_path):
     ],
 )
 def test_bad_input_one_line_exit_2(ndrql_exe, room_npy, args, needle):
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", *args)
-    assert r.returncode == 2
-    assert r.stderr.count("\n") == 1 and r.stderr.startswith("ndrql: error:"), r.stderr
-    assert needle in r.stderr
+    r = run_cli(ndrql_exe, "plan", room_npy, "--start", "0,0", "--goal", "99,99", *args)
+    assert_one_line_error(r, needle)
 
 
 def test_unreachable_goal_exit_2(ndrql_exe, tmp_path):
@@ -108,26 +105,28 @@ def test_unreachable_goal_exit_2(ndrql_exe, tmp_path):
     m[48:52, :] = True
     path = tmp_path / "wall.npy"
     np.save(path, m)
-    r = run(ndrql_exe, path, "--start", "0,0", "--goal", "99,99")
-    assert r.returncode == 2
-    assert "not connected on the map itself" in r.stderr and r.stderr.count("\n") == 1
+    r = run_cli(ndrql_exe, "plan", path, "--start", "0,0", "--goal", "99,99")
+    assert_one_line_error(r, "not connected on the map itself")
 
 
 def test_prior_file_with_wrong_shape_or_keys(ndrql_exe, room_npy, tmp_path):
     bad = tmp_path / "bad.npz"
     np.savez(bad, region=np.ones((10, 10)), guideline=np.ones((10, 10)))
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--method", "NDR-QL", "--prior-from", bad)
-    assert r.returncode == 2 and "map's resolution" in r.stderr
+    r = run_cli(ndrql_exe, "plan", room_npy, "--start", "0,0", "--goal", "99,99", "--method", "NDR-QL",
+                "--prior-from", bad)
+    assert_one_line_error(r, "map's resolution")
     np.savez(bad, region=np.ones((100, 100)))
-    r = run(ndrql_exe, room_npy, "--start", "0,0", "--goal", "99,99", "--method", "N-Q", "--prior-from", bad)
-    assert r.returncode == 2 and "guideline" in r.stderr
+    r = run_cli(ndrql_exe, "plan", room_npy, "--start", "0,0", "--goal", "99,99", "--method", "N-Q",
+                "--prior-from", bad)
+    assert_one_line_error(r, "guideline")
 
 
 @pytest.mark.data
 def test_issue_command_on_dataset_sample(ndrql_exe, dataset_root, tmp_path):
     """The issue's acceptance command: IQL, 10 seeds, SEEN 0, JSON passes the invariants."""
     out = tmp_path / "out.json"
-    r = run(ndrql_exe, "--sample", f"{dataset_root}:seen:0", "--method", "IQL", "--seeds", "10", "--json", out)
+    r = run_cli(ndrql_exe, "plan", "--sample", f"{dataset_root}:seen:0", "--method", "IQL", "--seeds", "10",
+                "--json", out)
     assert r.returncode == 0, r.stderr
     data = json.loads(out.read_text())
     check_json(data, list(range(10)), ["IQL"])
@@ -143,8 +142,8 @@ def test_ndr_ql_with_labels_as_predictions(ndrql_exe, dataset_root, tmp_path):
     npz = tmp_path / "pred.npz"
     np.savez(npz, region=s.region.astype(np.float32), guideline=s.guideline.astype(np.float32))
     out = tmp_path / "ndr.json"
-    r = run(ndrql_exe, "--sample", f"{dataset_root}:seen:0", "--compare", "QL,NDR-QL", "--seeds", "4",
-            "--prior-from", npz, "--json", out)
+    r = run_cli(ndrql_exe, "plan", "--sample", f"{dataset_root}:seen:0", "--compare", "QL,NDR-QL", "--seeds", "4",
+                "--prior-from", npz, "--json", out)
     assert r.returncode == 0, r.stderr
     assert "NDR-QL: NDR-QI threshold" in r.stdout
     data = json.loads(out.read_text())

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
@@ -11,6 +10,8 @@ import pytest
 from ndrql.cli.plan_batch import parse_indices, summary
 from ndrql.errors import NdrqlError
 from ndrql.maps.astar import astar8
+
+from helpers.cli import assert_one_line_error, run_cli
 
 SCENARIOS = [((4, 4), (58, 58)), ((60, 3), (3, 60)), ((30, 2), (30, 61)), ((2, 40), (61, 20)), ((10, 50), (50, 12))]
 
@@ -33,8 +34,8 @@ def arena(tmp_path):
 
 
 def run(exe, cwd, *args):
-    return subprocess.run([*exe, "plan", "arena.map", "--scen", "arena.map.scen", "--method", "QL", *map(str, args)],
-                          capture_output=True, text=True, timeout=600, cwd=cwd)
+    """``ndrql plan arena.map --scen arena.map.scen --method QL ARGS`` in ``cwd``."""
+    return run_cli(exe, "plan", "arena.map", "--scen", "arena.map.scen", "--method", "QL", *args, cwd=cwd)
 
 
 def test_all_scenarios_against_their_optimal_lengths(ndrql_exe, arena):
@@ -62,14 +63,14 @@ def test_resume_skips_done_scenarios_and_a_cut_line(ndrql_exe, arena):
     recs = [json.loads(x) for x in (arena / "out.jsonl").read_text().splitlines()]
     assert sorted(x["scenario"] for x in recs) == list(range(5))
     r = run(ndrql_exe, arena, "--all", "--jsonl", "out.jsonl", "--seed", "1")  # another run: refused, file kept
-    assert r.returncode == 2 and "holds results of another run" in r.stderr
+    assert_one_line_error(r, "holds results of another run")
 
 
 def test_batch_flags_are_checked(ndrql_exe, arena):
     for extra, needle in ((["--all", "--index", "1"], "either --all or --index"), (["--index", "3:9"], "outside"),
                           (["--all", "--seeds", "2"], "one method with one seed"), (["--jsonl", "x"], "for scenario batches")):
         r = run(ndrql_exe, arena, *extra)
-        assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
+        assert_one_line_error(r, needle)
 
 
 def test_parse_indices_and_summary():

@@ -14,7 +14,8 @@ from PIL import Image
 from ndrql.cli import build_parser
 from ndrql.cli.text import plain, short_usage, text_table
 
-from conftest import REPO_ROOT
+from helpers import REPO_ROOT
+from helpers.cli import assert_one_line_error, run_cli
 
 SAMPLE = [str(REPO_ROOT / "src" / "ndrql" / "data" / "sample_map.png"), "--start", "25,179", "--goal", "167,5"]
 
@@ -57,10 +58,8 @@ def test_short_usage_names_the_subcommand():
     (["plan", "--seeds", "x"], "usage: ndrql plan [options] [MAP]; see ndrql plan --help"),
 ])
 def test_bad_flag_gives_the_subcommands_usage_in_one_line(ndrql_exe, argv, usage):
-    r = subprocess.run(ndrql_exe + argv, capture_output=True, text=True)
-    lines = r.stderr.splitlines()
-    assert r.returncode == 2 and len(lines) == 1 and r.stdout == ""
-    assert lines[0].startswith("ndrql: error: ") and lines[0].endswith(f"({usage})")
+    r = run_cli(ndrql_exe, *argv)
+    assert assert_one_line_error(r).endswith(f"({usage})") and r.stdout == ""
 
 
 def test_closed_stdout_pipe_exits_quietly(ndrql_exe):
@@ -138,13 +137,12 @@ def test_dpi_flag_sets_the_figure_resolution(ndrql_exe, tmp_path):
     sizes = {}
     for dpi in (50, 100):
         out = tmp_path / f"a{dpi}.png"
-        r = subprocess.run(ndrql_exe + ["astar", *SAMPLE, "--png", str(out), "--dpi", str(dpi)], capture_output=True, text=True)
+        r = run_cli(ndrql_exe, "astar", *SAMPLE, "--png", str(out), "--dpi", str(dpi))
         assert r.returncode == 0, r.stderr
         sizes[dpi] = Image.open(out).size
     assert abs(sizes[100][0] - 2 * sizes[50][0]) <= 2
-    r = subprocess.run(ndrql_exe + ["astar", *SAMPLE, "--png", str(tmp_path / "x.png"), "--dpi", "5"],
-                       capture_output=True, text=True)
-    assert r.returncode == 2 and r.stderr.strip() == "ndrql: error: --dpi must be an integer in 30..600, got 5"
+    r = run_cli(ndrql_exe, "astar", *SAMPLE, "--png", str(tmp_path / "x.png"), "--dpi", "5")
+    assert assert_one_line_error(r) == "ndrql: error: --dpi must be an integer in 30..600, got 5"
     assert not (tmp_path / "x.png").exists()
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
 
 import numpy as np
 import pytest
@@ -15,6 +14,8 @@ from ndrql.errors import NdrqlError
 from ndrql.maps.safe import conservative_grid, point_to_square_cell
 from ndrql.synth.generate import SetSpec, generate_sample
 from ndrql.synth.oracle import oracle_prediction
+
+from helpers.cli import assert_one_line_error, run_cli
 
 SPEC = SetSpec(("maze", "blocks"), (96, 128), 10, 3)
 
@@ -147,15 +148,13 @@ def test_mixed_multiscale_training_resumes_exactly(gen_set, tmp_path):
 
 def test_data_cli_generate_and_show(tmp_path, ndrql_exe):
     out = tmp_path / "s"
-    cmd = [*ndrql_exe, "data", "generate", "--family", "maze,rooms", "--count", "3", "--size", "96", "--seed", "5",
-           "--out", str(out), "--no-progress"]
-    res = subprocess.run(cmd, capture_output=True, text=True)
+    res = run_cli(ndrql_exe, "data", "generate", "--family", "maze,rooms", "--count", "3", "--size", "96",
+                  "--seed", "5", "--out", str(out), "--no-progress")
     assert res.returncode == 0, res.stderr
     assert "wrote 3 samples" in res.stdout
-    res = subprocess.run([*ndrql_exe, "data", "show", str(out), "--png", str(tmp_path / "sheet.png"), "--count", "3",
-                          "--mode", "grid", "--grid", "24"], capture_output=True, text=True)
+    res = run_cli(ndrql_exe, "data", "show", str(out), "--png", str(tmp_path / "sheet.png"), "--count", "3",
+                  "--mode", "grid", "--grid", "24")
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "sheet.png").stat().st_size > 2000
-    res = subprocess.run([*ndrql_exe, "data", "generate", "--family", "nope", "--count", "3", "--out", str(tmp_path / "x")],
-                         capture_output=True, text=True)
-    assert res.returncode == 2 and res.stderr.count("\n") == 1 and "valid:" in res.stderr
+    res = run_cli(ndrql_exe, "data", "generate", "--family", "nope", "--count", "3", "--out", str(tmp_path / "x"))
+    assert_one_line_error(res, "valid:")

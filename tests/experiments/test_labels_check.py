@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
 import pytest
 
 from ndrql.experiments.labels_check import sample_indices
+
+from helpers.cli import assert_one_line_error, run_cli
 
 
 def test_sample_indices_spread_over_the_split():
@@ -20,8 +21,7 @@ def test_sample_indices_spread_over_the_split():
 
 def test_cli_reproduce_labels_on_a_tiny_dataset(ndrql_exe, tiny_dataset, tmp_path):
     out = tmp_path / "labels"
-    r = subprocess.run([*ndrql_exe, "reproduce", "labels", "--data", str(tiny_dataset), "--out", str(out),
-                        "--no-progress"], capture_output=True, text=True, timeout=300)
+    r = run_cli(ndrql_exe, "reproduce", "labels", "--data", str(tiny_dataset), "--out", str(out), "--no-progress")
     assert r.returncode == 0, r.stderr
     assert f"labels: wrote {out / 'labels.md'}" in r.stdout
     text = (out / "labels.md").read_text()
@@ -39,6 +39,5 @@ def test_cli_reproduce_labels_on_a_tiny_dataset(ndrql_exe, tiny_dataset, tmp_pat
 @pytest.mark.parametrize("argv, message", [(["--limit", "0"], "--limit must be an integer >= 1"),
                                            (["--data", "/nonexistent/ds"], "dataset directory not found")])
 def test_cli_reproduce_labels_bad_input(ndrql_exe, tmp_path, argv, message):
-    r = subprocess.run([*ndrql_exe, "reproduce", "labels", "--out", str(tmp_path / "o"), *argv],
-                       capture_output=True, text=True, timeout=120)
-    assert r.returncode == 2 and message in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    r = run_cli(ndrql_exe, "reproduce", "labels", "--out", str(tmp_path / "o"), *argv)
+    assert_one_line_error(r, message)

@@ -4,7 +4,6 @@ maps' selection rule, and the reproduce CLI (bad input; a real table on the data
 from __future__ import annotations
 
 import json
-import subprocess
 import warnings
 
 import numpy as np
@@ -15,6 +14,8 @@ from ndrql.experiments.table2 import TABLE2_ROWS
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Priors, build_priors
 from ndrql.planning.runner import run_plan
+
+from helpers.cli import assert_one_line_error, run_cli
 
 
 def _grid():
@@ -113,13 +114,13 @@ def test_table3_maps_follow_their_rule(dataset_root):
 
 
 def test_cli_reproduce_bad_input(ndrql_exe):
-    r = subprocess.run(ndrql_exe + ["reproduce", "table9"], capture_output=True, text=True)
-    assert r.returncode == 2 and "invalid choice" in r.stderr
-    r = subprocess.run(ndrql_exe + ["reproduce", "table3", "--seeds", "0"], capture_output=True, text=True)
+    r = run_cli(ndrql_exe, "reproduce", "table9")
+    assert_one_line_error(r, "invalid choice")
+    r = run_cli(ndrql_exe, "reproduce", "table3", "--seeds", "0")
     assert r.returncode == 2 and r.stderr.strip() == "ndrql: error: --seeds must be an integer in 1..10,000, got 0"
-    r = subprocess.run(ndrql_exe + ["reproduce", "table3", "--data", "/nonexistent"], capture_output=True, text=True)
-    assert r.returncode == 2 and "pass --data DIR" in r.stderr
-    r = subprocess.run(ndrql_exe + ["reproduce", "--help"], capture_output=True, text=True)
+    r = run_cli(ndrql_exe, "reproduce", "table3", "--data", "/nonexistent")
+    assert_one_line_error(r, "pass --data DIR")
+    r = run_cli(ndrql_exe, "reproduce", "--help")
     assert r.returncode == 0 and "ndrql reproduce table3" in r.stdout
 
 
@@ -128,6 +129,6 @@ def test_cli_reproduce_bad_input(ndrql_exe):
 def test_cli_reproduce_table3_without_model(ndrql_exe, dataset_root, tmp_path):
     """Without NDR weights the N-* rows cannot run: one line on stderr naming NDRQL_WEIGHTS, exit 2."""
     env = dict(__import__("os").environ, NDRQL_WEIGHTS=str(tmp_path / "missing.pt"))
-    r = subprocess.run(ndrql_exe + ["reproduce", "table3", "--data", str(dataset_root), "--out", str(tmp_path / "t3"),
-                                    "--seeds", "2"], capture_output=True, text=True, env=env)
-    assert r.returncode == 2 and "missing model weights" in r.stderr and "NDRQL_WEIGHTS" in r.stderr
+    r = run_cli(ndrql_exe, "reproduce", "table3", "--data", str(dataset_root), "--out", str(tmp_path / "t3"),
+                "--seeds", "2", env=env)
+    assert "NDRQL_WEIGHTS" in assert_one_line_error(r, "missing model weights")

@@ -9,7 +9,6 @@ import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +18,9 @@ from ndrql.experiments.planning_runs import SweepOptions, make_tasks, summarize_
 from ndrql.pipeline.samples import Problem
 from ndrql.experiments.sweep import Task, read_task, run_sweep, task_path
 from ndrql.planning.methods import Method, get_method
+
+from helpers import TESTS_DIR
+from helpers.sweep_tasks import slow_tasks
 
 
 def _square(x: int) -> dict:
@@ -106,22 +108,10 @@ _KILL_SCRIPT = textwrap.dedent(
     import sys
     from ndrql.experiments.sweep import run_sweep
     sys.path.insert(0, {here!r})
-    from test_experiments_sweep import _slow_tasks
-    run_sweep(_slow_tasks(), sys.argv[1], executor="process", workers=2, progress=False)
+    from helpers.sweep_tasks import slow_tasks
+    run_sweep(slow_tasks(), sys.argv[1], executor="process", workers=2, progress=False)
     """
 )
-
-
-def _slow_tasks():
-    """40 planning tasks of a few tenths of a second each (plain QL on an open 40x40 grid)."""
-    opts = SweepOptions(seeds=4, progress=False)
-    probs = []
-    for k in range(10):
-        b = np.zeros((40, 40), bool)
-        b[20, 5 + k: 35] = True
-        probs.append(Problem("kill", k, "wall", b, (0, 0), (39, 39), b, (0, 0), (39, 39), 78))
-    variants = [get_method("QL"), get_method("D-Q"), get_method("IQL"), Method("D-C", d_crf=True)]
-    return make_tasks(probs, variants, opts, None, records=False)
 
 
 @pytest.mark.slow
@@ -130,10 +120,10 @@ def test_resume_after_kill(tmp_path):
     and the final table equals an uninterrupted run's."""
     out = tmp_path / "killed"
     script = tmp_path / "sweep.py"
-    script.write_text(_KILL_SCRIPT.format(here=str(Path(__file__).parent)))
+    script.write_text(_KILL_SCRIPT.format(here=str(TESTS_DIR)))
     proc = subprocess.Popen([sys.executable, str(script), str(out)], start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    total = len(_slow_tasks())
+    total = len(slow_tasks())
     deadline = time.time() + 120
     try:
         while time.time() < deadline:
@@ -148,7 +138,7 @@ def test_resume_after_kill(tmp_path):
     assert proc.returncode == -signal.SIGKILL, f"sweep was not killed midway: {proc.stderr.read().decode()[-500:]}"
     before = {p.name: (p.stat().st_mtime_ns, json.loads(p.read_text())) for p in out.glob("*.json")}
     assert 0 < len(before) < total, "kill did not land midway"
-    tasks = _slow_tasks()
+    tasks = slow_tasks()
     rep = run_sweep(tasks, out, executor="process", workers=2, progress=False)
     assert sorted(rep.reused) == sorted(n[:-5] for n in before)
     assert not set(rep.computed) & set(rep.reused) and len(rep.computed) + len(rep.reused) == total

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 
 import numpy as np
 import pytest
@@ -21,6 +20,8 @@ from ndrql.maps.world import (
     world_to_pixel,
     yaw_quaternion,
 )
+
+from helpers.cli import assert_one_line_error, run_cli
 
 
 def test_pixel_world_round_trip_with_a_rotated_origin():
@@ -72,10 +73,9 @@ def test_ros_map_end_to_end_world_points_in_and_a_path_file_out(ndrql_exe, tmp_p
     # start top-left, goal bottom-left (metres in the map frame: x = -5 + 0.05 (col + 0.5), y = -2 + 0.05 (300 - row - 0.5))
     start, goal = (-4.0, 10.0, 0.0), (-4.0, 0.0, math.pi)
     out = tmp_path / "plan.yaml"
-    r = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "floor.yaml"), "--method", "QL",
-                        "--start-world=" + ",".join(map(str, start)), "--goal-world=" + ",".join(map(str, goal)),
-                        "--robot-radius", "0.1", "--path-out", str(out), "--json", str(tmp_path / "plan.json")],
-                       capture_output=True, text=True, timeout=300)
+    r = run_cli(ndrql_exe, "plan", str(tmp_path / "floor.yaml"), "--method", "QL",
+                "--start-world=" + ",".join(map(str, start)), "--goal-world=" + ",".join(map(str, goal)),
+                "--robot-radius", "0.1", "--path-out", str(out), "--json", str(tmp_path / "plan.json"))
     assert r.returncode == 0, r.stderr
     assert "robot radius 2 px = 0.10 m" in r.stdout and "collision-free" in r.stdout
     msg = yaml.safe_load(out.read_text())
@@ -88,8 +88,8 @@ def test_ros_map_end_to_end_world_points_in_and_a_path_file_out(ndrql_exe, tmp_p
     data = json.loads((tmp_path / "plan.json").read_text())
     assert len(data["runs"][0]["path_world"]) == len(msg["poses"]) and data["runs"][0]["success"]
     js = tmp_path / "plan.json.path"
-    r = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "floor.yaml"), "--method", "QL", "--start", "40,20",
-                        "--goal", "260,20", "--path-out", str(js)], capture_output=True, text=True, timeout=300)
+    r = run_cli(ndrql_exe, "plan", str(tmp_path / "floor.yaml"), "--method", "QL", "--start", "40,20",
+                "--goal", "260,20", "--path-out", str(js))
     assert r.returncode == 0 and json.loads(js.read_text())["header"]["frame_id"] == "map"
 
 
@@ -97,7 +97,6 @@ def test_world_points_and_path_file_need_a_ros_map(ndrql_exe, tmp_path):
     np.save(tmp_path / "m.npy", np.zeros((50, 50), dtype=bool))
     for extra in (["--start-world", "1,1", "--goal", "40,40"], ["--start", "1,1", "--goal", "40,40", "--path-out", "p.yaml"],
                   ["--start", "1,1", "--start-world", "1,1", "--goal", "40,40"]):
-        r = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "m.npy"), "--method", "QL", *extra],
-                           capture_output=True, text=True, timeout=300, cwd=tmp_path)
-        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        r = run_cli(ndrql_exe, "plan", str(tmp_path / "m.npy"), "--method", "QL", *extra, cwd=tmp_path)
+        assert_one_line_error(r)
         assert "resolution" in r.stderr or "not both" in r.stderr

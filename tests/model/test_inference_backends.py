@@ -13,6 +13,8 @@ import pytest
 from ndrql.errors import CheckpointError, NdrqlError
 from ndrql.model.predict import Predictor, onnx_available, onnx_cache_path
 
+from helpers.cli import assert_one_line_error, run_cli
+
 pytestmark = pytest.mark.skipif(not onnx_available(), reason="onnxruntime/onnx not installed (pip install 'ndrql[onnx]')")
 
 
@@ -100,17 +102,16 @@ def test_cli_backend_flags(cache, model_weights, ndrql_exe, tmp_path):
     env = {**os.environ, "NDRQL_CACHE": str(cache)}
     m = tmp_path / "m.npy"
     np.save(m, corridor_map())
-    out = subprocess.run([*ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "torch",
-                          "--json", str(tmp_path / "t.json")], capture_output=True, text=True, env=env)
+    out = run_cli(ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "torch",
+                  "--json", str(tmp_path / "t.json"), env=env)
     assert out.returncode == 0, out.stderr
     assert "(torch)" in out.stdout and json.loads((tmp_path / "t.json").read_text())["backend"] == "torch"
-    out = subprocess.run([*ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190",
-                          "--json", str(tmp_path / "o.json")], capture_output=True, text=True, env=env)
+    out = run_cli(ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190",
+                  "--json", str(tmp_path / "o.json"), env=env)
     assert out.returncode == 0, out.stderr
     assert json.loads((tmp_path / "o.json").read_text())["backend"] == "onnx"
-    out = subprocess.run([*ndrql_exe, "predict", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "gpu"],
-                         capture_output=True, text=True, env=env)
-    assert out.returncode == 2 and "invalid choice: 'gpu'" in out.stderr
+    out = run_cli(ndrql_exe, "predict", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "gpu", env=env)
+    assert_one_line_error(out, "invalid choice: 'gpu'")
 
 
 def test_unwritable_cache_falls_back_to_torch_under_auto(tmp_path, monkeypatch, model_weights):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
@@ -11,6 +10,8 @@ import pytest
 import ndrql
 from ndrql.maps.grid import area_downscale
 from ndrql.synth.oracle import oracle_prediction
+
+from helpers.cli import assert_one_line_error, run_cli
 
 
 def _walls() -> np.ndarray:
@@ -38,8 +39,8 @@ def test_api_oracle_priors_are_the_grids_own_path():
 
 def test_cli_prior_from_oracle_is_named_in_output_and_json(tmp_path, ndrql_exe):
     np.save(tmp_path / "m.npy", _walls())
-    out = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "m.npy"), "--start", "10,10", "--goal", "110,150",
-                          "--prior-from", "oracle", "--json", str(tmp_path / "o.json")], capture_output=True, text=True)
+    out = run_cli(ndrql_exe, "plan", str(tmp_path / "m.npy"), "--start", "10,10", "--goal", "110,150",
+                  "--prior-from", "oracle", "--json", str(tmp_path / "o.json"))
     assert out.returncode == 0, out.stderr
     assert "oracle priors" in out.stdout
     d = json.loads((tmp_path / "o.json").read_text())
@@ -86,9 +87,9 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     import os
 
     env = {**os.environ, "NDRQL_CACHE": str(tmp_path / "cache")}
-    out = subprocess.run([*ndrql_exe, "reproduce", "transfer", "--eval-set", "transfer-small", "--grids", "32",
-                          "--seeds", "2", "--per-family", "1", "--workers", "1", "--executor", "serial", "--no-progress",
-                          "--out", str(tmp_path / "tr")], capture_output=True, text=True, env=env)
+    out = run_cli(ndrql_exe, "reproduce", "transfer", "--eval-set", "transfer-small", "--grids", "32", "--seeds", "2",
+                  "--per-family", "1", "--workers", "1", "--executor", "serial", "--no-progress",
+                  "--out", str(tmp_path / "tr"), env=env)
     assert out.returncode == 0, out.stderr
     text = (tmp_path / "tr" / "transfer.md").read_text()
     assert "| **all** |" in text and "share of oracle" in text and "Planning grid 32" in text
@@ -102,6 +103,5 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     ql = sum(sum(r["runs"]["QL"]["steps"]) for r in done)
     red = lambda row: 1 - sum(sum(r["runs"][row]["steps"]) for r in done) / ql  # noqa: E731
     assert abs(s["share"] - red("NDR-QL (model)") / red("NDR-QL (oracle)")) < 1e-12
-    bad = subprocess.run([*ndrql_exe, "reproduce", "transfer", "--eval-set", "nope", "--out", str(tmp_path / "x")],
-                         capture_output=True, text=True, env=env)
-    assert bad.returncode == 2 and "valid: transfer" in bad.stderr and bad.stderr.count("\n") == 1
+    bad = run_cli(ndrql_exe, "reproduce", "transfer", "--eval-set", "nope", "--out", str(tmp_path / "x"), env=env)
+    assert_one_line_error(bad, "valid: transfer")

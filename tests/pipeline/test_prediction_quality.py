@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
@@ -13,6 +12,8 @@ from ndrql.maps.grid import PlanningGrid
 from ndrql.pipeline.predictions import prediction_quality
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig
+
+from helpers.cli import run_cli
 
 
 def corridor_map() -> np.ndarray:
@@ -77,14 +78,14 @@ def test_cli_prints_one_line_and_the_json_says_which_ran(ndrql_exe, tmp_path):
     m = corridor_map()
     np.save(tmp_path / "m.npy", m)
     np.savez(tmp_path / "flat.npz", region=np.full(m.shape, 0.2), guideline=np.full(m.shape, 0.2))
-    base = [*ndrql_exe, "plan", str(tmp_path / "m.npy"), "--start", "20,20", "--goal", "180,20", "--prior-from",
+    base = ["plan", str(tmp_path / "m.npy"), "--start", "20,20", "--goal", "180,20", "--prior-from",
             str(tmp_path / "flat.npz"), "--json", str(tmp_path / "p.json")]
-    r = subprocess.run(base, capture_output=True, text=True, timeout=300)
+    r = run_cli(ndrql_exe, *base)
     assert r.returncode == 0, r.stderr
     line = [x for x in r.stdout.splitlines() if x.startswith("prediction:")]
     assert len(line) == 1 and "uninformative" in line[0] and "NDR-QL fell back to IQL" in line[0]
     data = json.loads((tmp_path / "p.json").read_text())
     assert data["fallback"]["ran"] == "IQL" and data["runs"][0]["method"] == "IQL"
-    r = subprocess.run(base + ["--fallback", "none"], capture_output=True, text=True, timeout=300)
+    r = run_cli(ndrql_exe, *base, "--fallback", "none")
     assert r.returncode == 0 and "the model's priors were used anyway" in r.stdout
     assert json.loads((tmp_path / "p.json").read_text())["runs"][0]["method"] == "NDR-QL"

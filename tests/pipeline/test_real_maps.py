@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 
 import ndrql
-from drawn_maps import OFFICE_GOAL, OFFICE_START, office_plan, thin_wall_map
 from ndrql.errors import NdrqlError, NoPathError, PointError
 from ndrql.maps.grid import PlanningGrid
 from ndrql.maps.lines import polyline_collisions
 from ndrql.pipeline.problem import build_grid
 from ndrql.pipeline.route import make_route, octile_cost
 from ndrql.pipeline.settings import PlanSettings
+
+from helpers.cli import run_cli
+from helpers.drawn_maps import OFFICE_GOAL, OFFICE_START, office_plan, thin_wall_map
 
 
 @pytest.fixture(scope="module")
@@ -157,14 +159,13 @@ def test_same_seed_same_route_and_octile_cost():
 
 def test_a_colliding_path_is_called_out_by_the_cli_and_marked_in_the_figure(ndrql_exe, office, tmp_path):
     import json
-    import subprocess
-
+    
     from PIL import Image
 
     Image.fromarray(np.where(office, 0, 255).astype(np.uint8)).save(tmp_path / "office.png")
-    r = subprocess.run([*ndrql_exe, "plan", str(tmp_path / "office.png"), "--start", "300,200", "--goal", "1700,1800",
-                        "--method", "IQL", "--grid", "area", "--size", "50", "--json", str(tmp_path / "p.json"),
-                        "--png", str(tmp_path / "p.png")], capture_output=True, text=True, timeout=300)
+    r = run_cli(ndrql_exe, "plan", str(tmp_path / "office.png"), "--start", "300,200", "--goal", "1700,1800",
+                "--method", "IQL", "--grid", "area", "--size", "50", "--json", str(tmp_path / "p.json"),
+                "--png", str(tmp_path / "p.png"))
     assert r.returncode == 0, r.stderr  # the command worked; the answer is "this path does not hold"
     assert "IQL seed 0: path collides:" in r.stdout and "not a success" in r.stdout
     data = json.loads((tmp_path / "p.json").read_text())

@@ -7,13 +7,14 @@ import json
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 from PIL import Image
 
-ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text(encoding="utf-8")
+from helpers import REPO_ROOT
+from helpers.cli import run_cli
+
+README = (REPO_ROOT / "README.md").read_text(encoding="utf-8")
 
 
 def readme_block(tag: str) -> str:
@@ -33,10 +34,10 @@ def test_readme_links_and_picture():
     for target in ("docs/results.md", "docs/performance.md", "docs/cli.md", "docs/demo.png"):
         assert f"]({target})" in README, target
     for target in ("docs/performance.md", "docs/cli.md", "docs/demo.png"):
-        assert (ROOT / target).is_file(), target
-    with Image.open(ROOT / "docs" / "demo.png") as im:
+        assert (REPO_ROOT / target).is_file(), target
+    with Image.open(REPO_ROOT / "docs" / "demo.png") as im:
         assert im.format == "PNG"
-    assert (ROOT / "docs" / "demo.png").stat().st_size < 300_000
+    assert (REPO_ROOT / "docs" / "demo.png").stat().st_size < 300_000
     for name in ("QL", "D-C", "N-C", "D-Q", "N-Q", "IQL", "O-QL", "NDR-QL"):
         assert re.search(rf"^\| `{re.escape(name)}` \| .*Eq", README, re.M), f"method {name} without its equation"
     for fmt in ("ROS `map_server`", "MovingAI", "--sample", "NumPy", "an image"):
@@ -55,10 +56,10 @@ def test_readme_api_example_runs(model_weights, tmp_path):
 
 
 def test_cli_md_in_sync_with_help():
-    r = subprocess.run([sys.executable, str(ROOT / "tools" / "gen_cli_docs.py"), "--check"], capture_output=True,
+    r = subprocess.run([sys.executable, str(REPO_ROOT / "tools" / "gen_cli_docs.py"), "--check"], capture_output=True,
                        text=True, timeout=120)
     assert r.returncode == 0, f"docs/cli.md is stale; run .venv/bin/python tools/gen_cli_docs.py\n{r.stdout}"
-    text = (ROOT / "docs" / "cli.md").read_text(encoding="utf-8")
+    text = (REPO_ROOT / "docs" / "cli.md").read_text(encoding="utf-8")
     for heading in ("### `ndrql plan`", "### `ndrql demo`", "### `ndrql astar`"):
         assert heading in text
 
@@ -82,7 +83,7 @@ def test_help_does_not_import_torch_or_numba(ndrql_exe):
 
 def test_demo_writes_figures_and_table(ndrql_exe, model_weights, tmp_path):
     out = tmp_path / "demo"
-    r = subprocess.run([*ndrql_exe, "demo", "--out", str(out), "--seeds", "3"], capture_output=True, text=True, timeout=600)
+    r = run_cli(ndrql_exe, "demo", "--out", str(out), "--seeds", "3")
     assert r.returncode == 0, r.stderr
     for name in ("compare.png", "ndr-ql.png", "table.md", "results.json"):
         assert (out / name).stat().st_size > 0, name

@@ -7,7 +7,7 @@ import re
 import pytest
 import yaml
 
-from conftest import REPO_ROOT
+from helpers import REPO_ROOT
 
 DOCS = [REPO_ROOT / "README.md", *sorted((REPO_ROOT / "docs").glob("*.md"))]
 OUTSIDE = re.compile(r"\bSPEC\b|\bissue [0-9]|\.\./shared|ndr-ql\.tex|paper/")

@@ -3,20 +3,11 @@
 from __future__ import annotations
 
 import os
-import subprocess
 
 import numpy as np
 import pytest
 
-
-def run(exe, *args, env=None):
-    return subprocess.run([*exe, *map(str, args)], capture_output=True, text=True, timeout=300, env=env)
-
-
-def assert_one_line_error(r, needle):
-    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
-    assert r.stderr.startswith("ndrql: error: ") and r.stderr.count("\n") == 1, r.stderr
-    assert needle in r.stderr, r.stderr
+from helpers.cli import assert_one_line_error, run_cli
 
 
 @pytest.fixture
@@ -42,75 +33,78 @@ def walls(tmp_path):
     ],
 )
 def test_bad_points(ndrql_exe, walls, points, needle):
-    r = run(ndrql_exe, "plan", walls, f"--start={points[0]}", f"--goal={points[1]}", "--method", "QL")
+    r = run_cli(ndrql_exe, "plan", walls, f"--start={points[0]}", f"--goal={points[1]}", "--method", "QL")
     assert_one_line_error(r, needle)
 
 
 @pytest.mark.parametrize("grid", ["safe", "area"])
 def test_same_planning_cell(ndrql_exe, walls, grid):
-    r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "1,1", "--method", "QL", "--grid", grid, "--size", "10")
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "1,1", "--method", "QL", "--grid", grid,
+                "--size", "10")
     assert_one_line_error(r, "same planning cell")
 
 
 def test_unsupported_file(ndrql_exe, tmp_path):
     f = tmp_path / "notes.txt"
     f.write_text("not a map\n")
-    assert_one_line_error(run(ndrql_exe, "plan", f, "--start", "0,0", "--goal", "1,1"), "unsupported map format '.txt'")
+    r = run_cli(ndrql_exe, "plan", f, "--start", "0,0", "--goal", "1,1")
+    assert_one_line_error(r, "unsupported map format '.txt'")
 
 
 def test_missing_map_file(ndrql_exe, tmp_path):
-    assert_one_line_error(run(ndrql_exe, "plan", tmp_path / "nope.png", "--start", "0,0", "--goal", "1,1"), "map file not found")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "nope.png", "--start", "0,0", "--goal", "1,1")
+    assert_one_line_error(r, "map file not found")
 
 
 def test_map_too_large(ndrql_exe, tmp_path):
     big = np.zeros((4097, 4097), dtype=bool)  # one pixel row and column over the default 4096 x 4096 limit
     np.save(tmp_path / "big.npy", big)
-    r = run(ndrql_exe, "plan", tmp_path / "big.npy", "--start", "0,0", "--goal", "4000,4000", "--method", "QL")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "big.npy", "--start", "0,0", "--goal", "4000,4000", "--method", "QL")
     assert_one_line_error(r, "map is 4097x4097 = 16,785,409 pixels, more than the limit of 16,777,216")
     assert "--max-pixels" in r.stderr
 
 
 def test_map_too_large_for_given_limit_and_grid_too_fine(ndrql_exe, walls):
-    r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--max-pixels", "5000")
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--max-pixels", "5000")
     assert_one_line_error(r, "more than the limit of 5,000")
-    r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--size", "1000")
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--size", "1000")
     assert_one_line_error(r, "planning grid size 1000 is larger than the limit 512")
 
 
 def test_missing_model_weights(ndrql_exe, walls):
     env = {**os.environ, "NDRQL_WEIGHTS": "/nonexistent/ndr.pt"}
-    r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", env=env)
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", env=env)
     assert_one_line_error(r, "missing model weights: /nonexistent/ndr.pt")
-    r = run(ndrql_exe, "demo", "--out", walls.parent / "demo", env=env)
+    r = run_cli(ndrql_exe, "demo", "--out", walls.parent / "demo", env=env)
     assert_one_line_error(r, "missing model weights: /nonexistent/ndr.pt")
     # methods without the model do not need weights
-    r = run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--method", "IQL", env=env)
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--method", "IQL", env=env)
     assert r.returncode == 0 and "IQL seed 0: converged" in r.stdout, r.stderr
 
 
 def test_corrupt_weights(ndrql_exe, walls, tmp_path):
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"not a checkpoint")
-    assert_one_line_error(run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--weights", bad),
+    assert_one_line_error(run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--weights", bad),
                           "cannot read checkpoint")
 
 
 def test_scenario_errors(ndrql_exe, tmp_path):
     (tmp_path / "a.map").write_text("type octile\nheight 4\nwidth 4\nmap\n....\n....\n....\n....\n", encoding="ascii")
     (tmp_path / "a.scen").write_text("version 1\n0\ta.map\t4\t4\t0\t0\t3\t3\t4.24\n", encoding="ascii")
-    r = run(ndrql_exe, "plan", tmp_path / "a.map", "--scen", tmp_path / "a.scen", "--index", "5", "--method", "QL")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "a.map", "--scen", tmp_path / "a.scen", "--index", "5", "--method", "QL")
     assert_one_line_error(r, "scenario 5 not in")
     (tmp_path / "b.scen").write_text("version 1\n0\ta.map\t8\t8\t0\t0\t3\t3\t4.24\n", encoding="ascii")
-    r = run(ndrql_exe, "plan", tmp_path / "a.map", "--scen", tmp_path / "b.scen", "--method", "QL")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "a.map", "--scen", tmp_path / "b.scen", "--method", "QL")
     assert_one_line_error(r, "is for a 8x8 map")
-    r = run(ndrql_exe, "plan", tmp_path / "a.map", "--index", "1", "--method", "QL")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "a.map", "--index", "1", "--method", "QL")
     assert_one_line_error(r, "--index needs --scen FILE")
 
 
 def test_missing_points(ndrql_exe, walls):
-    assert_one_line_error(run(ndrql_exe, "plan", walls, "--start", "0,0"), "--goal required with a map file")
+    assert_one_line_error(run_cli(ndrql_exe, "plan", walls, "--start", "0,0"), "--goal required with a map file")
 
 
 def test_bad_threads(ndrql_exe, walls):
-    assert_one_line_error(run(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--threads", "0"),
+    assert_one_line_error(run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--threads", "0"),
                           "--threads must be >= 1")

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from conftest import REPO_ROOT
+from helpers import REPO_ROOT
 
 pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install 'ndrql[rl]'")
 

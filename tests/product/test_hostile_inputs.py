@@ -15,13 +15,15 @@ import re
 import resource
 import stat
 import subprocess
-import sys
 import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
+
+from helpers.cli import assert_one_line_error, run_cli
+from helpers.synthetic_dataset import make_tiny_dataset
 
 CAP = 2 << 30  # bytes of address space for the memory cases
 IS_ROOT = os.geteuid() == 0
@@ -33,19 +35,18 @@ def _cap_memory() -> None:
 
 def run(exe: list[str], *args: str, cwd: Path, cap: bool = False, env: dict | None = None, preexec=None,
         timeout: float = 600) -> subprocess.CompletedProcess:
-    """Run ``ndrql ARGS`` in ``cwd`` (with the memory cap when ``cap``)."""
+    """Run ``ndrql ARGS`` in ``cwd`` with a cache of its own there (and the memory cap when ``cap``)."""
     full_env = {**os.environ, "NDRQL_CACHE": str(cwd / ".cache"), **(env or {})}
-    return subprocess.run([*exe, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=full_env,
-                          preexec_fn=preexec or (_cap_memory if cap else None))
+    return run_cli(exe, *args, cwd=cwd, env=full_env, timeout=timeout,
+                   preexec_fn=preexec or (_cap_memory if cap else None))
 
 
 def one_error(r: subprocess.CompletedProcess, pattern: str) -> str:
-    """Assert exit code 2 and one stderr line ``ndrql: error: ...`` matching ``pattern``; return it."""
-    lines = r.stderr.splitlines()
-    assert r.returncode == 2 and len(lines) == 1, f"exit {r.returncode}, stderr:\n{r.stderr[-3000:]}"
-    assert lines[0].startswith("ndrql: error: ") and len(lines[0]) <= 500, lines[0][:600]
-    assert re.search(pattern, lines[0]), lines[0]
-    return lines[0]
+    """The one-line error (exit code 2), at most 500 characters (no unbounded input echoed), matching ``pattern``."""
+    line = assert_one_line_error(r)
+    assert len(line) <= 500, line[:600]
+    assert re.search(pattern, line), line
+    return line
 
 
 def listing(folder: Path) -> list[str]:
@@ -317,9 +318,6 @@ def test_truncated_onnx_export_is_rebuilt_once(ndrql_exe, work, model_weights):
 
 
 def test_truncated_dataset_cache_is_decoded_again(ndrql_exe, work, model_weights):
-    sys.path.insert(0, str(Path(__file__).parent))
-    from synthetic_dataset import make_tiny_dataset
-
     root = make_tiny_dataset(work / "ds", n_train=8, n_test=4)
     args = ("eval", "--data", str(root), "--split", "seen", "--threads", "1")
     r = run(ndrql_exe, *args, cwd=work)

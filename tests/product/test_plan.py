@@ -9,7 +9,6 @@ the Q-learning fields, the NDR-QI threshold and the time per stage.
 from __future__ import annotations
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
@@ -17,9 +16,7 @@ from PIL import Image
 
 from ndrql.maps.astar import astar4, path_is_valid
 
-
-def plan(exe, *args, env=None):
-    return subprocess.run([*exe, "plan", *map(str, args)], capture_output=True, text=True, timeout=600, env=env)
+from helpers.cli import run_cli
 
 
 def rooms(h: int, w: int) -> np.ndarray:
@@ -70,7 +67,7 @@ def test_plan_png_map(ndrql_exe, model_weights, tmp_path):
     path = tmp_path / "rooms.png"
     Image.fromarray(np.where(m, 0, 255).astype(np.uint8)).save(path)
     out, png = tmp_path / "o" / "plan.json", tmp_path / "o" / "plan.png"
-    r = plan(ndrql_exe, path, "--start", "20,20", "--goal", "130,210", "--json", out, "--png", png)
+    r = run_cli(ndrql_exe, "plan", path, "--start", "20,20", "--goal", "130,210", "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["map"]["height"] == 150 and data["map"]["width"] == 230
     side = data["planning_grid"]["cell_px"][0]  # the safe grid: square cells, size on the longer side (230 px)
@@ -93,7 +90,8 @@ def test_plan_ros_yaml_map(ndrql_exe, model_weights, tmp_path):
         "image: office.pgm\nresolution: 0.05\norigin: [-4.5, -4.5, 0.0]\nnegate: 0\n"
         "occupied_thresh: 0.65\nfree_thresh: 0.196\n", encoding="utf-8")
     out, png = tmp_path / "ros.json", tmp_path / "ros.png"
-    r = plan(ndrql_exe, tmp_path / "office.yaml", "--start", "15,15", "--goal", "165,150", "--json", out, "--png", png)
+    r = run_cli(ndrql_exe, "plan", tmp_path / "office.yaml", "--start", "15,15", "--goal", "165,150", "--json", out,
+                "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["map"]["resolution"] == 0.05 and data["map"]["origin"] == [-4.5, -4.5, 0.0]
     # world poses of the final path (metres, radians): the first is the start pixel's centre
@@ -122,13 +120,14 @@ def test_plan_movingai_map_with_scenario(ndrql_exe, model_weights, tmp_path):
     m = rooms(120, 100)
     _movingai(tmp_path, m)
     out, png = tmp_path / "mai.json", tmp_path / "mai.png"
-    r = plan(ndrql_exe, tmp_path / "arena.map", "--scen", tmp_path / "arena.map.scen", "--index", "1",
-             "--json", out, "--png", png)
+    r = run_cli(ndrql_exe, "plan", tmp_path / "arena.map", "--scen", tmp_path / "arena.map.scen", "--index", "1",
+                "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["source_start"] == [4, 4] and data["source_goal"] == [114, 94]  # (row, col) from (x, y)
     assert data["scenario"] == {"file": str(tmp_path / "arena.map.scen"), "index": 1, "optimal_length": 200.0}
     # FILE:K is the same as --index K (the form `ndrql astar` uses)
-    r2 = plan(ndrql_exe, tmp_path / "arena.map", "--scen", f"{tmp_path / 'arena.map.scen'}:1", "--method", "QL")
+    r2 = run_cli(ndrql_exe, "plan", tmp_path / "arena.map", "--scen", f"{tmp_path / 'arena.map.scen'}:1",
+                 "--method", "QL")
     assert r2.returncode == 0, r2.stderr
     assert "QL seed 0: converged" in r2.stdout and f"A* optimum: {data['astar_length']} moves" in r2.stdout
 
@@ -136,7 +135,7 @@ def test_plan_movingai_map_with_scenario(ndrql_exe, model_weights, tmp_path):
 @pytest.mark.data
 def test_plan_dataset_sample(ndrql_exe, model_weights, dataset_root, tmp_path):
     out, png = tmp_path / "s.json", tmp_path / "s.png"
-    r = plan(ndrql_exe, "--sample", f"{dataset_root}:seen:0", "--json", out, "--png", png)
+    r = run_cli(ndrql_exe, "plan", "--sample", f"{dataset_root}:seen:0", "--json", out, "--png", png)
     data = check_plan_outputs(r, out, png)
     assert data["sample"]["split"] == "seen" and data["sample"]["index"] == 0
     assert data["map"]["height"] == data["map"]["width"] == 201
@@ -146,8 +145,8 @@ def test_compare_table_and_figure(ndrql_exe, model_weights, tmp_path):
     m = rooms(201, 201)
     np.save(tmp_path / "m.npy", m)
     out, png = tmp_path / "c.json", tmp_path / "c.png"
-    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "20,20", "--goal", "180,180", "--compare", "QL,IQL,NDR-QL",
-             "--seeds", "3", "--json", out, "--png", png)
+    r = run_cli(ndrql_exe, "plan", tmp_path / "m.npy", "--start", "20,20", "--goal", "180,180",
+                "--compare", "QL,IQL,NDR-QL", "--seeds", "3", "--json", out, "--png", png)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     for name in ("QL", "IQL", "NDR-QL"):
@@ -171,7 +170,7 @@ def test_weights_option_and_prior_file_agree(ndrql_exe, model_weights, tmp_path)
     outs = []
     for extra in (["--weights", model_weights], ["--prior-from", tmp_path / "pred.npz"]):
         out = tmp_path / f"{len(outs)}.json"
-        r = plan(ndrql_exe, *common, *extra, "--json", out)
+        r = run_cli(ndrql_exe, "plan", *common, *extra, "--json", out)
         assert r.returncode == 0, r.stderr
         runs = json.loads(out.read_text())["runs"]
         for x in runs:
@@ -187,8 +186,8 @@ def test_point_in_a_blocked_cell_moves_with_a_warning(ndrql_exe, tmp_path):
     m[50, 50] = False  # a free pixel inside the block
     np.save(tmp_path / "m.npy", m)
     out = tmp_path / "w.json"
-    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "50,50", "--goal", "95,95", "--method", "QL", "--json", out,
-             "--grid", "area", "--size", "50")  # the paper's rule: the cell is at least half obstacle
+    r = run_cli(ndrql_exe, "plan", tmp_path / "m.npy", "--start", "50,50", "--goal", "95,95", "--method", "QL",
+                "--json", out, "--grid", "area", "--size", "50")  # the paper's rule: the cell is at least half obstacle
     assert r.returncode == 0, r.stderr
     assert r.stderr.startswith("ndrql: warning: start (50, 50) falls in blocked planning cell (25, 25)")
     data = json.loads(out.read_text())
@@ -204,7 +203,8 @@ def test_json_to_stdout_and_a_point_the_model_input_loses(ndrql_exe, model_weigh
     m[31, 31] = False  # a single free pixel inside a block: gone after resizing by 1/3
     m[0:60, 30:33] = False  # ... reachable through a 3-px corridor so planning can start there
     np.save(tmp_path / "m.npy", m)
-    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "31,31", "--goal", "590,590", "--json", "-", "--weights", "paper")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "m.npy", "--start", "31,31", "--goal", "590,590", "--json", "-",
+                "--weights", "paper")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["model_input"]["scale"] == pytest.approx(1 / 3)
@@ -214,8 +214,8 @@ def test_json_to_stdout_and_a_point_the_model_input_loses(ndrql_exe, model_weigh
     m[0:60, 30:33] = True  # now the hole is isolated in the model input
     m[0:29, 31] = False  # a 1-px corridor: free on the map, blocked after resizing
     np.save(tmp_path / "m.npy", m)
-    r = plan(ndrql_exe, tmp_path / "m.npy", "--start", "20,31", "--goal", "590,590", "--json", "-", "--method", "N-Q",
-             "--size", "201", "--weights", "paper")
+    r = run_cli(ndrql_exe, "plan", tmp_path / "m.npy", "--start", "20,31", "--goal", "590,590", "--json", "-",
+                "--method", "N-Q", "--size", "201", "--weights", "paper")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["model_input"]["moved"]["start"] is True

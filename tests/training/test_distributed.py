@@ -39,6 +39,8 @@ from ndrql.training import distributed as D
 from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 from ndrql.training.config import TrainConfig
 
+from helpers.cli import assert_one_line_error, run_cli
+
 TINY = {"unet_base": 4, "context_channels": 16, "fusion_channels": [16, 8]}
 N_MAPS, N_TRAIN, N_SEEN = 20, 40, 4
 
@@ -270,13 +272,12 @@ def test_ddp_two_processes_match_single_process_and_resume_in_one(synthetic, tmp
 
 # --- the real console script ----------------------------------------------------------------------
 
-def _run_cli(cmd: list[str], env_cache: str, timeout: float = 300):
-    import subprocess
-
-    env = {**os.environ, "NDRQL_CACHE": env_cache, "OMP_NUM_THREADS": "1"}
+def _train_env() -> dict[str, str]:
+    """This environment without a launcher's rank variables, with one OpenMP thread."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
     for var in ("RANK", "WORLD_SIZE", "LOCAL_RANK"):
         env.pop(var, None)
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
+    return env
 
 
 @pytest.mark.parametrize(("flags", "message"), [
@@ -284,9 +285,9 @@ def _run_cli(cmd: list[str], env_cache: str, timeout: float = 300):
     (["--amp-dtype", "fp8"], "unknown --amp-dtype 'fp8'; valid: auto, bf16, fp16"),
 ])
 def test_cli_rejects_bad_device_flags_in_one_line(ndrql_exe, synthetic, tmp_path, flags, message):
-    r = _run_cli([*ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), *flags], os.environ["NDRQL_CACHE"])
-    assert r.returncode == 2, r.stderr
-    assert message in r.stderr and "Traceback" not in r.stderr
+    r = run_cli(ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), *flags,
+                env=_train_env())
+    assert_one_line_error(r, message)
     assert not (tmp_path / "run").exists()
 
 
@@ -299,8 +300,9 @@ def test_sync_bn_needs_cuda(synthetic, tmp_path):
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message on a machine without CUDA")
 def test_cli_device_cuda_without_gpu_says_so(ndrql_exe, synthetic, tmp_path):
-    r = _run_cli([*ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), "--device", "cuda"], os.environ["NDRQL_CACHE"])
-    assert r.returncode == 2 and "no CUDA device is visible" in r.stderr and "Traceback" not in r.stderr
+    r = run_cli(ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), "--device", "cuda",
+                env=_train_env())
+    assert_one_line_error(r, "no CUDA device is visible")
 
 
 @pytest.mark.slow
@@ -313,10 +315,10 @@ def test_torchrun_two_processes_via_the_cli(synthetic, tmp_path):
     if not torchrun.exists():
         pytest.skip("torchrun is not installed beside this python")
     run_dir = tmp_path / "run"
-    cmd = [str(torchrun), "--standalone", "--nproc-per-node", "2", "-m", "ndrql", "train", "--data", str(synthetic),
-           "--run-dir", str(run_dir), "--model", "ndr-stdc1-quarter", "--model-overrides", json.dumps(TINY),
-           "--device", "cpu", "--no-bf16", "--batch-size", "2", "--epochs", "1", "--val-fraction", "0.1", "--threads", "1", "--no-progress"]
-    r = _run_cli(cmd, os.environ["NDRQL_CACHE"])
+    r = run_cli([str(torchrun)], "--standalone", "--nproc-per-node", "2", "-m", "ndrql", "train",
+                "--data", str(synthetic), "--run-dir", str(run_dir), "--model", "ndr-stdc1-quarter",
+                "--model-overrides", json.dumps(TINY), "--device", "cpu", "--no-bf16", "--batch-size", "2",
+                "--epochs", "1", "--val-fraction", "0.1", "--threads", "1", "--no-progress", env=_train_env())
     assert r.returncode == 0, r.stderr[-3000:]
     assert r.stdout.count("run directory:") == 1
     assert "DDP: 2 processes (gloo), 2 per process, global batch 4" in r.stdout

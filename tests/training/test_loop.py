@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
 
 import numpy as np
 import pytest
@@ -12,6 +11,8 @@ from ndrql.errors import CheckpointError
 from ndrql.model.checkpoint import load_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.loop import train
+
+from helpers.cli import assert_one_line_error, run_cli
 
 TINY = {"width": 0.25}
 
@@ -54,12 +55,12 @@ def test_eval_and_predict_cli_on_a_trained_checkpoint(tiny_dataset, tmp_path, nd
     train(config(tiny_dataset, epochs=1), tmp_path / "run", progress=False, log=lambda m: None)
     env = {**os.environ}
     weights = tmp_path / "run" / "best.pt"
-    out = subprocess.run([*ndrql_exe, "eval", "--split", "unseen", "--data", str(tiny_dataset), "--weights", str(weights),
-                          "--json", str(tmp_path / "e.json")], capture_output=True, text=True, env=env)
+    out = run_cli(ndrql_exe, "eval", "--split", "unseen", "--data", str(tiny_dataset), "--weights", str(weights),
+                  "--json", str(tmp_path / "e.json"), env=env)
     assert out.returncode == 0, out.stderr
     assert "region F1 (original labels)" in out.stdout and "| all | 4 |" in out.stdout
-    out = subprocess.run([*ndrql_exe, "predict", "--sample", f"{tiny_dataset}:seen:1", "--weights", str(weights),
-                          "--out", str(tmp_path / "pred")], capture_output=True, text=True, env=env)
+    out = run_cli(ndrql_exe, "predict", "--sample", f"{tiny_dataset}:seen:1", "--weights", str(weights),
+                  "--out", str(tmp_path / "pred"), env=env)
     assert out.returncode == 0, out.stderr
     z = np.load(tmp_path / "pred" / "prediction.npz")
     assert z["region"].shape == (201, 201) and z["guideline"].shape == (201, 201)
@@ -67,6 +68,5 @@ def test_eval_and_predict_cli_on_a_trained_checkpoint(tiny_dataset, tmp_path, nd
     assert (tmp_path / "pred" / "region.png").stat().st_size > 1000
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"\x00" * 10)
-    out = subprocess.run([*ndrql_exe, "predict", "--sample", f"{tiny_dataset}:seen:1", "--weights", str(bad)],
-                         capture_output=True, text=True, env=env)
-    assert out.returncode == 2 and out.stderr.startswith("ndrql: error: cannot read checkpoint") and "Traceback" not in out.stderr
+    out = run_cli(ndrql_exe, "predict", "--sample", f"{tiny_dataset}:seen:1", "--weights", str(bad), env=env)
+    assert assert_one_line_error(out).startswith("ndrql: error: cannot read checkpoint")

@@ -9,7 +9,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,29 +19,13 @@ from ndrql.planning.methods import method_names
 from ndrql.planning.preset import (PRESET_FIELDS, MethodSetting, Preset, PresetError, builtin_path, load_preset,
                                    method_configs, preset_from_dict, preset_to_dict, write_preset)
 from ndrql.tuning import space as S
-from ndrql.pipeline.samples import Problem
 from ndrql.tuning.objective import Evaluation, chunks, evaluate, run_problem
 
+from helpers import REPO_ROOT, TESTS_DIR
+from helpers.cli import assert_one_line_error, run_cli
+from helpers.tuning_problems import PROBLEMS, tune_config
+
 optuna = pytest.importorskip("optuna")
-
-
-def make_problem(key: str, n: int = 14, gap_col: int = 11) -> Problem:
-    """An n x n grid with a wall across row n // 2 and one gap; region/guideline on the A* path."""
-    from ndrql.maps.astar import astar4
-
-    blocked = np.zeros((n, n), dtype=bool)
-    blocked[n // 2, :] = True
-    blocked[n // 2, gap_col] = False
-    start, goal = (1, 1), (n - 2, 1)
-    res = astar4(blocked, start, goal)
-    guide = np.zeros((n, n))
-    for r, c in res.path:
-        guide[r, c] = 1.0
-    region = np.clip(guide + np.roll(guide, 1, 0) + np.roll(guide, -1, 1), 0, 1)
-    return Problem(key, 0, "", blocked, start, goal, blocked, start, goal, int(res.moves), region, guide)
-
-
-PROBLEMS = [make_problem("a", 14, 11), make_problem("b", 12, 9), make_problem("c", 14, 4)]
 
 
 # ------------------------------------------------------------------------------------------- spaces
@@ -129,13 +112,6 @@ def test_after_chunk_can_stop_an_evaluation():
 # -------------------------------------------------------------------------------------------- study
 
 
-def _cfg(method="IQL", trials=6, seed=0, **kw):
-    from ndrql.tuning.study import TuneConfig
-
-    return TuneConfig(method, trials=trials, samples=len(PROBLEMS), seeds=2, seed=seed, chunk=1, max_episodes=3000,
-                      startup_trials=3, prune_warmup=1, **kw)
-
-
 def _trials(study):
     return [(t.number, t.state.name, t.value, dict(t.params)) for t in study.get_trials(deepcopy=False)]
 
@@ -145,7 +121,7 @@ def test_study_is_deterministic_per_seed_and_keeps_the_spec_point(tmp_path):
 
     runs = []
     for i, seed in enumerate((0, 0, 1)):
-        st = run_study(_cfg(seed=seed), PROBLEMS, f"sqlite:///{tmp_path}/s{i}.db", progress=False)
+        st = run_study(tune_config(seed=seed), PROBLEMS, f"sqlite:///{tmp_path}/s{i}.db", progress=False)
         runs.append(st)
     a, b, c = (_trials(s) for s in runs)
     assert a == b  # same seed, one worker: the same trials, so the same best trial
@@ -165,11 +141,11 @@ def test_study_resumes_with_the_same_settings(tmp_path):
     from ndrql.tuning.study import finished, run_study
 
     url = f"sqlite:///{tmp_path}/s.db"
-    first = _trials(run_study(_cfg(trials=3), PROBLEMS, url, progress=False))
-    st = run_study(_cfg(trials=6), PROBLEMS, url, progress=False)
+    first = _trials(run_study(tune_config(trials=3), PROBLEMS, url, progress=False))
+    st = run_study(tune_config(trials=6), PROBLEMS, url, progress=False)
     assert finished(st) == 6 and _trials(st)[:3] == first  # continued: earlier trials kept as they were
     assert len(optuna.get_all_study_names(url)) == 1
-    run_study(_cfg(trials=6, seed=0), PROBLEMS[:2], url, progress=False)  # other maps: another study
+    run_study(tune_config(trials=6, seed=0), PROBLEMS[:2], url, progress=False)  # other maps: another study
     assert len(optuna.get_all_study_names(url)) == 2
 
 
@@ -178,7 +154,7 @@ import sys
 sys.path.insert(0, {tests!r})
 from test_tuning import PROBLEMS, _cfg
 from ndrql.tuning.study import run_study
-run_study(_cfg(trials=int(sys.argv[1]), heartbeat=1, grace=2), PROBLEMS, sys.argv[2], progress=False)
+run_study(tune_config(trials=int(sys.argv[1]), heartbeat=1, grace=2), PROBLEMS, sys.argv[2], progress=False)
 """
 
 
@@ -189,7 +165,7 @@ def test_killed_search_continues_the_same_study(tmp_path):
 
     url = f"sqlite:///{tmp_path}/s.db"
     script = tmp_path / "run.py"
-    script.write_text(_KILL_SCRIPT.format(tests=str(Path(__file__).parent)))
+    script.write_text(_KILL_SCRIPT.format(tests=str(TESTS_DIR)))
     proc = subprocess.Popen([sys.executable, str(script), "500", url], stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, start_new_session=True)
     try:
@@ -213,7 +189,7 @@ def test_killed_search_continues_the_same_study(tmp_path):
     before = _trials(optuna.load_study(study_name=name, storage=url))
     done_before = sum(1 for t in before if t[1] in ("COMPLETE", "PRUNED"))
     time.sleep(4)  # well past the 2 s grace period: a trial left running is failed and retried
-    st = run_study(_cfg(trials=done_before + 2, heartbeat=1, grace=2), PROBLEMS, url, progress=False)
+    st = run_study(tune_config(trials=done_before + 2, heartbeat=1, grace=2), PROBLEMS, url, progress=False)
     assert st.study_name == name and optuna.get_all_study_names(url) == [name]
     after = _trials(st)
     assert finished(st) == done_before + 2
@@ -231,7 +207,7 @@ def test_trial_killed_before_its_first_heartbeat_is_failed(tmp_path):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        storage = open_storage(f"sqlite:///{tmp_path}/s.db", _cfg(heartbeat=1, grace=2))
+        storage = open_storage(f"sqlite:///{tmp_path}/s.db", tune_config(heartbeat=1, grace=2))
         study = optuna.create_study(study_name="s", storage=storage)
         orphan, beating = study.ask(), study.ask()
         storage.record_heartbeat(beating._trial_id)
@@ -266,8 +242,8 @@ def test_outputs_and_preset_from_a_study(tmp_path):
     from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
     from ndrql.tuning.study import best_trial, run_study
 
-    st = run_study(_cfg(method="NDR-QL", trials=5), PROBLEMS, f"sqlite:///{tmp_path}/s.db", progress=False)
-    folder = write_study_outputs(st, _cfg(method="NDR-QL", trials=5), tmp_path / "out")
+    st = run_study(tune_config(method="NDR-QL", trials=5), PROBLEMS, f"sqlite:///{tmp_path}/s.db", progress=False)
+    folder = write_study_outputs(st, tune_config(method="NDR-QL", trials=5), tmp_path / "out")
     best = json.loads((folder / "best.json").read_text())
     assert best["best_trial"]["number"] == best_trial(st).number and (folder / "history.png").stat().st_size > 0
     assert len(json.loads((folder / "trials.json").read_text())) == 5
@@ -351,15 +327,12 @@ def test_load_preset_errors(tmp_path):
 
 
 def test_cli_preset_and_tune_errors(ndrql_exe, tmp_path):
-    r = subprocess.run(ndrql_exe + ["plan", "src/ndrql/data/sample_map.png", "--start", "25,179", "--goal", "167,5",
-                                    "--preset", "nope"], capture_output=True, text=True, cwd=Path(__file__).parents[1])
+    r = run_cli(ndrql_exe, "plan", "src/ndrql/data/sample_map.png", "--start", "25,179", "--goal", "167,5",
+                "--preset", "nope", cwd=REPO_ROOT)
     assert r.returncode == 2 and r.stderr.strip() == ("ndrql: error: unknown preset 'nope': give spec, tuned or a "
                                                       "preset JSON file")
-    r = subprocess.run(ndrql_exe + ["tune"], capture_output=True, text=True)
-    assert r.returncode == 2 and "give --method NAME" in r.stderr
-    r = subprocess.run(ndrql_exe + ["tune", "--method", "QQL"], capture_output=True, text=True)
-    assert r.returncode == 2 and "unknown method 'QQL'" in r.stderr
-    r = subprocess.run(ndrql_exe + ["tune", "--method", "QL", "--trials", "0"], capture_output=True, text=True)
-    assert r.returncode == 2 and "--trials must be an integer" in r.stderr
-    r = subprocess.run(ndrql_exe + ["tune", "--help"], capture_output=True, text=True)
+    assert_one_line_error(run_cli(ndrql_exe, "tune"), "give --method NAME")
+    assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QQL"), "unknown method 'QQL'")
+    assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QL", "--trials", "0"), "--trials must be an integer")
+    r = run_cli(ndrql_exe, "tune", "--help")
     assert r.returncode == 0 and "ndrql tune --method NDR-QL" in r.stdout

@@ -1,0 +1,17 @@
+"""Code shared by the tests (importable from every test folder: ``pythonpath = ["tests"]`` in pyproject.toml).
+
+``cli``: run the console script, check the one-line error; ``drawn_maps``: hand-drawn maps;
+``synthetic_dataset``: a tiny dataset in the original layout; ``sweep_tasks`` and ``tuning_problems``:
+work for the kill-and-resume tests, imported by their child processes too.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: The repository (``tests/helpers/__init__.py`` -> two levels up).
+REPO_ROOT = Path(__file__).resolve().parents[2]
+#: This folder's parent, ``tests/``: put it on ``sys.path`` (or ``PYTHONPATH``) of a child process that imports helpers.
+TESTS_DIR = REPO_ROOT / "tests"
+#: The dataset lives beside the repository: ``../shared/data/path-planning-dataset``.
+DATASET_DIR = (REPO_ROOT.parent / "shared" / "data" / "path-planning-dataset").resolve()

@@ -1,6 +1,7 @@
 # ndrql: two entry points, `make demo` and `make test`. Both create .venv if needed and install the
 # package with the CPU torch pin (constraints.txt); the install is skipped while pyproject.toml and
-# constraints.txt are unchanged since the last one (stamp file inside .venv).
+# constraints.txt are unchanged since the last one (stamp file inside .venv). `make test` runs every
+# test (it is the CI command, .ci/run); `make test-fast` leaves out the ones marked slow.
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -8,7 +9,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.ndrql-install-stamp
 PYTEST_ARGS ?= -q
 
-.PHONY: all install demo test clean
+.PHONY: all install demo test test-fast clean
 
 all: test
 
@@ -26,6 +27,9 @@ demo: install
 
 test: install
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+test-fast: install
+	$(BIN)/python -m pytest -m "not slow" $(PYTEST_ARGS)
 
 clean:
 	rm -rf out .pytest_cache .hypothesis build dist

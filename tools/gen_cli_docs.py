@@ -21,7 +21,7 @@ WIDTH = "100"
 HEADER = """# Command-line reference
 
 Generated from the CLI's `--help` by `tools/gen_cli_docs.py`; do not edit by hand
-(`tests/test_product_docs.py` fails when this file and the CLI disagree: run
+(`tests/product/test_docs.py` fails when this file and the CLI disagree: run
 `.venv/bin/python tools/gen_cli_docs.py` to regenerate). Start with `ndrql demo`, then
 `ndrql plan MAP --start ROW,COL --goal ROW,COL` on your own map.
 """

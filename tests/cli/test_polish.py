@@ -107,32 +107,6 @@ def test_plan_table_with_eight_digit_steps():
     assert lines[-1].startswith("short/long: moves of the shortest and the longest training episode")
 
 
-def test_probability_overlay_has_a_colour_bar_and_the_legend_below():
-    from matplotlib.colorbar import Colorbar
-
-    from ndrql.viz.maps import new_figure
-    from ndrql.viz.prediction import plot_probability_overlay
-    from ndrql.viz.style import GUIDELINE_CMAP
-
-    fig = new_figure()
-    ax = fig.add_subplot(1, 1, 1)
-    obstacles = np.zeros((20, 30), bool)
-    prob = np.linspace(0, 1, 600).reshape(20, 30)
-    artists = plot_probability_overlay(ax, obstacles, prob, kind="guideline", start=(1, 1), goal=(18, 28))
-    bars = [a for a in artists if isinstance(a, Colorbar)]
-    assert len(bars) == 1 and bars[0].cmap.name == GUIDELINE_CMAP
-    legend = ax.get_legend()
-    assert legend is not None and legend._loc == 9  # "upper center", anchored below the axes
-    assert [t.get_text() for t in legend.get_texts()] == ["start", "goal"]
-
-
-def test_one_method_palette():
-    from ndrql.viz import overlays, plan, style
-
-    assert plan.METHOD_COLORS is style.METHOD_COLORS and overlays.METHOD_COLORS is style.METHOD_COLORS
-    assert style.method_color("A*") == style.ASTAR_COLOR == plan.ASTAR_COLOR
-
-
 def test_dpi_flag_sets_the_figure_resolution(ndrql_exe, tmp_path):
     sizes = {}
     for dpi in (50, 100):

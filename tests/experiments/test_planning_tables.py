@@ -69,29 +69,6 @@ def test_scale_refs_are_stratified():
         scale_refs(0)
 
 
-def test_plots_take_ax_and_return_artists():
-    from ndrql.viz.curves import plot_training_curves
-    from ndrql.viz.maps import new_figure
-    from ndrql.viz.overlays import plot_method_paths, plot_prediction
-    from ndrql.viz.qtable import plot_qtable, qtable_triangles
-
-    b, s, g = _grid()
-    r = run_plan(b, s, g, "IQL", seed=0, keep_records=True, keep_q=True)
-    fig = new_figure()
-    ax = fig.subplots(2, 2)
-    arts = plot_training_curves(ax[0, 0], ax[0, 1], r.records.to_dict(), convergence_episode=r.convergence_episode)
-    dashed = [a for a in arts if getattr(a, "get_linestyle", lambda: "")() == "--"]
-    assert len(dashed) == 2 and dashed[0].get_xdata()[0] == r.convergence_episode
-    coll = plot_qtable(ax[1, 0], r.q_table, b.shape, blocked=b)[0]
-    assert len(coll.get_array()) == 4 * int((~b).sum())
-    # the "up" triangle of cell (row 2, col 3) lies above its centre (smaller row = smaller y)
-    tri = qtable_triangles(b.shape)[(2 * 20 + 3) * 4 + 0]
-    assert tri[:, 1].max() == pytest.approx(2.0) and tri[:, 1].min() == pytest.approx(1.5)
-    assert plot_method_paths(ax[1, 1], b, {"IQL": r.path, "QL": None}, s, g)
-    assert plot_prediction(ax[1, 1], b, np.random.default_rng(1).random(b.shape), None)
-    fig.savefig(__import__("io").BytesIO(), format="png")
-
-
 @pytest.mark.data
 def test_table3_maps_follow_their_rule(dataset_root):
     """maps_table3.json: first sample per category with A* >= 80 on the connected planning grid."""

@@ -279,6 +279,8 @@ def test_kill_9_during_a_write_leaves_no_debris(tmp_path):
         proc.wait(timeout=30)
     finally:
         proc.kill()
+        proc.wait()
+        proc.stdout.close()
     assert _listing(tmp_path) == ["last.pt"] and target.read_bytes() == b"old"
 
 

@@ -70,6 +70,8 @@ def _kill_parent_and_check(code: str, workers: int, tmp_path: Path, wait: float 
     finally:
         if proc.poll() is None:
             proc.kill()
+        proc.wait()
+        proc.stderr.close()
 
 
 POOL = """

@@ -64,11 +64,11 @@ def test_bad_flag_gives_the_subcommands_usage_in_one_line(ndrql_exe, argv, usage
 
 def test_closed_stdout_pipe_exits_quietly(ndrql_exe):
     """``ndrql astar ... | head -0``: the reader is gone before the first write; no traceback, exit 141."""
-    p = subprocess.Popen(ndrql_exe + ["astar", *SAMPLE, "--print-grid"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE)
-    p.stdout.close()
-    err = p.stderr.read().decode()
-    assert p.wait() == 141
+    with subprocess.Popen(ndrql_exe + ["astar", *SAMPLE, "--print-grid"], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE) as p:
+        p.stdout.close()
+        err = p.stderr.read().decode()
+        assert p.wait() == 141
     assert err == ""
 
 
@@ -113,7 +113,8 @@ def test_dpi_flag_sets_the_figure_resolution(ndrql_exe, tmp_path):
         out = tmp_path / f"a{dpi}.png"
         r = run_cli(ndrql_exe, "astar", *SAMPLE, "--png", str(out), "--dpi", str(dpi))
         assert r.returncode == 0, r.stderr
-        sizes[dpi] = Image.open(out).size
+        with Image.open(out) as im:
+            sizes[dpi] = im.size
     assert abs(sizes[100][0] - 2 * sizes[50][0]) <= 2
     r = run_cli(ndrql_exe, "astar", *SAMPLE, "--png", str(tmp_path / "x.png"), "--dpi", "5")
     assert assert_one_line_error(r) == "ndrql: error: --dpi must be an integer in 30..600, got 5"

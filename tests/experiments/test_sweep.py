@@ -135,7 +135,8 @@ def test_resume_after_kill(tmp_path):
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
         proc.wait(timeout=30)
-    assert proc.returncode == -signal.SIGKILL, f"sweep was not killed midway: {proc.stderr.read().decode()[-500:]}"
+    with proc.stderr:  # read only when the assertion fails
+        assert proc.returncode == -signal.SIGKILL, f"sweep was not killed midway: {proc.stderr.read().decode()[-500:]}"
     before = {p.name: (p.stat().st_mtime_ns, json.loads(p.read_text())) for p in out.glob("*.json")}
     assert 0 < len(before) < total, "kill did not land midway"
     tasks = slow_tasks()

@@ -152,7 +152,7 @@ def test_study_resumes_with_the_same_settings(tmp_path):
 _KILL_SCRIPT = """
 import sys
 sys.path.insert(0, {tests!r})
-from test_tuning import PROBLEMS, _cfg
+from helpers.tuning_problems import PROBLEMS, tune_config
 from ndrql.tuning.study import run_study
 run_study(tune_config(trials=int(sys.argv[1]), heartbeat=1, grace=2), PROBLEMS, sys.argv[2], progress=False)
 """
@@ -185,6 +185,7 @@ def test_killed_search_continues_the_same_study(tmp_path):
         os.killpg(proc.pid, signal.SIGKILL)
     finally:
         proc.wait()
+        proc.stderr.close()
     name = optuna.get_all_study_names(url)[0]
     before = _trials(optuna.load_study(study_name=name, storage=url))
     done_before = sum(1 for t in before if t[1] in ("COMPLETE", "PRUNED"))

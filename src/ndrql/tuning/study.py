@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -111,8 +112,6 @@ def default_storage(out_dir: str | Path) -> str:
 
 def open_storage(url: str, cfg: TuneConfig) -> Any:
     """An Optuna storage for ``url``; SQL ones with heartbeats, a stale trial retried once."""
-    import warnings
-
     import optuna
 
     if not isinstance(url, str) or not url.startswith(("sqlite:", "postgresql", "mysql")):
@@ -196,7 +195,11 @@ def _set_constraints(trial: Any, values: dict[str, float]) -> None:
     for k, v in values.items():
         trial.set_user_attr(k, v)
         if _has_set_constraint():
-            trial.set_constraint(k, v)
+            with warnings.catch_warnings():
+                # a trial retried after a kill inherits the constraints its first attempt set (the same values:
+                # the evaluation is seeded); Optuna keeps them and warns that the new ones are ignored
+                warnings.filterwarnings("ignore", "The constraint value is ignored", UserWarning)
+                trial.set_constraint(k, v)
 
 
 def finished(study: Any) -> int:

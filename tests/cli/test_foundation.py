@@ -124,6 +124,7 @@ def test_scen_argument_parses_one_way(tmp_path):
     assert parse_scen(str(odd)) == (str(odd), None)
 
 
+@pytest.mark.slow
 def test_demo_writes_png_and_json(ndrql_exe, tmp_path, model_weights):
     r = run_cli(ndrql_exe, "demo", "--out", tmp_path / "demo", "--seeds", "2")
     assert r.returncode == 0, r.stderr

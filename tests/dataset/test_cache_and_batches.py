@@ -77,6 +77,7 @@ def test_epoch_order_is_seeded():
     assert np.array_equal(a, b) and np.array_equal(ka, kb) and not np.array_equal(a, c)
 
 
+@pytest.mark.slow
 def test_real_split_holds_out_whole_maps_and_no_seen_map(dataset_root):
     train = cache_mod.load_split(dataset_root, "train", progress=False)
     seen = cache_mod.load_split(dataset_root, "seen", progress=False)

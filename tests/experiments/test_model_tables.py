@@ -39,6 +39,7 @@ def table4_runs(tiny_dataset, tmp_path_factory):
     return out, path
 
 
+@pytest.mark.slow
 def test_table4_trains_every_variant_with_one_budget_and_scores_it(table4_runs, tiny_dataset):
     out, path = table4_runs
     text = path.read_text()
@@ -60,6 +61,7 @@ def test_table4_trains_every_variant_with_one_budget_and_scores_it(table4_runs, 
     assert_rectangular(text)
 
 
+@pytest.mark.slow
 def test_table4_rerun_evaluates_from_cache_without_training(table4_runs, tiny_dataset):
     out, _ = table4_runs
     ckpts = sorted((out / "runs" / "table4").glob("*/last.pt"))
@@ -73,6 +75,7 @@ def test_table4_rerun_evaluates_from_cache_without_training(table4_runs, tiny_da
     assert {p: p.stat().st_mtime_ns for p in evals} == stamps
 
 
+@pytest.mark.slow
 def test_table4_refuses_a_different_budget(table4_runs, tiny_dataset):
     out, _ = table4_runs
     with pytest.raises(NdrqlError, match="1-epoch schedule; use --epochs 1"):
@@ -116,6 +119,7 @@ def test_table1_scores_ndr_and_rgp_with_their_budgets(tiny_dataset, tmp_path):
     assert_rectangular(text)
 
 
+@pytest.mark.slow
 def test_sizing_reads_learning_curves(table4_runs, tiny_dataset, tmp_path):
     out, _ = table4_runs
     path = sizing(tmp_path / "sizing", runs=out / "runs", data=str(tiny_dataset), progress=False, log=quiet)

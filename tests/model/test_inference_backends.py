@@ -96,6 +96,7 @@ def test_model_without_guideline_runs_on_torch_under_auto(cache, tmp_path):
         Predictor.load(tmp_path / "noguide.pt", backend="onnx")
 
 
+@pytest.mark.slow
 def test_cli_backend_flags(cache, model_weights, ndrql_exe, tmp_path):
     import os
 

@@ -82,6 +82,7 @@ def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
         assert np.allclose(other.region_grid, view.region_grid, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     """A tiny transfer report: every family of the small set at grid 32, 2 seeds; model, oracle and share columns."""
     import os

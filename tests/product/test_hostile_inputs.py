@@ -287,6 +287,7 @@ def test_train_flags_are_validated_at_the_boundary(ndrql_exe, work, args, patter
     ({"arch": "ndr", "width": float("nan")}, r"'width' must be like"),
     ({"arch": "ndr", "backbone": "x" * 10_000}, r"unknown backbone 'x{40}'\.\.\. in the model config"),
 ])
+@pytest.mark.slow
 def test_crafted_checkpoint_configs(ndrql_exe, work, config, pattern):
     import torch
 
@@ -301,6 +302,7 @@ def test_crafted_checkpoint_configs(ndrql_exe, work, config, pattern):
 # --- 6. caches repair themselves -----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_truncated_onnx_export_is_rebuilt_once(ndrql_exe, work, model_weights):
     pytest.importorskip("onnxruntime")
     args = ("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--out", "o", "--backend", "onnx")
@@ -317,6 +319,7 @@ def test_truncated_onnx_export_is_rebuilt_once(ndrql_exe, work, model_weights):
     assert r.returncode == 0 and r.stderr == "", r.stderr
 
 
+@pytest.mark.slow
 def test_truncated_dataset_cache_is_decoded_again(ndrql_exe, work, model_weights):
     root = make_tiny_dataset(work / "ds", n_train=8, n_test=4)
     args = ("eval", "--data", str(root), "--split", "seen", "--threads", "1")

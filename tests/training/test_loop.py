@@ -49,6 +49,7 @@ def test_refuses_to_overwrite_or_resume_another_model(tiny_dataset, tmp_path):
         train(config(tiny_dataset, model_overrides={"width": 0.5}, max_steps=1), tmp_path / "r", resume=True, progress=False, log=lambda m: None)
 
 
+@pytest.mark.slow
 def test_eval_and_predict_cli_on_a_trained_checkpoint(tiny_dataset, tmp_path, ndrql_exe):
     import os
 

@@ -14,6 +14,7 @@ def _hash(m: np.ndarray) -> str:
     return hashlib.sha1(m.tobytes()).hexdigest()
 
 
+@pytest.mark.slow
 def test_tuning_uses_only_validation_train_maps(dataset_root, model_weights, monkeypatch):
     pytest.importorskip("optuna")
     import ndrql.dataset.cache as cache

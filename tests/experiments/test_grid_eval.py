@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
 import numpy as np
 
 from ndrql.pipeline.predictions import to_map_pixels
+
+from helpers.cli import run_cli
 
 
 def test_map_pixels_take_their_cells_mean():
@@ -26,9 +27,8 @@ def test_map_pixels_take_their_cells_mean():
 
 def test_eval_scores_a_grid_model_both_ways(ndrql_exe, dataset_root, tmp_path):
     out = tmp_path / "e.json"
-    res = subprocess.run([*ndrql_exe, "eval", "--split", "unseen", "--weights", "general", "--limit", "6",
-                          "--threads", "1", "--data", str(dataset_root), "--json", str(out)],
-                         capture_output=True, text=True)
+    res = run_cli(ndrql_exe, "eval", "--split", "unseen", "--weights", "general", "--limit", "6",
+                  "--threads", "1", "--data", str(dataset_root), "--json", str(out))
     assert res.returncode == 0, res.stderr
     data = json.loads(out.read_text())
     assert data["input_mode"] == "grid" and data["grid"] == 50

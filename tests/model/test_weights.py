@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS, resolve_weights, shipped_weights, weights_label
+
+from helpers.cli import run_cli
 
 
 def test_names_mean_the_shipped_files(monkeypatch):
@@ -32,10 +33,10 @@ def test_plan_takes_a_name_or_a_file(ndrql_exe, tmp_path):
     import json
 
     sample = shipped_weights("paper").with_name("sample_map.png")
-    args = [*ndrql_exe, "plan", str(sample), "--start", "25,179", "--goal", "167,5", "--size", "50", "--seeds", "1"]
-    ok = subprocess.run([*args, "--weights", "paper", "--json", str(tmp_path / "p.json")], capture_output=True, text=True)
+    args = ["plan", str(sample), "--start", "25,179", "--goal", "167,5", "--size", "50", "--seeds", "1"]
+    ok = run_cli(ndrql_exe, *args, "--weights", "paper", "--json", str(tmp_path / "p.json"))
     assert ok.returncode == 0, ok.stderr
     assert Path(json.loads((tmp_path / "p.json").read_text())["weights"]).name == SHIPPED_WEIGHTS["paper"]
-    bad = subprocess.run([*args, "--weights", str(tmp_path / "none.pt")], capture_output=True, text=True)
+    bad = run_cli(ndrql_exe, *args, "--weights", str(tmp_path / "none.pt"))
     errors = [line for line in bad.stderr.splitlines() if line.startswith("ndrql: error")]
     assert bad.returncode == 2 and len(errors) == 1 and "none.pt" in errors[0]

@@ -1,7 +1,8 @@
 """Every plot function draws on a bare ``matplotlib.figure.Figure`` (no pyplot, no backend) and returns its artists.
 
-The figure builders ``viz.plan.plan_figure`` and ``compare_figure`` make their own figure (tested through the
-pipeline in ``tests/pipeline/test_real_maps.py``); everything else takes the ``ax`` or ``fig`` to draw on.
+The figure builders (``viz.plan.plan_figure`` and ``compare_figure``, tested through the pipeline in
+``tests/pipeline/test_real_maps.py``; ``viz.reproduce``, through the experiments) make their own figure;
+everything else takes the ``ax`` or ``fig`` to draw on.
 """
 
 from __future__ import annotations
@@ -77,6 +78,9 @@ def test_map_layers_in_pixel_coordinates(fig):
     start, goal = maps.plot_endpoints(ax, (1, 2), (4, 6))
     assert start.get_offsets().tolist() == [[2, 1]] and goal.get_offsets().tolist() == [[6, 4]]
     assert start.get_label() == "start" and goal.get_label() == "goal"
+    maps.frame_map(ax, obstacles.shape)
+    assert ax.get_xlim() == (-0.5, 7.5) and ax.get_ylim() == (5.5, -0.5)  # row 0 on top
+    assert list(ax.get_xticks()) == [] and list(ax.get_yticks()) == []
 
 
 def test_planning_result_draws_the_astar_path_at_cell_centres(fig):

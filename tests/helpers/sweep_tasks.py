@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from ndrql.experiments.planning_runs import SweepOptions, make_tasks
-from ndrql.experiments.problems import Problem
 from ndrql.experiments.sweep import Task
+from ndrql.pipeline.samples import Problem
 from ndrql.planning.methods import Method, get_method
 
 

@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.ndrql-install-stamp
 PYTEST_ARGS ?= -q
 
-.PHONY: all install demo test clean
+.PHONY: all install demo test shipped-onnx clean
 
 all: test
 
@@ -26,6 +26,10 @@ demo: install
 
 test: install
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+# after replacing src/ndrql/data/*.pt: the shipped ONNX graphs and their records (tests/test_light_install.py)
+shipped-onnx: install
+	PYTHONPATH=src $(BIN)/python tools/export_shipped_onnx.py
 
 clean:
 	rm -rf out .pytest_cache .hypothesis build dist

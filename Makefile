@@ -9,7 +9,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.ndrql-install-stamp
 PYTEST_ARGS ?= -q
 
-.PHONY: all install demo test test-fast clean
+.PHONY: all install demo test test-fast shipped-onnx clean
 
 all: test
 
@@ -30,6 +30,10 @@ test: install
 
 test-fast: install
 	$(BIN)/python -m pytest -m "not slow" $(PYTEST_ARGS)
+
+# after replacing src/ndrql/data/*.pt: the shipped ONNX graphs and their records (tests/product/test_light_install.py)
+shipped-onnx: install
+	PYTHONPATH=src $(BIN)/python tools/export_shipped_onnx.py
 
 clean:
 	rm -rf out .pytest_cache .hypothesis build dist

@@ -105,7 +105,7 @@ def main() -> None:
 
         variants["ONNX Runtime"] = onnx
     except ImportError:
-        print("onnxruntime not installed: pip install 'ndrql[onnx]'")
+        print("onnxruntime not installed: pip install onnxruntime")
 
     ref1, refb = eager(x1), eager(xb)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, torch {torch.__version__}, "

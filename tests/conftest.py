@@ -57,6 +57,15 @@ def model_weights() -> Path:
     return path
 
 
+@pytest.fixture(scope="session")
+def user_weights(model_weights, tmp_path_factory) -> Path:
+    """A checkpoint that is not shipped (the shipped model saved again, so its bytes differ): it has no
+    shipped ONNX graph, so the ONNX backend exports it into the cache on first use."""
+    from ndrql.model.checkpoint import export_weights
+
+    return export_weights(model_weights, tmp_path_factory.mktemp("user") / "user.pt", extra={"note": "not shipped"})
+
+
 @pytest.fixture(scope="module")
 def tiny_dataset(tmp_path_factory, monkeypatch_module):
     """A 16-sample TRAIN / 4-sample TEST dataset in the original layout, with its own cache dir."""

@@ -1,6 +1,7 @@
 """The project's own error types: the CLI turns them into one line on stderr and exit code 2.
 
-:func:`brief` formats a value from a file or the command line for such a line, bounded in length.
+:func:`brief` formats a value from a file or the command line for such a line, bounded in length;
+:func:`require_torch` says what to install when a torch-only feature runs without torch.
 """
 
 
@@ -49,3 +50,24 @@ class DatasetError(NdrqlError):
 
 class OutputError(NdrqlError):
     """An output file cannot be written: unwritable or missing folder, a directory in the way, disk full."""
+
+
+class MissingDependency(NdrqlError):
+    """An optional dependency is not installed for what was asked (torch for training, evaluation, export)."""
+
+
+#: What to install for the torch-only commands (train, eval, export, the model tables, ``--backend torch``).
+TRAIN_INSTALL = "pip install 'ndrql[train]'"
+
+
+def torch_missing(what: str) -> MissingDependency:
+    """The one-line error for ``what`` when torch is not installed."""
+    return MissingDependency(f"{what} needs torch, which is not installed: {TRAIN_INSTALL}")
+
+
+def require_torch(what: str) -> None:
+    """Raise :func:`torch_missing` for ``what`` unless torch imports (planning with the shipped models never calls this)."""
+    try:
+        import torch  # noqa: F401  # lazy: torch is optional
+    except ImportError:
+        raise torch_missing(what) from None

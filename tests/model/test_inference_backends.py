@@ -1,5 +1,6 @@
 """Inference backends of the Predictor: ONNX Runtime (default when installed) and torch agree; the
-export is cached by weights digest, a warm cache needs no torch, bad input gives clear errors."""
+shipped weights run from their shipped graphs, other checkpoints are exported once into the cache
+(by weights digest), a warm cache needs no torch, bad input gives clear errors."""
 
 from __future__ import annotations
 
@@ -11,11 +12,12 @@ import numpy as np
 import pytest
 
 from ndrql.errors import CheckpointError, NdrqlError
-from ndrql.model.predict import Predictor, onnx_available, onnx_cache_path
+from ndrql.model.onnx_backend import onnx_available, onnx_cache_path
+from ndrql.model.predict import Predictor
 
 from helpers.cli import assert_one_line_error, run_cli
 
-pytestmark = pytest.mark.skipif(not onnx_available(), reason="onnxruntime/onnx not installed (pip install 'ndrql[onnx]')")
+pytestmark = pytest.mark.skipif(not onnx_available(), reason="onnxruntime not installed")
 
 
 def corridor_map() -> np.ndarray:
@@ -31,10 +33,10 @@ def cache(tmp_path, monkeypatch):
     return tmp_path / "cache"
 
 
-def test_onnx_and_torch_predict_the_same(cache, model_weights):
+def test_onnx_and_torch_predict_the_same(cache, user_weights):
     m = corridor_map()
-    onnx = Predictor.load(model_weights, threads=1, backend="auto")
-    torch_ = Predictor.load(model_weights, threads=1, backend="torch")
+    onnx = Predictor.load(user_weights, threads=1, backend="auto")
+    torch_ = Predictor.load(user_weights, threads=1, backend="torch")
     assert onnx.backend_name == "onnx" and torch_.backend_name == "torch"
     a = onnx.predict(m, (10, 10), (190, 190))
     b = torch_.predict(m, (10, 10), (190, 190))
@@ -42,13 +44,20 @@ def test_onnx_and_torch_predict_the_same(cache, model_weights):
     assert np.abs(a.region - b.region).max() < 1e-3 and np.abs(a.guideline - b.guideline).max() < 1e-3
     # and the thresholded masks the planners use are the same
     assert ((a.region >= 0.5) != (b.region >= 0.5)).sum() <= 2
-    assert onnx_cache_path(model_weights).is_file()
+    assert onnx_cache_path(user_weights).is_file()
 
 
-def test_warm_cache_loads_without_torch(cache, model_weights):
-    Predictor.load(model_weights, backend="onnx")  # export once
+def test_shipped_weights_need_no_export(cache, model_weights):
+    p = Predictor.load(model_weights, threads=1)
+    assert p.backend_name == "onnx" and p._runner.path.suffix == ".onnx"
+    assert p._runner.path.parent == model_weights.parent  # the shipped graph, nothing in the cache
+    assert not (cache / "onnx").exists()
+
+
+def test_warm_cache_loads_without_torch(cache, user_weights):
+    Predictor.load(user_weights, backend="onnx")  # export once
     code = ("import sys, numpy as np; from ndrql.model.predict import Predictor; "
-            f"p = Predictor.load({str(model_weights)!r}, threads=1); "
+            f"p = Predictor.load({str(user_weights)!r}, threads=1); "
             "r = p.predict(np.zeros((120, 90), bool), (5, 5), (110, 80)); "
             "print(p.backend_name, r.region.shape, 'torch' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -57,12 +66,12 @@ def test_warm_cache_loads_without_torch(cache, model_weights):
     assert out.stdout.split() == ["onnx", "(120,", "90)", "False"]
 
 
-def test_damaged_export_cache_is_rebuilt(cache, model_weights):
-    p = Predictor.load(model_weights, backend="onnx")
-    meta = onnx_cache_path(model_weights).with_suffix(".json")
+def test_damaged_export_cache_is_rebuilt(cache, user_weights):
+    p = Predictor.load(user_weights, backend="onnx")
+    meta = onnx_cache_path(user_weights).with_suffix(".json")
     meta.write_text("{not json")
-    onnx_cache_path(model_weights).unlink()
-    q = Predictor.load(model_weights, backend="onnx")
+    onnx_cache_path(user_weights).unlink()
+    q = Predictor.load(user_weights, backend="onnx")
     assert json.loads(meta.read_text())["exported"] is True
     m = corridor_map()
     assert np.array_equal(p.predict(m, (10, 10), (190, 190)).region, q.predict(m, (10, 10), (190, 190)).region)
@@ -115,12 +124,13 @@ def test_cli_backend_flags(cache, model_weights, ndrql_exe, tmp_path):
     assert_one_line_error(out, "invalid choice: 'gpu'")
 
 
-def test_unwritable_cache_falls_back_to_torch_under_auto(tmp_path, monkeypatch, model_weights):
+def test_unwritable_cache_falls_back_to_torch_under_auto(tmp_path, monkeypatch, model_weights, user_weights):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     monkeypatch.setenv("NDRQL_CACHE", str(blocker / "cache"))  # mkdir fails below a file
     with pytest.warns(UserWarning, match="using torch"):
-        p = Predictor.load(model_weights, backend="auto")
+        p = Predictor.load(user_weights, backend="auto")
     assert p.backend_name == "torch"
     with pytest.raises(NdrqlError, match="ONNX Runtime backend failed"):
-        Predictor.load(model_weights, backend="onnx")
+        Predictor.load(user_weights, backend="onnx")
+    assert Predictor.load(model_weights).backend_name == "onnx"  # the shipped graph needs no cache

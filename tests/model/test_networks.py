@@ -148,22 +148,47 @@ def test_shipped_weights_load_and_predict_sensibly():
     assert pred.region[obstacles].mean() < pred.region[~obstacles].mean()
 
 
-def test_onnx_export_matches_torch(tmp_path):
-    pytest.importorskip("onnx", reason="ONNX export needs the onnx extra: pip install 'ndrql[onnx]'")
-    ort = pytest.importorskip("onnxruntime", reason="needs onnxruntime: pip install 'ndrql[onnx]'")
-    from ndrql.model.export import export_onnx
+def _onnx_vs_torch(model, onnx_path, shape):
+    """Largest |probability difference| between ``model`` and the graph on one input of ``shape``."""
+    import onnxruntime as ort
 
-    model = build_model(TINY).eval()
-    path = save_checkpoint(tmp_path / "m.pt", {"config": TINY, "model": model.state_dict()})
-    onnx_path = export_onnx(path, tmp_path / "m.onnx", size=201)
-    x = torch.zeros(2, 3, 201, 201)
-    x[:, 0, 50:80, 20:180] = 1
+    b, c, h, w = shape
+    x = torch.zeros(shape)
+    x[:, 0, h // 4: h // 3, 2: w - 5] = 1
     x[:, 1, 5, 5] = 1
-    x[:, 2, 195, 195] = 1
+    x[:, 2, h - 6, w - 6] = 1
     with torch.no_grad():
         r, g = model(x)
-    sess = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
-    ro, go = sess.run(None, {"x": x.numpy()})
-    assert ro.shape == (2, 1, 201, 201)
-    assert abs(torch.sigmoid(torch.from_numpy(ro)) - torch.sigmoid(r)).max() < 1e-3
-    assert abs(torch.sigmoid(torch.from_numpy(go)) - torch.sigmoid(g)).max() < 1e-3
+    ro, go = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"]).run(None, {"x": x.numpy()})
+    assert ro.shape == go.shape == (b, 1, h, w)
+    return max(float(abs(torch.sigmoid(torch.from_numpy(ro)) - torch.sigmoid(r)).max()),
+               float(abs(torch.sigmoid(torch.from_numpy(go)) - torch.sigmoid(g)).max()))
+
+
+def test_onnx_export_matches_torch_at_any_side(tmp_path):
+    pytest.importorskip("onnx", reason="ONNX export needs onnx: pip install 'ndrql[train]'")
+    pytest.importorskip("onnxruntime")
+    import onnx
+
+    from ndrql.model.export import export_onnx
+
+    torch.manual_seed(0)
+    model = build_model(TINY).eval()
+    for m in model.modules():  # BatchNorm statistics away from the identity, so folding them matters
+        if isinstance(m, torch.nn.BatchNorm2d):
+            m.running_mean.uniform_(-0.5, 0.5)
+            m.running_var.uniform_(0.5, 2.0)
+    full = save_checkpoint(tmp_path / "m.pt", {"config": TINY, "model": model.state_dict()})
+    half = export_weights(full, tmp_path / "half.pt")  # fp16 weights, as the shipped files
+    model = model_from_checkpoint(load_checkpoint(half))
+    any_side = export_onnx(half, tmp_path / "any.onnx")
+    for shape in [(2, 3, 201, 201), (1, 3, 96, 96), (1, 3, 250, 250), (1, 3, 130, 77), (1, 3, 448, 448)]:
+        assert _onnx_vs_torch(model, any_side, shape) < 1e-4, shape
+    # fp16 weights are stored as fp16 (about half the file) and cast back exactly; fp32 weights stay fp32
+    graph = onnx.load(str(any_side)).graph
+    assert sum(i.data_type == onnx.TensorProto.FLOAT16 for i in graph.initializer) > 10
+    full_graph = export_onnx(full, tmp_path / "full.onnx")
+    assert any_side.stat().st_size < 0.6 * full_graph.stat().st_size
+    assert _onnx_vs_torch(model_from_checkpoint(load_checkpoint(full)), full_graph, (1, 3, 160, 160)) < 1e-4
+    fixed = export_onnx(half, tmp_path / "fixed.onnx", size=201)
+    assert _onnx_vs_torch(model, fixed, (2, 3, 201, 201)) < 1e-4

@@ -64,7 +64,8 @@ def grid_model(tmp_path_factory):
 
 
 def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
-    from ndrql.model.predict import Predictor, onnx_available
+    from ndrql.model.onnx_backend import onnx_available
+    from ndrql.model.predict import Predictor
     from ndrql.pipeline.predictions import predict_region
 
     torch_pred = Predictor.load(grid_model, threads=1, backend="torch")
@@ -75,7 +76,7 @@ def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
     assert view.info["mode"] == "grid" and view.info["side"] == 4 * max(pg.shape)
     assert view.region_grid.shape == pg.shape and view.region.shape == report.grid_map.shape
     assert 0.0 <= view.region_grid.min() and view.region_grid.max() <= 1.0
-    if onnx_available():  # the ONNX path exports one graph per input side; it agrees with torch
+    if onnx_available():  # the ONNX path exports one graph for every input side; it agrees with torch
         onnx_pred = Predictor.load(grid_model, threads=1, backend="onnx")
         assert onnx_pred.input_mode == "grid"
         other = predict_region(onnx_pred, report.grid_map, pg, report.start, report.goal)

@@ -303,9 +303,10 @@ def test_crafted_checkpoint_configs(ndrql_exe, work, config, pattern):
 
 
 @pytest.mark.slow
-def test_truncated_onnx_export_is_rebuilt_once(ndrql_exe, work, model_weights):
+def test_truncated_onnx_export_is_rebuilt_once(ndrql_exe, work, user_weights):
     pytest.importorskip("onnxruntime")
-    args = ("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--out", "o", "--backend", "onnx")
+    args = ("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--out", "o", "--backend", "onnx",
+            "--weights", str(user_weights))
     r = run(ndrql_exe, *args, cwd=work)
     assert r.returncode == 0, r.stderr
     (onnx,) = (work / ".cache" / "onnx").glob("*.onnx")

@@ -4,8 +4,9 @@ Each subcommand module exposes ``register(subparsers)`` which adds its parser an
 ``func`` (called with the parsed namespace, returns an exit code).
 
 Every error is one line on stderr and exit code 2: bad flags (no usage dump), any
-:class:`~ndrql.errors.NdrqlError`, and a ``ValueError``/``OverflowError`` from the library (a value
-out of range). Messages are cut to :data:`MAX_MESSAGE` characters, so no input is echoed unbounded.
+:class:`~ndrql.errors.NdrqlError`, a ``ValueError``/``OverflowError`` from the library (a value
+out of range), and a torch-only command run without torch (what to install). Messages are cut to
+:data:`MAX_MESSAGE` characters, so no input is echoed unbounded.
 Warnings from anywhere print as one ``ndrql: warning: ...`` line each.
 """
 
@@ -18,7 +19,7 @@ from typing import NoReturn
 
 from ndrql.cli.text import plain, short_usage
 from ndrql.version import __version__
-from ndrql.errors import NdrqlError
+from ndrql.errors import MissingDependency, NdrqlError, require_torch
 
 #: Subcommand modules (under ``ndrql.cli``), in the order ``--help`` lists them.
 SUBCOMMANDS: tuple[str, ...] = (
@@ -103,6 +104,16 @@ def main(argv: list[str] | None = None) -> int:
     except (NdrqlError, ValueError, OverflowError) as exc:
         print(f"ndrql: error: {one_line(exc)}", file=sys.stderr)
         return 2
+    except ImportError as exc:  # a torch-only command in a light install (pip install ndrql): say what to install
+        if exc.name is not None and exc.name.split(".")[0] != "torch":
+            raise
+        target = getattr(args, "target", None)  # reproduce TARGET
+        try:
+            require_torch(_chosen_parser(parser, args).prog + (f" {target}" if isinstance(target, str) else ""))
+        except MissingDependency as missing:
+            print(f"ndrql: error: {one_line(missing)}", file=sys.stderr)
+            return 2
+        raise
     except MemoryError:
         print("ndrql: error: out of memory", file=sys.stderr)
         return 1

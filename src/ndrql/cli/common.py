@@ -113,7 +113,8 @@ def add_weights_argument(parser: argparse.ArgumentParser, default: str | None = 
     """``--weights paper|general|FILE``; ``default`` names the shipped weights used without it."""
     names = "|".join(SHIPPED_WEIGHTS)
     parser.add_argument("--weights", metavar=f"{names}|FILE",
-                        help=f"NDR model weights: shipped {' or '.join(SHIPPED_WEIGHTS)}, or a checkpoint file "
+                        help=f"NDR model weights: shipped {' or '.join(SHIPPED_WEIGHTS)}, or a checkpoint file (planning "
+                             "also takes an .onnx graph from export-onnx) "
                              f"(default: $NDRQL_WEIGHTS, else {default or DEFAULT_WEIGHTS})")
 
 

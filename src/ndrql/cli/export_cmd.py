@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 from ndrql.limits import check_int
-from ndrql.maps.grid import MODEL_SIDE
 from ndrql.model.export import export_onnx
 from ndrql.model.weights import resolve_weights
 
@@ -19,11 +18,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fp32", action="store_true", help="keep fp32 weights")
     p.set_defaults(func=run_weights)
 
-    q = sub.add_parser("export-onnx", help="export the NDR model to ONNX (for ONNX Runtime inference)",
-                       description=f"Export a checkpoint to ONNX with a fixed {MODEL_SIDE}x{MODEL_SIDE} input (batch dimension dynamic).")
+    q = sub.add_parser("export-onnx", help="export the NDR model to ONNX (runs on ONNX Runtime, no torch)",
+                       description="Export a checkpoint to ONNX: one graph for every input side and batch size, the model "
+                                   "config in its metadata, so `--weights FILE.onnx` plans without torch. "
+                                   "Example: ndrql export-onnx --weights run/best.pt --out best.onnx")
     q.add_argument("--weights", help="checkpoint (default: the shipped model)")
     q.add_argument("--out", required=True, help="output .onnx file")
-    q.add_argument("--size", type=int, default=MODEL_SIDE, help=f"input side (default: {MODEL_SIDE})")
+    q.add_argument("--size", type=int, default=None,
+                   help="fix the input to SIZE x SIZE px (default: any side)")
     q.set_defaults(func=run_onnx)
 
 
@@ -36,7 +38,8 @@ def run_weights(args: argparse.Namespace) -> int:
 
 
 def run_onnx(args: argparse.Namespace) -> int:
-    check_int(args.size, "--size", 32, 4096)
+    if args.size is not None:
+        check_int(args.size, "--size", 32, 4096)
     out = export_onnx(resolve_weights(args.weights), args.out, args.size)
     print(f"wrote {out}")
     return 0

@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+import torch
 from torch import nn
+
+
+def exporting() -> bool:
+    """True while the model is traced for ONNX export: input sizes are then symbolic, and the code
+    that depends on them takes its size-generic form (same numbers as the eager form)."""
+    return torch.jit.is_tracing() or torch.onnx.is_in_onnx_export()
 
 
 class ConvBNReLU(nn.Sequential):

@@ -18,6 +18,7 @@ from ndrql.model.backbone import STDC_DEPTHS, STDCBackbone
 from ndrql.model.context import SimplePyramidPooling
 from ndrql.model.decoders import RegionHead, UNetDecoder
 from ndrql.model.fusion import AttentionFusion
+from ndrql.model.layers import exporting
 
 
 @dataclass(frozen=True)
@@ -65,10 +66,12 @@ class NDRConfig:
 
 
 def pad_to_multiple(x: torch.Tensor, multiple: int = 32) -> tuple[torch.Tensor, tuple[int, int]]:
-    """Zero-pad bottom/right so H and W are multiples of ``multiple``; return the original size."""
+    """Zero-pad bottom/right so H and W are multiples of ``multiple``; return the original size.
+
+    While exporting the pad is always drawn (sizes are symbolic then; a zero pad changes nothing)."""
     h, w = x.shape[-2:]
     ph, pw = (-h) % multiple, (-w) % multiple
-    if ph or pw:
+    if exporting() or ph or pw:
         x = F.pad(x, (0, pw, 0, ph))
     return x, (h, w)
 

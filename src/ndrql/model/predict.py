@@ -11,17 +11,15 @@ import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Iterator
 
 import numpy as np
 
-from ndrql.dataset.cache import cache_dir
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import from_model_output, to_model_input
-from ndrql.errors import CheckpointError, NdrqlError, PointError
-from ndrql.io import file_digest, write_json
-from ndrql.maps.grid import MODEL_SIDE
-from ndrql.model.export import export_onnx
+from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
+from ndrql.model.export import cached_export
+from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
 from ndrql.model.weights import resolve_weights
 
 Point = tuple[int, int]
@@ -41,26 +39,15 @@ def default_weights_path() -> Path:
     return resolve_weights(None)
 
 
-#: Inference backends: ``auto`` is ONNX Runtime when it (and ``onnx``, for the one-time export) is
-#: installed and the model has both outputs, else torch. Measured in docs/performance.md ("NDR model").
+#: Inference backends: ``auto`` is ONNX Runtime when it is installed and the model has both outputs
+#: (:mod:`ndrql.model.onnx_backend`), else torch. Measured in docs/performance.md ("NDR model").
 BACKENDS = ("auto", "onnx", "torch")
-
-
-def _sigmoid(x: np.ndarray) -> np.ndarray:
-    return (1.0 / (1.0 + np.exp(-np.asarray(x, np.float64)))).astype(np.float32)
-
-
-def onnx_available() -> bool:
-    """True when ONNX Runtime and the ``onnx`` exporter package can be imported."""
-    import importlib.util
-
-    return all(importlib.util.find_spec(m) is not None for m in ("onnxruntime", "onnx"))
 
 
 @contextlib.contextmanager
 def torch_threads(n: int) -> Iterator[None]:
     """Run torch ops on ``n`` threads inside the block (0 = leave as is), restoring the count after."""
-    import torch
+    import torch  # lazy: torch is optional
 
     before = torch.get_num_threads()
     if n and n != before:
@@ -78,13 +65,13 @@ class _TorchRunner:
     name = "torch"
 
     def __init__(self, model, threads: int):
-        import torch
+        import torch  # lazy: torch is optional
 
         self.model = model.eval().to(memory_format=torch.channels_last)
         self.threads = threads
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        import torch
+        import torch  # lazy: torch is optional
 
         with torch_threads(self.threads), torch.inference_mode():
             t = torch.from_numpy(np.ascontiguousarray(x, np.float32)).contiguous(memory_format=torch.channels_last)
@@ -92,107 +79,6 @@ class _TorchRunner:
         r = torch.sigmoid(region)[:, 0].numpy()
         g = torch.sigmoid(guide)[:, 0].numpy() if guide is not None else None
         return r, g
-
-
-class _OnnxRunner:
-    """ONNX Runtime sessions of the exported model, one per input side (dynamic batch).
-
-    The network's pyramid pooling and padding are traced at a fixed input size, so every side gets its
-    own export (made once on first use, cached by weights digest and side; see :func:`_onnx_model`).
-    """
-
-    name = "onnx"
-
-    def __init__(self, weights: Path, threads: int, first: tuple[int, Path]):
-        self.weights, self.threads = weights, threads
-        self.sessions: dict[int, Any] = {}
-        self.sessions[first[0]] = self._session(first[1])
-
-    def _session(self, onnx_path: Path):
-        import onnxruntime as ort
-
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = max(0, self.threads)
-        opts.inter_op_num_threads = 1
-        return ort.InferenceSession(str(onnx_path), sess_options=opts, providers=["CPUExecutionProvider"])
-
-    def session(self, side: int):
-        if side not in self.sessions:
-            found = _onnx_model(self.weights, side=side)
-            assert found is not None  # the first side exported, so this model has both outputs
-            try:
-                self.sessions[side] = self._session(found[0])
-            except Exception:  # noqa: BLE001 - a damaged cached export: export it again once
-                self.sessions[side] = self._session(_onnx_model(self.weights, side=side, rebuild=True)[0])  # type: ignore[index]
-        return self.sessions[side]
-
-    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        if x.shape[-1] != x.shape[-2]:
-            raise ValueError(f"the model's input must be square, got {x.shape[-2]}x{x.shape[-1]}")
-        region, guide = self.session(int(x.shape[-1])).run(None, {"x": np.ascontiguousarray(x, np.float32)})
-        return _sigmoid(region)[:, 0], _sigmoid(guide)[:, 0]
-
-
-def onnx_cache_path(weights: Path, side: int = MODEL_SIDE) -> Path:
-    """Where the ONNX export of ``weights`` for ``side`` x ``side`` inputs is kept:
-    ``$NDRQL_CACHE/onnx/<sha256 of the file>.onnx`` (201 px) or ``<sha256>-<side>.onnx``."""
-    suffix = "" if side == MODEL_SIDE else f"-{side}"
-    return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}{suffix}.onnx"
-
-
-def _onnx_model(weights: Path, rebuild: bool = False, side: int = MODEL_SIDE) -> tuple[Path, dict] | None:
-    """The cached ONNX export of ``weights`` for ``side`` px inputs and its model config, exporting it on first use.
-
-    A cache hit needs neither torch nor the checkpoint (same bytes, same model); the export is checked
-    against the SHA-256 recorded beside it, and a damaged or truncated one is exported again once,
-    with a warning (as is any export when ``rebuild``). A miss validates the checkpoint (clear
-    CheckpointError) and exports it. ``None`` for models without a guideline output.
-    """
-    import json
-    import warnings
-
-    onnx_path = onnx_cache_path(weights, side)
-    meta_path = onnx_path.with_suffix(".json")
-    try:
-        meta = json.loads(meta_path.read_text())
-    except (OSError, ValueError):
-        meta = None  # no export yet, or a damaged record: export again
-    if isinstance(meta, dict) and isinstance(meta.get("config"), dict) and not rebuild:
-        if not meta.get("exported"):
-            return None
-        recorded = meta.get("onnx_sha256")
-        if recorded and onnx_path.is_file() and file_digest(onnx_path) == recorded:
-            return onnx_path, meta["config"]
-        if recorded:
-            warnings.warn(f"the cached ONNX export {onnx_path} is damaged; exporting it again", stacklevel=3)
-    from ndrql.model.checkpoint import load_checkpoint  # lazy: loads torch
-
-    config = dict(load_checkpoint(weights)["config"])
-    exported = config.get("guideline_decoder", True)
-    record = {"config": config, "exported": exported, "weights": str(weights), "side": side}
-    if exported:
-        export_onnx(weights, onnx_path, size=side)
-        record["onnx_sha256"] = file_digest(onnx_path)
-    write_json(meta_path, record)
-    return (onnx_path, config) if exported else None
-
-
-def _onnx_runner(weights: Path, threads: int) -> tuple[Any, dict] | None:
-    """An ONNX Runtime runner for ``weights`` and its model config; a cached export that ONNX Runtime cannot
-    load is exported again once (with a warning). ``None`` for models without a guideline output."""
-    import warnings
-
-    found = _onnx_model(weights)
-    if found is None:
-        return None
-    try:
-        return _OnnxRunner(weights, threads, (MODEL_SIDE, found[0])), found[1]
-    except Exception as exc:  # noqa: BLE001 - onnxruntime raises its own exception types
-        warnings.warn(f"the cached ONNX export {found[0]} does not load ({type(exc).__name__}); exporting it again",
-                      stacklevel=3)
-    found = _onnx_model(weights, rebuild=True)
-    assert found is not None
-    return _OnnxRunner(weights, threads, (MODEL_SIDE, found[0])), found[1]
 
 
 class Predictor:
@@ -226,7 +112,10 @@ class Predictor:
 
     @classmethod
     def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto") -> "Predictor":
-        """Load weights from ``path`` (default: :func:`default_weights_path`) on ``backend`` (:data:`BACKENDS`)."""
+        """Load weights from ``path`` (default: :func:`default_weights_path`) on ``backend`` (:data:`BACKENDS`).
+
+        The shipped weights and ``.onnx`` files run on ONNX Runtime without torch; other checkpoints are
+        exported once (torch) or run on torch. Without torch, whatever needs it is one clear error."""
         if backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {backend!r}; valid: {', '.join(BACKENDS)}")
         path = resolve_weights(path)
@@ -234,25 +123,35 @@ class Predictor:
             raise CheckpointError(
                 f"missing model weights: {path} (reinstall ndrql, set NDRQL_WEIGHTS, or pass --weights / --prior-from)"
             )
-        if backend == "onnx" and not onnx_available():
-            raise NdrqlError("backend 'onnx' needs onnxruntime and onnx: pip install onnxruntime onnx")
-        if backend != "torch" and onnx_available():
+        is_graph = path.suffix.lower() == ".onnx"
+        if backend == "torch" and is_graph:
+            raise NdrqlError(f"{path} is an ONNX graph: it runs on --backend onnx or auto, not torch")
+        if backend != "torch" and not onnx_available():
+            if backend == "onnx" or is_graph:
+                raise NdrqlError("the ONNX backend needs onnxruntime: pip install onnxruntime")
+        elif backend != "torch":
             try:
-                found = _onnx_runner(path, threads)
-                if found is not None:
-                    return cls(found[0], encoding=found[1].get("encoding", "point"),
-                               input_mode=found[1].get("input_mode", "map"))
-            except CheckpointError:
+                runner = onnx_runner(path, threads, export=cached_export)
+            except (CheckpointError, MissingDependency):
                 raise
             except Exception as exc:  # an unwritable cache, a failed export or session: torch still works
-                if backend == "onnx":
+                if is_graph and isinstance(exc, NdrqlError):
+                    raise
+                if backend == "onnx" or is_graph or not can_export():
                     raise NdrqlError(f"ONNX Runtime backend failed for {path}: {type(exc).__name__}: {exc}") from None
                 import warnings
 
                 warnings.warn(f"ONNX Runtime backend unavailable ({type(exc).__name__}: {exc}); using torch", stacklevel=2)
             else:
+                if runner is not None:
+                    return cls(runner, encoding=runner.config.get("encoding", "point"),
+                               input_mode=runner.config.get("input_mode", "map"))
+                if backend == "onnx" and not can_export():
+                    raise MissingDependency(f"running {path.name} on ONNX Runtime needs an export first, with torch and "
+                                            f"onnx: {TRAIN_INSTALL} (or pass a graph from `ndrql export-onnx`)")
                 if backend == "onnx":
                     raise NdrqlError(f"{path} holds a model without a guideline output; the ONNX backend needs both outputs")
+        require_torch("--backend torch" if backend == "torch" else f"the checkpoint {path.name} (no ONNX graph of it here)")
         from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint  # lazy: loads torch
 
         data = load_checkpoint(path)
@@ -284,7 +183,8 @@ def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, b
     Loaded models are cached by path, size, modification time, threads and backend, so a second call
     is free and a replaced weights file is picked up. A missing or unreadable file raises
     :class:`~ndrql.errors.CheckpointError` with what to do. ``backend``: ``auto`` (ONNX Runtime when
-    installed; torch is then not imported once the export is cached), ``onnx`` or ``torch``.
+    installed: the shipped models and ``.onnx`` files never import torch, other checkpoints once their
+    export is cached), ``onnx`` or ``torch``.
     """
     path = resolve_weights(weights)
     try:

@@ -5,7 +5,7 @@
 
 Writes ``docs/demo.png`` (from ``out/demo/compare.png``) and replaces the text between the
 ``<!-- demo:start -->``/``<!-- demo:end -->`` and ``<!-- plan:start -->``/``<!-- plan:end -->``
-markers. Run it after the shipped weights (``src/ndrql/data/ndr_default.pt``) change.
+markers. Run it after the default shipped weights (``--weights general``) change.
 """
 
 from __future__ import annotations
@@ -33,8 +33,11 @@ def run(args: list[str]) -> str:
 
 
 def weights_commit() -> str:
-    r = subprocess.run(["git", "log", "-1", "--format=%h", "--", "src/ndrql/data/ndr_default.pt"], capture_output=True,
-                       text=True, cwd=ROOT)
+    """The commit of the default weights file (``ndrql.model.weights.DEFAULT_WEIGHTS``)."""
+    from ndrql.model.weights import resolve_weights
+
+    path = resolve_weights(None).resolve().relative_to(ROOT)
+    r = subprocess.run(["git", "log", "-1", "--format=%h", "--", str(path)], capture_output=True, text=True, cwd=ROOT)
     return r.stdout.strip() or "uncommitted"
 
 

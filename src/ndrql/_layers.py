@@ -1,6 +1,6 @@
 """The package's layering, in one place: who may import whom.
 
-    errors, _layers, version -> io, limits, workers -> maps -> planning -> synth -> dataset -> model -> training
+    errors, _layers, _lazy, version -> io, limits, workers -> maps -> planning -> synth -> dataset -> model -> training
     -> pipeline -> env -> viz -> tuning, experiments -> api -> cli -> ndrql, __main__
 
 A module may import modules of its own package and of any package on an earlier layer, never one on
@@ -16,7 +16,7 @@ the model and the planners meet.
 from __future__ import annotations
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors", "_layers", "version"),
+    ("errors", "_layers", "_lazy", "version"),
     ("io", "limits", "workers"),
     ("maps",),
     ("planning",),

@@ -7,8 +7,7 @@ Light on import (names load on first use; numba only when a run starts)::
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from ndrql._lazy import lazy_getattr
 
 _EXPORTS = {
     "QLConfig": "config",
@@ -28,9 +27,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(f"ndrql.planning.{_EXPORTS[name]}"), name)  # lazy: names load on use
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'ndrql.planning' has no attribute {name!r}")
+__getattr__ = lazy_getattr("ndrql.planning", _EXPORTS, globals())

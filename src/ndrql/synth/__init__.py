@@ -13,8 +13,7 @@ whose numba kernels load on first use. The names below load on first use as well
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from ndrql._lazy import lazy_getattr
 
 #: Public names and the module each lives in; they load on first use, so that a module that needs
 #: only the labels (:mod:`ndrql.synth.labels`, numpy) does not pay for the map engine (scipy).
@@ -29,9 +28,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(f"ndrql.synth.{_EXPORTS[name]}"), name)  # lazy: names load on use
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'ndrql.synth' has no attribute {name!r}")
+__getattr__ = lazy_getattr("ndrql.synth", _EXPORTS, globals())

@@ -7,7 +7,9 @@
 #   EPOCHS=4 STEPS=500 tools/train_general.sh    # a shorter schedule
 #
 # Seeds of training sets stay below 900000: the evaluation sets (src/ndrql/experiments/transfer_sets.json)
-# use 900000 and above. EXCLUDE=maze,office trains without those families (leave-families-out runs).
+# use 900000 and above. EXCLUDE=maze,office trains on the same generated set without those families
+# (leave-families-out runs: `ndrql train --exclude-families`). INIT= warm-starts from other weights
+# (e.g. src/ndrql/data/ndr_general.pt to continue the shipped model); EXTRA=DIR:W adds a source.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
@@ -23,21 +25,20 @@ STEPS=${STEPS:-1000}
 LR=${LR:-1e-3}
 THREADS=${THREADS:-2}
 EXCLUDE=${EXCLUDE:-}
-FAMILIES=$(.venv/bin/python -c "
-from ndrql.synth.families import family_names
-ex = set(filter(None, '${EXCLUDE}'.split(',')))
-print(','.join(f for f in family_names() if f not in ex))")
+INIT=${INIT:-src/ndrql/data/ndr_default.pt}
+EXTRA=${EXTRA:-}
+FAMILIES=$(.venv/bin/python -c "from ndrql.synth.families import family_names; print(','.join(family_names()))")
 TAG=${TAG:-general-${MODE}${EXCLUDE:+-no-${EXCLUDE//,/-}}}
 GEN=$CACHE/gen/train-s${SEED}-${FAMILIES//,/-}
 RUN=${RUN:-$CACHE/runs/$TAG}
 
-echo "families: $FAMILIES"
+echo "families: $FAMILIES${EXCLUDE:+ without $EXCLUDE}"
 echo "data: $GEN"
 echo "run: $RUN"
 "$NDRQL" data generate --family "$FAMILIES" --count "$COUNT" --size "$SIZES" --seed "$SEED" --out "$GEN" --workers 2 --no-progress
 RESUME=()
 [ -f "$RUN/last.pt" ] && RESUME=(--resume)
-exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3" --input-mode "$MODE" --grid-sizes "$GRIDS" \
-    --init-weights src/ndrql/data/ndr_default.pt --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
+exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3${EXTRA:+,$EXTRA}" --input-mode "$MODE" --grid-sizes "$GRIDS" \
+    --exclude-families "$EXCLUDE" --init-weights "$INIT" --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
     --warmup-steps 100 --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
     --no-progress --run-dir "$RUN" "${RESUME[@]}"

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from ndrql.dataset.generated import GeneratedSet, generate_set, shard_path
-from ndrql.dataset.mixture import Mixture, batch_size_for, generated_source, parse_sources, SourceSpec
+from ndrql.dataset.mixture import Mixture, batch_size_for, generated_source, parse_families, parse_sources, SourceSpec
 from ndrql.dataset.render import grid_input, input_side, render
 from ndrql.errors import NdrqlError
 from ndrql.maps.safe import conservative_grid, point_to_square_cell
@@ -112,6 +112,22 @@ def test_sources_and_batches_are_deterministic(gen_set):
     assert sides == {64, 96}  # both scales are drawn
     val = mix.validation(4)
     assert 1 <= len(val) <= 4 and all(name == "set" for name, _ in val)
+
+
+def test_excluded_families_leave_both_parts(gen_set):
+    gs = GeneratedSet.load(gen_set)
+    full = generated_source(SourceSpec(str(gen_set), 1.0), val_fraction=0.5)
+    kept = generated_source(SourceSpec(str(gen_set), 1.0), val_fraction=0.5, exclude=frozenset({"maze"}))
+    everything = np.concatenate([full.train_ids, full.val_ids])
+    expected = everything[gs.families[everything] != "maze"]
+    assert np.array_equal(np.concatenate([kept.train_ids, kept.val_ids]), expected)
+    assert set(gs.families[expected]) == {"blocks"} and "maze" in set(gs.families)
+    assert np.isin(kept.val_ids, full.val_ids).all()  # the validation part stays the set's tail
+    with pytest.raises(NdrqlError, match="no samples left"):
+        generated_source(SourceSpec(str(gen_set), 1.0), exclude=frozenset({"maze", "blocks"}))
+    assert parse_families(" maze, office ") == {"maze", "office"} and parse_families("") == frozenset()
+    with pytest.raises(NdrqlError, match="unknown family mazes"):
+        parse_families("mazes")
 
 
 def test_mixed_multiscale_training_resumes_exactly(gen_set, tmp_path):

@@ -53,6 +53,9 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.model.registry import check_config  # lazy: loads torch
 
     check_config(cfg.model_config())  # an unknown --model or a bad override: one line before any work
+    from ndrql.dataset.mixture import parse_families  # lazy: loads scipy
+
+    parse_families(cfg.exclude_families)  # an unknown family: the same
     run_dir = args.run_dir or default_run_dir(cfg.model)
     if args.resume and not (run_dir / "last.pt").is_file():  # the loop says the same; here before the data loads
         raise CheckpointError(f"--resume: there is no {run_dir / 'last.pt'} to continue; drop --resume to start a new run")

@@ -27,6 +27,7 @@ from ndrql.dataset.generated import GeneratedSet
 from ndrql.dataset.render import Rendered, input_side, render
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
+from ndrql.synth.families import family_names
 from ndrql.synth.labels import dilate_region, near_optimal_path
 
 #: Share of each generated set held out for validation (its last samples).
@@ -96,17 +97,35 @@ def paper_source(spec: SourceSpec, data: SplitArrays, train_idx: np.ndarray, val
     return Source(spec, np.asarray(train_idx), np.asarray(val_idx), get)
 
 
-def generated_source(spec: SourceSpec, val_fraction: float = VAL_FRACTION) -> Source:
-    """A generated set; its last ``val_fraction`` of samples is the validation part."""
+def parse_families(text: str) -> frozenset[str]:
+    """``"maze,office"`` -> a set of map-engine family names (unknown names are an error)."""
+    names = frozenset(f.strip() for f in text.split(",") if f.strip())
+    unknown = sorted(names - set(family_names()))
+    if unknown:
+        raise NdrqlError(f"unknown family {', '.join(unknown)} (known: {', '.join(family_names())})")
+    return names
+
+
+def generated_source(spec: SourceSpec, val_fraction: float = VAL_FRACTION, exclude: frozenset[str] = frozenset()) -> Source:
+    """A generated set; its last ``val_fraction`` of samples is the validation part. Samples of the
+    families in ``exclude`` are in neither part (leave-families-out training)."""
     gs = GeneratedSet.load(Path(spec.name))
     n = len(gs)
     n_val = max(1, int(round(val_fraction * n))) if n > 1 else 0
+    if exclude:
+        keep = ~np.isin(gs.families, sorted(exclude))
+        ids = np.arange(n)
+        train, val = ids[: n - n_val][keep[: n - n_val]], ids[n - n_val:][keep[n - n_val:]]
+        if not len(train):
+            raise NdrqlError(f"{spec.name}: no samples left after excluding {', '.join(sorted(exclude))}")
+    else:
+        train, val = np.arange(n - n_val), np.arange(n - n_val, n)
 
     def get(i: int):
         raw = gs.raw(i)
         return raw.obstacles, raw.start, raw.goal, raw.waypoints, None
 
-    return Source(spec, np.arange(n - n_val), np.arange(n - n_val, n), get)
+    return Source(spec, train, val, get)
 
 
 def render_source_sample(src: Source, i: int, mode: str, n: int) -> Rendered | None:

@@ -93,6 +93,8 @@ class TrainConfig:
     """Optimisation steps per epoch with --sources (0 = as many as one pass over the paper's training split)."""
     val_per_source: int = 64
     """Held-out validation samples per source with --sources."""
+    exclude_families: str = ""
+    """Families of generated sources left out of training and validation, e.g. maze,office (leave-families-out runs)."""
     init_weights: str = ""
     """Warm start: weights (checkpoint file) to start from instead of random initialisation."""
 

@@ -151,7 +151,7 @@ def _on_rank0(world: D.World, fn):
 def build_mixture(cfg: TrainConfig, progress: bool):
     """The mixture of ``cfg.sources`` (:mod:`ndrql.dataset.mixture`); returns (mixture, train ids, val ids, paper data)."""
     # lazy: loads scipy
-    from ndrql.dataset.mixture import Mixture, generated_source, paper_source, parse_sizes, parse_sources
+    from ndrql.dataset.mixture import Mixture, generated_source, paper_source, parse_families, parse_sizes, parse_sources
 
     sources, paper = [], None
     for spec in parse_sources(cfg.sources):
@@ -161,7 +161,7 @@ def build_mixture(cfg: TrainConfig, progress: bool):
             tr, va = train_val_split(paper, seen, cfg.val_fraction, cfg.seed)
             sources.append(paper_source(spec, paper, tr, va))
         else:
-            sources.append(generated_source(spec))
+            sources.append(generated_source(spec, exclude=parse_families(cfg.exclude_families)))
     encoding = cfg.model_config().get("encoding") or "point"
     mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding)
     tr_ids = np.concatenate([s.train_ids for s in sources])

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Leave-families-out transfer (docs/results.md#transfer): one reference run on all 12 families and
+# one run per group of 3 families left out, all with the same short budget, warm-started from the
+# paper model on the same generated set (tools/train_general.sh); then each model plans the held-out
+# evaluation set (`ndrql reproduce transfer`), so a family's drop is (excluded run) - (reference run)
+# on that family. Resumable: run it again after an interruption.
+#
+#   tools/leave_out.sh                 # 5 runs x EPOCHS x STEPS, then 5 transfer reports
+set -euo pipefail
+cd "$(dirname "$0")/.."
+NDRQL=${NDRQL:-.venv/bin/ndrql}
+CACHE=${NDRQL_CACHE:-$HOME/.cache/ndrql}
+OUT=${OUT:-results/leave-out}
+export EPOCHS=${EPOCHS:-2} STEPS=${STEPS:-600}
+GROUPS_=${GROUPS_:-"none blocks,maze,ros_scan bugtrap,office,scatter bugtraps,gaps_blocks,warehouse gaps,narrow_passage,rooms"}
+for group in $GROUPS_; do
+    ex=$([ "$group" = none ] && echo "" || echo "$group")
+    tag=lofo-${group//,/-}
+    run=$CACHE/runs/$tag
+    if [ ! -f "$run/weights.pt" ]; then
+        EXCLUDE=$ex TAG=$tag tools/train_general.sh
+        "$NDRQL" export-weights "$run/best.pt" --out "$run/weights.pt"
+    fi
+    [ -f "$OUT/$tag/summary.json" ] || "$NDRQL" reproduce transfer --weights "$run/weights.pt" --grids 50,100 \
+        --seeds 10 --per-family 20 --workers 2 --out "$OUT/$tag"
+done

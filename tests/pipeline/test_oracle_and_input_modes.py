@@ -95,6 +95,8 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     assert out.returncode == 0, out.stderr
     text = (tmp_path / "tr" / "transfer.md").read_text()
     assert "| **all** |" in text and "share of oracle" in text and "Planning grid 32" in text
+    assert "![predictions](transfer_predictions.png)" in text
+    assert (tmp_path / "tr" / "transfer_predictions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     summary = json.loads((tmp_path / "tr" / "summary.json").read_text())
     done = [r for r in summary["records"] if not r["skipped"]]
     assert done and all(len(r["runs"]["QL"]["steps"]) == 2 for r in done)

@@ -283,6 +283,7 @@ def _train_env() -> dict[str, str]:
 @pytest.mark.parametrize(("flags", "message"), [
     (["--device", "tpu"], "unknown --device 'tpu'; valid: auto, cpu, cuda, mps"),
     (["--amp-dtype", "fp8"], "unknown --amp-dtype 'fp8'; valid: auto, bf16, fp16"),
+    (["--exclude-families", "maze,mazes"], "unknown family mazes (known: "),
 ])
 def test_cli_rejects_bad_device_flags_in_one_line(ndrql_exe, synthetic, tmp_path, flags, message):
     r = run_cli(ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), *flags,

@@ -31,14 +31,15 @@ from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_
 from ndrql.experiments.report import md_table
 from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.sweep import Task, run_sweep
-from ndrql.io import file_digest, write_json, write_text
+from ndrql.io import file_digest, save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.predict import Predictor
-from ndrql.model.weights import resolve_weights
+from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.runner import run_plan
 from ndrql.synth.generate import SetSpec
 from ndrql.training.metrics import f1_per_image
+from ndrql.viz.transfer import PredictionPanel, transfer_figure
 
 ROWS = ("QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)")
 
@@ -86,8 +87,9 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
 def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seeds: list[int], out: Path, *,
             per_family: int | None = None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig(),
             workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True,
-            grow: bool = True) -> list[dict]:
-    """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case."""
+            grow: bool = True, panels: list[PredictionPanel] | None = None) -> list[dict]:
+    """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case.
+    With ``panels``, the first connected case of each family at the first grid is appended to it for the figure."""
     picked: dict[str, list[int]] = {}
     for i in range(len(gs)):
         fam = str(gs.families[i])
@@ -105,6 +107,9 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                     continue
                 model = model_priors(predictor, "map201" if mode == "map" else mode, case)  # what plan shows the model
                 oracle = oracle_priors(case)
+                if panels is not None and n == grids[0] and fam not in {p.family for p in panels}:
+                    panels.append(PredictionPanel(fam, case.blocked, case.start_cell, case.goal_cell, model, oracle,
+                                                  f"({case.n}x{case.n})"))
                 f1 = _f1(predictor, mode, case, raw.waypoints)
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1}
                 priors = {"QL": None, "IQL": None, "NDR-QL (model)": [a.tolist() for a in model],
@@ -184,12 +189,17 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     mode = predictor.input_mode
     gs = eval_set(eval_spec(set_name), progress)
     seed_list = list(range(seed0, seed0 + seeds))
+    panels: list[PredictionPanel] = []
     records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, workers=workers,
-                      executor=executor, weights_id=file_digest(wpath), progress=progress)
+                      executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels)
     text = (f"Weights {wpath.name} (input mode {mode}); evaluation set {set_name!r} {gs.spec.to_dict()}; "
             f"seeds {seed_list[0]}..{seed_list[-1]}.\n\n" + render_tables(records, tuple(grids)))
     if command:
         text += f"\nCommand: `{command}`\n"
+    if panels:
+        fig = transfer_figure(sorted(panels, key=lambda p: p.family), weights_label(wpath))
+        save_figure(fig, out / "transfer_predictions.png", dpi=110)
+        text += "\n![predictions](transfer_predictions.png)\n"
     write_text(out / "transfer.md", text)
     write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "set": gs.spec.to_dict(), "seeds": seed_list,
                                       "grids": list(grids), "records": records}, strict=False)

@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
 CACHE=${NDRQL_CACHE:-$HOME/.cache/ndrql}
 OUT=${OUT:-results/leave-out}
-export EPOCHS=${EPOCHS:-2} STEPS=${STEPS:-600}
+export EPOCHS=${EPOCHS:-2} STEPS=${STEPS:-1000}
 GROUPS_=${GROUPS_:-"none blocks,maze,ros_scan bugtrap,office,scatter bugtraps,gaps_blocks,warehouse gaps,narrow_passage,rooms"}
 for group in $GROUPS_; do
     ex=$([ "$group" = none ] && echo "" || echo "$group")

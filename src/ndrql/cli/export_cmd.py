@@ -18,6 +18,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fp32", action="store_true", help="keep fp32 weights")
     p.set_defaults(func=run_weights)
 
+    a = sub.add_parser("average-weights", help="average the weights of models of one architecture (a model soup)",
+                       description="Write the (weighted) average of the weights of two or more checkpoints of the same "
+                                   "architecture as a slim fp16 checkpoint; which files went in, with their digests, is "
+                                   "recorded in it. Example: ndrql average-weights a.pt b.pt --out soup.pt")
+    a.add_argument("weights", nargs="+", help="checkpoints to average (at least two)")
+    a.add_argument("--shares", default=None, metavar="W1,W2,...", help="relative share of each file (default: equal)")
+    a.add_argument("--out", required=True, help="output file")
+    a.set_defaults(func=run_average)
+
     q = sub.add_parser("export-onnx", help="export the NDR model to ONNX (runs on ONNX Runtime, no torch)",
                        description="Export a checkpoint to ONNX: one graph for every input side and batch size, the model "
                                    "config in its metadata, so `--weights FILE.onnx` plans without torch. "
@@ -34,6 +43,25 @@ def run_weights(args: argparse.Namespace) -> int:
 
     out = export_weights(args.checkpoint, args.out, half=not args.fp32)
     print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    return 0
+
+
+def run_average(args: argparse.Namespace) -> int:
+    from ndrql.errors import NdrqlError
+    from ndrql.model.checkpoint import average_weights  # lazy: loads torch
+
+    if len(args.weights) < 2:
+        raise NdrqlError("average-weights: give at least two weights files")
+    if any(Path(w).resolve() == Path(args.out).resolve() for w in args.weights):
+        raise NdrqlError(f"average-weights: --out {args.out} is one of the inputs; choose another file")
+    shares = None
+    if args.shares is not None:
+        try:
+            shares = [float(v) for v in args.shares.split(",")]
+        except ValueError:
+            raise NdrqlError(f"--shares must be numbers separated by commas, got {args.shares!r}") from None
+    out = average_weights(args.weights, args.out, shares)
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB), the average of {len(args.weights)} models")
     return 0
 
 

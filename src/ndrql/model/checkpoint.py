@@ -14,7 +14,7 @@ import torch
 
 from ndrql.version import __version__
 from ndrql.errors import CheckpointError
-from ndrql.io import atomic_write
+from ndrql.io import atomic_write, file_digest
 from ndrql.model.registry import build_model, check_config
 
 FORMAT = "ndrql-checkpoint"
@@ -86,5 +86,41 @@ def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: d
         "train_config": data.get("train_config", {}),
         "state": {k: v for k, v in data.get("state", {}).items() if isinstance(v, (int, float))},
         **(extra or {}),
+    }
+    return save_checkpoint(dst, payload)
+
+
+def average_weights(sources: list[str | Path], dst: str | Path, shares: list[float] | None = None) -> Path:
+    """Write the weighted average of the weights of ``sources`` (same architecture; a "model soup",
+    Wortsman et al. 2022) as a slim fp16 checkpoint; the config and training record of the first, and
+    which files were averaged with what share (their digests) under ``"averaged_from"``.
+
+    Floating-point tensors (BatchNorm statistics included) are averaged in fp32; integer ones (the
+    BatchNorm batch counters) are taken from the first source."""
+    if not sources:
+        raise CheckpointError("average: no weights files given")
+    shares = [1.0 / len(sources)] * len(sources) if shares is None else [float(s) for s in shares]
+    if len(shares) != len(sources) or any(not s > 0 for s in shares):
+        raise CheckpointError(f"average: need one positive share per weights file, got {shares}")
+    total = sum(shares)
+    datas = [load_checkpoint(s) for s in sources]
+    first = datas[0]
+    for src, d in zip(sources[1:], datas[1:]):
+        if d["config"] != first["config"] or d["model"].keys() != first["model"].keys():
+            raise CheckpointError(f"average: {src} has another architecture than {sources[0]}")
+    weights = {}
+    for key, ref in first["model"].items():
+        if ref.is_floating_point():
+            acc = sum(d["model"][key].float() * (w / total) for d, w in zip(datas, shares))
+            weights[key] = acc.half()
+        else:
+            weights[key] = ref
+    payload = {
+        "config": dict(first["config"]),
+        "model": weights,
+        "metrics": {},
+        "train_config": first.get("train_config", {}),
+        "state": {k: v for k, v in first.get("state", {}).items() if isinstance(v, (int, float))},
+        "averaged_from": [{"file": Path(s).name, "sha256": file_digest(s), "share": w / total} for s, w in zip(sources, shares)],
     }
     return save_checkpoint(dst, payload)

@@ -197,7 +197,7 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     if command:
         text += f"\nCommand: `{command}`\n"
     if panels:
-        fig = transfer_figure(sorted(panels, key=lambda p: p.family), weights_label(wpath))
+        fig = transfer_figure(sorted(panels, key=lambda p: p.family), Path(weights_label(wpath)).name)
         save_figure(fig, out / "transfer_predictions.png", dpi=110)
         text += "\n![predictions](transfer_predictions.png)\n"
     write_text(out / "transfer.md", text)

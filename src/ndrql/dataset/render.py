@@ -26,6 +26,7 @@ import numpy as np
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import group_sums
 from ndrql.maps.grid import MODEL_SIDE, bfs_distances, nearest_free_euclidean
+from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import conservative_grid
 from ndrql.synth.labels import dilate_region, draw_guideline
 from ndrql.synth.oracle import oracle_prediction
@@ -39,14 +40,13 @@ PX_PER_CELL = 4
 
 
 @dataclass(frozen=True)
-class Rendered:
-    """One model input and its labels, all (side, side)."""
+class Rendered(MapProblem):
+    """One model input (the map, start and goal at the model's scale) and its labels, all (side, side)."""
 
-    obstacles: np.ndarray
-    start: Point
-    goal: Point
     guideline: np.ndarray
+    """bool, the path drawn 2 px wide."""
     region: np.ndarray
+    """bool, the guideline's 30x30 dilation."""
 
 
 def input_side(mode: str, n: int) -> int:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.cli.options import add_command
 from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE, PLANNING_SIZE
@@ -31,8 +32,7 @@ def _int_list(text: str) -> tuple[int, ...]:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("data", help="generate map sets with labels (map engine) and draw them",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(sub, "data", help="generate map sets with labels (map engine) and draw them", description=__doc__)
     dsub = p.add_subparsers(dest="data_command", metavar="ACTION")
     g = dsub.add_parser("generate", help="write a generated set (resumable, deterministic per seed)")
     g.add_argument("--family", required=True, help="families, comma-separated (ndrql.synth.families), or 'all'")

@@ -20,8 +20,10 @@ from pathlib import Path
 from ndrql.cli.options import add_command
 from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
+from ndrql.io import save_figure
 from ndrql.maps.grid import MODEL_SIDE, PLANNING_SIZE
-from ndrql.viz.sheet import save_contact_sheet
+from ndrql.viz.sheet import contact_sheet
+from ndrql.viz.style import DEFAULT_DPI
 
 
 def _int_list(text: str) -> tuple[int, ...]:
@@ -82,6 +84,6 @@ def run_show(args: argparse.Namespace) -> int:
         raw = gs.raw(int(i))
         r = render(args.mode, raw.obstacles, raw.start, raw.goal, raw.waypoints, args.grid)
         items.append((f"{i} {raw.family} {raw.obstacles.shape[0]}px", r))
-    save_contact_sheet(items, args.png, title=f"{args.set.name}: {args.mode} mode, grid {args.grid}")
+    save_figure(contact_sheet(items, title=f"{args.set.name}: {args.mode} mode, grid {args.grid}"), args.png, dpi=DEFAULT_DPI)
     print(f"wrote {args.png}")
     return 0

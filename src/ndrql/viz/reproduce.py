@@ -14,6 +14,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ndrql.maps.area import pixel_bins
 from ndrql.maps.grid import cell_to_point
 from ndrql.viz.curves import plot_training_curves, plot_validation_curve
 from ndrql.viz.maps import figure_or_new, plot_endpoints
@@ -124,10 +125,9 @@ def dynamic_figure(rows: Sequence[Sequence[tuple[str, Any, Mapping[str, Any]]]],
                 ax.axis("off")
                 continue
             title, p, run = row[i]
-            # upsample the planning-grid predictions for display at map resolution
+            # upsample the planning-grid predictions for display at map resolution: each pixel shows its cell
             h, w = p.obstacles.shape
-            rr = np.minimum((np.arange(h) * p.blocked.shape[0]) // h, p.blocked.shape[0] - 1)
-            cc = np.minimum((np.arange(w) * p.blocked.shape[1]) // w, p.blocked.shape[1] - 1)
+            rr, cc = pixel_bins(h, p.blocked.shape[0]), pixel_bins(w, p.blocked.shape[1])
             region = p.region[rr[:, None], cc[None, :]] if p.region is not None else None
             guide = p.guideline[rr[:, None], cc[None, :]] if p.guideline is not None else None
             plot_prediction(ax, p.obstacles, region, guide, p.source_start, p.source_goal)

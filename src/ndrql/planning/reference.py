@@ -1,10 +1,10 @@
 """Q-learning in numpy and a Python loop: the readable twin of :mod:`ndrql.planning.kernel`.
 
 Written the way one would write it by hand (a numpy Q-table, ``np.argmax``, a loop per step), with
-the same rules (:func:`ndrql.planning.rules.step`) and the same random stream
-(:mod:`ndrql.planning.rng`), so for the same inputs and seed it makes exactly the same run as the
-compiled kernel. Tests use it to check the kernel; ``benchmarks/qlearning_speed.py`` times both.
-It is about a hundred times slower than the kernel: use it only on small runs.
+the same rules (:func:`ndrql.planning.rules.step`, :func:`~ndrql.planning.rules.greedy_streak`) and the
+same random stream (:mod:`ndrql.planning.rng`), so for the same inputs and seed it makes exactly the
+same run as the compiled kernel. Tests use it to check the kernel; ``benchmarks/qlearning_speed.py``
+times both. It is a few hundred times slower than the kernel: use it only on small runs.
 """
 
 from __future__ import annotations

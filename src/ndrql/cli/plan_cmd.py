@@ -22,6 +22,12 @@ from ndrql.planning.methods import get_method, load_prior_file
 from ndrql.planning.preset import load_preset, plan_default_preset
 from ndrql.viz.plan import compare_figure, plan_figure
 
+DESCRIPTION = ("Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a dataset "
+               "sample): the NDR model predicts region and guideline, the method's priors (paper Eqs. 2-7) guide "
+               "tabular Q-learning on the planning grid (docs/method.md) until the greedy path is stable. Prints "
+               "convergence episode and steps, the greedy path length against the A* optimum, the NDR-QI threshold "
+               "and the time of each stage. Start and goal map to planning cells as for `astar`.")
+
 EXAMPLES = """examples:
   ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
   ndrql plan --sample path-planning-dataset:seen:0                          # start and goal from the sample
@@ -55,15 +61,9 @@ _PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = add_command(
-        subparsers, "plan",
-        help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
-        description="Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a "
-        "dataset sample): the NDR model predicts region and guideline, the method's priors (paper Eqs. 2-7) "
-        "guide tabular Q-learning on the planning grid (docs/method.md) until the greedy path is stable. "
-        "Prints convergence episode and steps, the greedy path length against the A* optimum, the NDR-QI "
-        "threshold and the time of each stage. Start and goal map to planning cells as for `astar`.",
-        examples=EXAMPLES)
+    p = add_command(subparsers, "plan",
+                    help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
+                    description=DESCRIPTION, examples=EXAMPLES)
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
     p.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "

@@ -60,12 +60,17 @@ def _extra_block_side(rng: np.random.Generator, h: int, w: int) -> int:
     return feature_px(rng, max(h, w), px=(5, 300), rel=(0.005, 0.08))
 
 
+#: Wall thickness and gap width of :func:`gaps` (pixel range, range relative to the longer side, each).
+_WALLS = ((3, 250), (0.005, 0.12), (6, 300), (0.015, 0.2))
+#: The same for :func:`narrow_passage`: thick walls, narrow passages.
+_NARROW_WALLS = ((10, 1000), (0.03, 0.22), (2, 16), (0.008, 0.03))
+
+
 def _walls_with_gaps(rng: np.random.Generator, h: int, w: int, *, walls: int | None, thickness: int | None,
                      gap: int | None, narrow: bool) -> np.ndarray:
     """Vertical walls across all rows, each with 1-3 gaps (``narrow``: thick, ragged, narrow passages)."""
     L = max(h, w)
-    wall_px, wall_rel, gap_px, gap_rel = ((10, 1000), (0.03, 0.22), (2, 16), (0.008, 0.03)) if narrow else \
-        ((3, 250), (0.005, 0.12), (6, 300), (0.015, 0.2))
+    wall_px, wall_rel, gap_px, gap_rel = _NARROW_WALLS if narrow else _WALLS
     t = max(1, min(feature_px(rng, L, px=wall_px, rel=wall_rel, given=thickness), w // 3))
     n = walls if walls is not None else int(rng.choice([1, 2, 3, 4], p=[0.4, 0.35, 0.18, 0.07])) + int(
         rng.integers(0, 1 + L // 400))

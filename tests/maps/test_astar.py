@@ -18,7 +18,9 @@ from ndrql.maps import (
     path_is_valid,
     read_movingai_map,
     read_movingai_scen,
+    shortest_path8,
 )
+from ndrql.maps.astar import _astar8_python
 
 S2 = math.sqrt(2.0)
 
@@ -100,17 +102,17 @@ def test_astar4_known_answers():
     assert res.expanded >= res.moves
 
 
-def test_astar_errors():
+@pytest.mark.parametrize("search", [astar4, astar8, shortest_path8, _astar8_python],
+                         ids=["astar4", "astar8", "shortest_path8", "astar8-python"])
+def test_search_errors(search):
     blocked = np.zeros((3, 3), dtype=bool)
-    blocked[:, 1] = True
+    blocked[:, 1] = True  # a wall right across
     with pytest.raises(NoPathError):
-        astar4(blocked, (0, 0), (0, 2))
-    with pytest.raises(NoPathError):
-        astar8(blocked, (0, 0), (0, 2))
+        search(blocked, (0, 0), (0, 2))
     with pytest.raises(PointError, match="off"):
-        astar4(blocked, (0, 0), (3, 0))
+        search(blocked, (0, 0), (3, 0))
     with pytest.raises(PointError, match="obstacle"):
-        astar4(blocked, (0, 1), (0, 0))
+        search(blocked, (0, 1), (0, 0))
 
 
 def test_astar4_is_deterministic_and_stateless():
@@ -210,8 +212,6 @@ def test_known_disconnected_sample_raises_no_path_error(dataset_root):
 def test_shortest_path8_equals_python_astar8_on_random_maps(seed):
     # The compiled search pops the same nodes in the same order as the pure-Python reference: same
     # path, bit-identical cost, same expansions (which is why astar8 may delegate to it).
-    from ndrql.maps.astar import _astar8_python, shortest_path8
-
     rng = np.random.default_rng(500 + seed)
     h, w = (int(v) for v in rng.integers(4, 48, 2))
     blocked = rng.random((h, w)) < rng.uniform(0.0, 0.45)
@@ -236,28 +236,17 @@ def test_shortest_path8_equals_python_astar8_on_random_maps(seed):
             assert path_is_valid(blocked, got.path, diagonal=True)
 
 
-def test_shortest_path8_known_answers_and_errors():
-    from ndrql.maps.astar import shortest_path8
-
+def test_shortest_path8_known_answers():
     blocked = np.zeros((3, 5), dtype=bool)
     blocked[1, :4] = True  # wall with a gap at the right end (the wall.map scenario above)
     res = shortest_path8(blocked, (0, 0), (2, 0))
     assert res.cost == pytest.approx(10.0) and res.path[0] == (0, 0) and res.path[-1] == (2, 0)
     assert path_is_valid(blocked, res.path, diagonal=True)
     assert shortest_path8(blocked, (0, 2), (0, 2)).path == [(0, 2)]
-    blocked[1, 4] = True
-    with pytest.raises(NoPathError):
-        shortest_path8(blocked, (0, 0), (2, 0))
-    with pytest.raises(PointError, match="off"):
-        shortest_path8(blocked, (0, 0), (3, 0))
-    with pytest.raises(PointError, match="obstacle"):
-        shortest_path8(blocked, (1, 1), (0, 0))
 
 
 def test_shortest_path8_large_open_map():
     # 2000x2000 (4 million cells) runs in a fraction of a second; no timing asserted, only the answer.
-    from ndrql.maps.astar import shortest_path8
-
     blocked = np.zeros((2000, 2000), dtype=bool)
     res = shortest_path8(blocked, (0, 0), (1999, 1000))
     assert res.cost == pytest.approx(octile((0, 0), (1999, 1000)))

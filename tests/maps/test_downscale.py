@@ -122,3 +122,15 @@ def test_a_one_row_map_is_narrowed_before_it_is_widened():
     assert g.shape == (50, 50) and not g.any()  # 1 pixel in 7 is obstacle: every cell below half
     assert peak < 8 * arr.size  # well below the 50 x 4 M intermediate of the rows-first order
     np.testing.assert_array_equal(planning_grid(arr[:, :4000], 50), dense_planning_grid(arr[:, :4000], (50, 50)))
+
+
+def test_the_two_resize_rules_agree_when_sizes_divide_and_differ_at_straddled_pixels():
+    from ndrql.maps.area import pixel_bins, whole_pixel_majority
+
+    arr = np.random.default_rng(5).random((402, 804)) < 0.4
+    np.testing.assert_array_equal(whole_pixel_majority(arr, (201, 201)), planning_grid(arr, (201, 201)))
+    one = np.array([[False, True, False]])  # three pixels to two cells: the middle one straddles them
+    assert pixel_bins(3, 2).tolist() == [0, 0, 1]
+    assert whole_pixel_majority(one, (1, 2)).tolist() == [[True, False]]  # cell 0 holds pixels 0 and 1 whole
+    assert planning_grid(one, (1, 2)).tolist() == [[False, False]]  # half a pixel in 1.5: a third of each cell
+    assert whole_pixel_majority(np.array([[True, False]]), (1, 4)).tolist() == [[True, True, False, False]]

@@ -236,25 +236,31 @@ def test_movingai_map(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "text, match",
+    "name, text, match",
     [
-        ("type octile\nheight 3\nwidth 5\n..@T.\n", "bad header"),
-        ("type hex\nheight 3\nwidth 5\nmap\n", "only 'octile'"),
-        ("type octile\nheight three\nwidth 5\nmap\n", "integers"),
-        ("type octile\nwidth 5\nmap\n.....\n", "missing height"),
-        ("type octile\nheight 0\nwidth 5\nmap\n", "positive"),
-        ("type octile\nheight 3\nwidth 5\nmap\n.....\n.....\n", "found 2 rows"),
-        ("type octile\nheight 2\nwidth 5\nmap\n.....\n....\n", "row 1 has 4 cells"),
-        ("type octile\nheight 1\nwidth 5\nmap\n..x..\n", "unknown terrain"),
-        ("hello\n", "bad header"),
-        ("", "no 'map' line"),
+        ("b.map", "type octile\nheight 3\nwidth 5\n..@T.\n", "bad header"),
+        ("b.map", "type hex\nheight 3\nwidth 5\nmap\n", "only 'octile'"),
+        ("b.map", "type octile\nheight three\nwidth 5\nmap\n", "integers"),
+        ("b.map", "type octile\nwidth 5\nmap\n.....\n", "missing height"),
+        ("b.map", "type octile\nheight 0\nwidth 5\nmap\n", "positive"),
+        ("b.map", "type octile\nheight 3\nwidth 5\nmap\n.....\n.....\n", "found 2 rows"),
+        ("b.map", "type octile\nheight 2\nwidth 5\nmap\n.....\n....\n", "row 1 has 4 cells"),
+        ("b.map", "type octile\nheight 1\nwidth 5\nmap\n..x..\n", "unknown terrain"),
+        ("b.map", "hello\n", "bad header"),
+        ("b.map", "", "no 'map' line"),
+        ("b.scen", "version 1\n0\ta.map\t5\t3\t4\t0\t0\n", "7 fields"),
+        ("b.scen", "version 1\n0\ta.map\t5\t3\tx\t0\t0\t2\t1.0\n", "non-numeric"),
+        ("b.scen", "version 1\n0\ta.map\t5\t3\t5\t0\t0\t2\t1.0\n", "outside 5x3"),
+        ("b.scen", "version one\n", "bad version"),
     ],
 )
-def test_movingai_bad_map(tmp_path, text, match):
-    p = tmp_path / "b.map"
+def test_movingai_bad_files(tmp_path, name, text, match):
+    """A broken MovingAI map (read by load_map) or scenario file is one clear MapFormatError."""
+    p = tmp_path / name
     p.write_text(text)
+    read = read_movingai_scen if name.endswith(".scen") else load_map
     with pytest.raises(MapFormatError, match=match):
-        load_map(p)
+        read(p)
 
 
 def test_movingai_scen_converts_x_y_to_row_col(tmp_path):
@@ -266,22 +272,6 @@ def test_movingai_scen_converts_x_y_to_row_col(tmp_path):
     assert (s.bucket, s.map, s.width, s.height) == (0, "a.map", 5, 3)
     assert s.start == (0, 4) and s.goal == (2, 0)  # x = column, y = row
     assert s.optimal_length == pytest.approx(7.24264069)
-
-
-@pytest.mark.parametrize(
-    "text, match",
-    [
-        ("version 1\n0\ta.map\t5\t3\t4\t0\t0\n", "7 fields"),
-        ("version 1\n0\ta.map\t5\t3\tx\t0\t0\t2\t1.0\n", "non-numeric"),
-        ("version 1\n0\ta.map\t5\t3\t5\t0\t0\t2\t1.0\n", "outside 5x3"),
-        ("version one\n", "bad version"),
-    ],
-)
-def test_movingai_bad_scen(tmp_path, text, match):
-    p = tmp_path / "b.scen"
-    p.write_text(text)
-    with pytest.raises(MapFormatError, match=match):
-        read_movingai_scen(p)
 
 
 # ------------------------------------------------------------------ the real dataset

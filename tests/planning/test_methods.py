@@ -64,73 +64,39 @@ def problem():
     )
 
 
-class PlanningMethodBase:
-    """Subclasses set ``method``; every test runs for every method."""
-
-    method = "QL"
-
-    def run(self, problem, seed=0, **kw):
-        return run_plan(problem["blocked"], problem["start"], problem["goal"], self.method, seed,
+def run(problem, method, seed=0, **kw):
+    return run_plan(problem["blocked"], problem["start"], problem["goal"], method, seed,
                     region=problem["region"], guideline=problem["guideline"], **kw)
 
-    def test_converges_to_a_valid_path(self, problem):
-        res = self.run(problem, seed=0, keep_records=True)
+
+class TestEveryMethod:
+    """The shared test base: every test here runs once per method of :data:`METHODS`."""
+
+    @pytest.fixture(params=METHODS)
+    def method(self, request):
+        return request.param
+
+    def test_converges_to_a_valid_path(self, problem, method):
+        res = run(problem, method, seed=0, keep_records=True)
         check_result(res, problem["blocked"], problem["start"], problem["goal"])
         rec = res.records
         assert len(rec.steps) == res.episodes
         assert (rec.greedy_length[-20:] == res.path_length).all()
         assert rec.steps.sum() == res.convergence_steps
 
-    def test_same_seed_same_run_next_seed_differs(self, problem):
-        a, b, c = self.run(problem, seed=5), self.run(problem, seed=5), self.run(problem, seed=6)
+    def test_same_seed_same_run_next_seed_differs(self, problem, method):
+        a, b, c = run(problem, method, seed=5), run(problem, method, seed=5), run(problem, method, seed=6)
         assert a.same_run(b)
         assert not a.same_run(c)
         assert (a.convergence_steps, a.episodes) != (c.convergence_steps, c.episodes)
 
-    def test_hitting_max_episodes_is_reported(self, problem):
-        res = self.run(problem, seed=1, config=QLConfig(max_episodes=3))
+    def test_hitting_max_episodes_is_reported(self, problem, method):
+        res = run(problem, method, seed=1, config=QLConfig(max_episodes=3))
         assert not res.converged
         assert res.convergence_episode is None and res.convergence_steps is None
         assert res.episodes == 3
         d = res.to_dict()
         assert d["converged"] is False and d["episodes"] == 3
-
-
-class TestQL(PlanningMethodBase):
-    method = "QL"
-
-
-class TestDC(PlanningMethodBase):
-    method = "D-C"
-
-
-class TestNC(PlanningMethodBase):
-    method = "N-C"
-
-
-class TestDQ(PlanningMethodBase):
-    method = "D-Q"
-
-
-class TestNQ(PlanningMethodBase):
-    method = "N-Q"
-
-
-class TestIQL(PlanningMethodBase):
-    method = "IQL"
-
-
-class TestOQL(PlanningMethodBase):
-    method = "O-QL"
-
-
-class TestNDRQL(PlanningMethodBase):
-    method = "NDR-QL"
-
-
-def test_every_method_has_a_test_class():
-    tested = {cls.method for cls in PlanningMethodBase.__subclasses__()}
-    assert tested == set(METHODS)
 
 
 def test_threshold_reported_only_with_ndr_qi():

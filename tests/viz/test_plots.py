@@ -1,8 +1,8 @@
 """Every plot function draws on a bare ``matplotlib.figure.Figure`` (no pyplot, no backend) and returns its artists.
 
-The figure builders (``viz.plan.plan_figure`` and ``compare_figure``, tested through the pipeline in
-``tests/pipeline/test_real_maps.py``; ``viz.reproduce``, through the experiments) make their own figure;
-everything else takes the ``ax`` or ``fig`` to draw on.
+The figure builders (``viz.plan.plan_figure`` and ``compare_figure``, ``viz.reproduce``'s builders,
+``viz.sheet.contact_sheet``) draw on the ``ax`` or ``fig`` they are given and return the figure; only
+without one do they make their own (an Agg figure of their size).
 """
 
 from __future__ import annotations
@@ -18,11 +18,14 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colorbar import Colorbar
 from matplotlib.figure import Figure
 
+import ndrql
 from ndrql.maps.grid import cell_to_point
+from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.runner import run_plan
 from ndrql.viz import curves, maps, overlays, qtable, sheet, style
 from ndrql.viz import plan as viz_plan
 from ndrql.viz import prediction as viz_prediction
+from ndrql.viz import reproduce as viz_reproduce
 
 from helpers import REPO_ROOT
 
@@ -190,6 +193,73 @@ def test_contact_sheet_draws_on_the_given_figure(fig):
     assert len(axes) == 3 and fig.axes == axes and [ax.get_title() for ax in axes] == ["a", "b", "c"]
     assert [t.get_text() for t in axes[1].texts] == ["unusable at this grid"]
     assert fig.get_suptitle() == "sheet"
+    assert sheet.sheet_grid(3) == (2, 2) and sheet.sheet_grid(10) == (3, 4) and sheet.sheet_grid(0) == (1, 1)
+    other = Figure(figsize=(3.0, 2.0))
+    assert sheet.contact_sheet([("a", item)], title="t", fig=other) is other
+    assert len(other.axes) == 1 and tuple(other.get_size_inches()) == (3.0, 2.0)  # the caller's size stays
+    own = sheet.contact_sheet([("a", item), ("b", item), ("c", item)])
+    assert isinstance(own.canvas, FigureCanvasAgg) and tuple(own.get_size_inches()) == pytest.approx((4.4, 5.0))
+
+
+@pytest.fixture(scope="module")
+def report():
+    """A two-method, two-seed plan on a small map with a wall (no NDR model needed)."""
+    obstacles = np.zeros((60, 60), bool)
+    obstacles[30, :45] = True
+    return ndrql.solve(obstacles, (5, 5), (55, 5), methods=("QL", "IQL"), seeds=(0, 1), workers=1,
+                       settings=PlanSettings.paper())
+
+
+def test_plan_figure_draws_on_the_given_axes(fig, report):
+    ax = fig.add_subplot(1, 2, 2)
+    assert viz_plan.plan_figure(report, method="IQL", seed=1, ax=ax) is fig
+    assert fig.axes == [ax] and ax.get_title().startswith("IQL seed 1")
+    assert tuple(fig.get_size_inches()) == tuple(Figure().get_size_inches())  # not resized
+
+
+def test_compare_figure_draws_on_the_given_figure(fig, report):
+    assert viz_plan.compare_figure(report, fig=fig) is fig
+    titles = [ax.get_title() for ax in fig.axes]
+    assert len(titles) == 3 and titles[0].startswith("QL seed 0") and titles[1].startswith("IQL seed 0")
+    assert titles[2] == "convergence steps, 2 seeds"
+
+
+def test_plan_builders_make_their_own_figure_without_one(report):
+    one, both = viz_plan.plan_figure(report, dpi=50), viz_plan.compare_figure(report, dpi=50)
+    assert isinstance(one.canvas, FigureCanvasAgg) and len(one.axes) == 1 and one.dpi == 50
+    assert isinstance(both.canvas, FigureCanvasAgg) and len(both.axes) == 3
+    assert tuple(both.get_size_inches()) == pytest.approx((12.6, 5.6))  # 3 panels x 4.2 in, square map
+
+
+def _reproduce_inputs():
+    """One call of each viz.reproduce builder: (builder, arguments, axes it draws)."""
+    b, s, g = _grid()
+    r = run_plan(b, s, g, "IQL", seed=0, keep_records=True, keep_q=True)
+    obstacles = np.kron(b, np.ones((4, 4), bool))
+    prob = np.linspace(0, 1, b.size).reshape(b.shape)
+    p = SimpleNamespace(blocked=b, start=s, goal=g, obstacles=obstacles, source_start=(1, 1), source_goal=(77, 1),
+                        astar=r.astar_length, split="seen", index=3, category="maze", region=prob, guideline=prob)
+    run = {"path": r.path, "records": r.records.to_dict(), "convergence_episode": r.convergence_episode}
+    agg = {"seen/maze": {"QL": {"steps": {"median": 900}, "gap": {"mean": 0.2}},
+                         "IQL": {"steps": {"median": 300}, "gap": {"mean": 0.1}}}}
+    return [
+        (viz_reproduce.curves_figure, (p, ["IQL"], ["IQL"], [run], [r], "curves"), 3),
+        (viz_reproduce.maps_figure, ([p], ["MAP-1"], [(None, None)], [{"IQL": r.path}]), 2),
+        (viz_reproduce.scale_figure, (agg, ["QL", "IQL"]), 2),
+        (viz_reproduce.scale_distributions, ({"IQL": [{"convergence_steps": 300, "length_ratio": 1.1}]},), 2),
+        (viz_reproduce.dynamic_figure, ([[("stage 1", p, run)]],), 2),
+        (viz_reproduce.sizing_figure, ([("NDR", [{"train_hours": 0.5, "val_region_f1": 40.0, "val_guideline_f1": 30.0}])],), 2),
+    ]
+
+
+@pytest.mark.parametrize("case", range(6), ids=["curves", "maps", "scale", "scale_distributions", "dynamic", "sizing"])
+def test_reproduce_builders_draw_on_the_given_figure(fig, case):
+    builder, args, n_axes = _reproduce_inputs()[case]
+    assert builder(*args, fig=fig) is fig
+    assert len(fig.axes) == n_axes and tuple(fig.get_size_inches()) == tuple(Figure().get_size_inches())
+    fig.savefig(io.BytesIO(), format="png")
+    own = builder(*args)
+    assert own is not fig and isinstance(own.canvas, FigureCanvasAgg) and len(own.axes) == n_axes
 
 
 def test_legend_below_and_colour_bar(fig):

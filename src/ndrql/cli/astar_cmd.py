@@ -8,6 +8,7 @@ from typing import Any
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, check_dpi,
                               check_outputs, map_info, parse_scen, resolve_problem, save_figure, warnings_to_stderr,
                               write_json)
+from ndrql.cli.options import add_command
 from ndrql.errors import MapFormatError
 from ndrql.limits import MAX_GRID_SIZE, check_int
 from ndrql.maps.astar import astar4, astar8
@@ -15,6 +16,11 @@ from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid, grid_to_strings
 from ndrql.maps.readers import read_movingai_scen
 from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path, plot_planning_result
 from ndrql.viz.style import ASTAR_COLOR, legend_below
+
+DESCRIPTION = ("Shortest path with A*. By default: 4-connected, unit moves, on the planning grid (the map "
+               "area-averaged to SIZE x SIZE, a cell blocked when >= half obstacle); start and goal map to the "
+               "cell containing them (snapped to the nearest free cell with a warning). With --octile: 8-connected "
+               "octile A* without corner cutting on the full-resolution map.")
 
 EXAMPLES = """examples:
   ndrql astar map.png --start 25,179 --goal 167,5 --png out/path.png --json out/path.json
@@ -24,16 +30,8 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "astar",
-        help="shortest path with A* (4-connected on the planning grid)",
-        description="Shortest path with A*. By default: 4-connected, unit moves, on the planning grid "
-        "(the map area-averaged to SIZE x SIZE, a cell blocked when >= half obstacle); start and goal "
-        "map to the cell containing them (snapped to the nearest free cell with a warning). "
-        "With --octile: 8-connected octile A* without corner cutting on the full-resolution map.",
-        epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = add_command(subparsers, "astar", help="shortest path with A* (4-connected on the planning grid)",
+                    description=DESCRIPTION, examples=EXAMPLES)
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen: take start and goal from scenario K (default 0)")
     p.add_argument("--size", type=int, default=PLANNING_SIZE, metavar="N",

@@ -17,10 +17,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.cli.options import add_command
 from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
+from ndrql.io import save_figure
 from ndrql.maps.grid import MODEL_SIDE, PLANNING_SIZE
-from ndrql.viz.sheet import save_contact_sheet
+from ndrql.viz.sheet import contact_sheet
+from ndrql.viz.style import DEFAULT_DPI
 
 
 def _int_list(text: str) -> tuple[int, ...]:
@@ -31,8 +34,7 @@ def _int_list(text: str) -> tuple[int, ...]:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("data", help="generate map sets with labels (map engine) and draw them",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(sub, "data", help="generate map sets with labels (map engine) and draw them", description=__doc__)
     dsub = p.add_subparsers(dest="data_command", metavar="ACTION")
     g = dsub.add_parser("generate", help="write a generated set (resumable, deterministic per seed)")
     g.add_argument("--family", required=True, help="families, comma-separated (ndrql.synth.families), or 'all'")
@@ -82,6 +84,6 @@ def run_show(args: argparse.Namespace) -> int:
         raw = gs.raw(int(i))
         r = render(args.mode, raw.obstacles, raw.start, raw.goal, raw.waypoints, args.grid)
         items.append((f"{i} {raw.family} {raw.obstacles.shape[0]}px", r))
-    save_contact_sheet(items, args.png, title=f"{args.set.name}: {args.mode} mode, grid {args.grid}")
+    save_figure(contact_sheet(items, title=f"{args.set.name}: {args.mode} mode, grid {args.grid}"), args.png, dpi=DEFAULT_DPI)
     print(f"wrote {args.png}")
     return 0

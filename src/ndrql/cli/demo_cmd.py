@@ -12,6 +12,7 @@ from typing import Any
 
 from ndrql.api import PlanSettings, solve
 from ndrql.cli.common import add_weights_argument, warnings_to_stderr, write_json
+from ndrql.cli.options import add_command
 from ndrql.cli.plan_cmd import _save, _short, _summary
 from ndrql.io import write_text
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
@@ -23,15 +24,13 @@ DEMO_METHODS = ("QL", "IQL", "NDR-QL")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "demo", help="QL vs IQL vs NDR-QL on the bundled sample map (figures and a table in out/demo/)",
+    p = add_command(
+        subparsers, "demo", help="QL vs IQL vs NDR-QL on the bundled sample map (figures and a table in out/demo/)",
         description="Plan on the bundled 201x201 sample map (path-planning dataset, TEST/SEEN 906) with QL, "
         "IQL and NDR-QL on the same seeds, print the comparison table and write compare.png, ndr-ql.png, "
         "table.md and results.json.",
-        epilog="examples:\n  ndrql demo                      # writes out/demo/\n"
-        "  ndrql demo --out /tmp/demo --seeds 20",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+        examples="examples:\n  ndrql demo                      # writes out/demo/\n"
+        "  ndrql demo --out /tmp/demo --seeds 20")
     p.add_argument("--out", default="out/demo", metavar="DIR", help="output folder (default: out/demo)")
     p.add_argument("--seeds", type=int, default=10, metavar="N", help="seeds 0..N-1 for every method (default: 10)")
     add_weights_argument(p)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.errors import NdrqlError
 from ndrql.limits import check_int
 from ndrql.model.export import export_onnx
 from ndrql.model.weights import resolve_weights
@@ -47,7 +48,6 @@ def run_weights(args: argparse.Namespace) -> int:
 
 
 def run_average(args: argparse.Namespace) -> int:
-    from ndrql.errors import NdrqlError
     from ndrql.model.checkpoint import average_weights  # lazy: loads torch
 
     if len(args.weights) < 2:

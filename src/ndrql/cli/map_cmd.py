@@ -6,6 +6,7 @@ import argparse
 
 from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, load_map_argument, map_info,
                               write_json)
+from ndrql.cli.options import add_command
 from ndrql.limits import MAX_GRID_SIZE, check_int
 from ndrql.maps.grid import PLANNING_SIZE, planning_grid
 from ndrql.maps.writers import save_map
@@ -18,10 +19,8 @@ EXAMPLES = """examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "map", help="inspect or convert a map", description="Inspect or convert a map.",
-        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = add_command(subparsers, "map", help="inspect or convert a map", description="Inspect or convert a map.",
+                    examples=EXAMPLES)
     sub = p.add_subparsers(dest="map_command", metavar="ACTION", required=True)
 
     info = sub.add_parser(

@@ -1,4 +1,5 @@
-"""Turn a frozen config dataclass into CLI flags (one per field, help from the field's docstring)."""
+"""Options shared by the subcommands: how a subcommand is declared, the seeds and workers of a planning
+command, and a frozen config dataclass turned into CLI flags (one per field, help from the field's docstring)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,22 @@ from typing import Any
 
 from ndrql.errors import NdrqlError
 from ndrql.planning.config import field_docs
+
+
+def add_command(subparsers: argparse._SubParsersAction, name: str, *, help: str, description: str,
+                examples: str | None = None) -> argparse.ArgumentParser:
+    """A subcommand whose ``--help`` keeps the description's and the examples' line breaks (examples last)."""
+    return subparsers.add_parser(name, help=help, description=description, epilog=examples,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def add_seed_options(parser: argparse.ArgumentParser, *, seeds: int, seeds_help: str, workers: int | None) -> None:
+    """``--seeds N`` (``seeds_help``), ``--seed S`` (the first seed: runs use seeds S..S+N-1) and ``--workers N``
+    (default ``workers``; ``None``: all cores)."""
+    parser.add_argument("--seeds", type=int, default=seeds, metavar="N", help=seeds_help)
+    parser.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
+    parser.add_argument("--workers", type=int, default=workers, metavar="N",
+                        help=f"parallel workers (default: {'all cores' if workers is None else workers})")
 
 
 def add_dataclass_options(parser: argparse.ArgumentParser, cls: type, skip: tuple[str, ...] = ()) -> None:

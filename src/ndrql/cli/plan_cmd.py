@@ -8,7 +8,7 @@ from typing import Any
 from ndrql.api import PlanSettings, solve
 from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_weights_argument, check_dpi,
                               check_outputs, load_map_argument, parse_point, parse_scen, warnings_to_stderr, write_json)
-from ndrql.cli.options import add_config_flags, configs_from_flags
+from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
 from ndrql.errors import NdrqlError
@@ -21,6 +21,12 @@ from ndrql.planning.config import PriorConfig, QLConfig, field_docs
 from ndrql.planning.methods import get_method, load_prior_file
 from ndrql.planning.preset import load_preset, plan_default_preset
 from ndrql.viz.plan import compare_figure, plan_figure
+
+DESCRIPTION = ("Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a dataset "
+               "sample): the NDR model predicts region and guideline, the method's priors (paper Eqs. 2-7) guide "
+               "tabular Q-learning on the planning grid (docs/method.md) until the greedy path is stable. Prints "
+               "convergence episode and steps, the greedy path length against the A* optimum, the NDR-QI threshold "
+               "and the time of each stage. Start and goal map to planning cells as for `astar`.")
 
 EXAMPLES = """examples:
   ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
@@ -55,17 +61,9 @@ _PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "plan",
-        help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
-        description="Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a "
-        "dataset sample): the NDR model predicts region and guideline, the method's priors (paper Eqs. 2-7) "
-        "guide tabular Q-learning on the planning grid (docs/method.md) until the greedy path is stable. "
-        "Prints convergence episode and steps, the greedy path length against the A* optimum, the NDR-QI "
-        "threshold and the time of each stage. Start and goal map to planning cells as for `astar`.",
-        epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = add_command(subparsers, "plan",
+                    help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
+                    description=DESCRIPTION, examples=EXAMPLES)
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
     p.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "
@@ -76,9 +74,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "scenarios already in FILE are skipped (resume)")
     p.add_argument("--method", default="NDR-QL", metavar="NAME", help="planning method (default: NDR-QL)")
     p.add_argument("--compare", metavar="A,B,...", help="run these methods on the same seeds and print a table")
-    p.add_argument("--seeds", type=int, default=1, metavar="N", help="number of runs (seeds S..S+N-1; default: 1)")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
-    p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
+    add_seed_options(p, seeds=1, seeds_help="number of runs (seeds S..S+N-1; default: 1)", workers=None)
     add_weights_argument(p)
     p.add_argument("--prior-from", metavar="FILE.npz|oracle",
                    help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]; "

@@ -6,6 +6,7 @@ import argparse
 
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_weights_argument,
                               check_dpi, resolve_problem, save_figure)
+from ndrql.cli.options import add_command
 from ndrql.io import make_folder, save_npz
 from ndrql.limits import MAX_THREADS, check_int
 from ndrql.model.predict import BACKENDS, Predictor
@@ -18,10 +19,10 @@ EXAMPLES = """examples:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("predict", help="predict the path region and guideline with the NDR model",
-                       description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
-                       "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size).",
-                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(sub, "predict", help="predict the path region and guideline with the NDR model",
+                    description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
+                    "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size).",
+                    examples=EXAMPLES)
     add_problem_arguments(p)
     add_max_pixels_argument(p)
     add_weights_argument(p)

@@ -7,7 +7,7 @@ import shlex
 import sys
 
 from ndrql.cli.common import add_weights_argument
-from ndrql.cli.options import add_config_flags, configs_from_flags
+from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
 from ndrql.errors import NdrqlError
 from ndrql.experiments.labels_check import labels_check
 from ndrql.experiments.presets import run_presets
@@ -44,22 +44,18 @@ _PRIOR_FLAGS = ("r_max", "g_row", "g_col", "omega_crf", "omega_qi")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "reproduce",
+    p = add_command(
+        subparsers, "reproduce",
         help="regenerate the paper's tables and figures (table1-4, dynamic, scale)",
         description="Run one of the paper's experiments end to end and write a markdown table and "
         "figures under the results directory. Sweeps are resumable and run on a local process pool "
         "(default) or on Ray.",
-        epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+        examples=EXAMPLES)
     p.add_argument("target", choices=TARGETS, metavar="TARGET", help=f"one of: {', '.join(TARGETS)}")
     p.add_argument("--out", metavar="DIR", help="results directory (default: results/<target>)")
     p.add_argument("--data", metavar="DIR", help="dataset root (default: $NDRQL_DATASET, else a path-planning-dataset folder in the working directory)")
     add_weights_argument(p, PAPER_WEIGHTS)
-    p.add_argument("--seeds", type=int, default=10, metavar="N", help="runs per map and method (default: 10)")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default: 0)")
-    p.add_argument("--workers", type=int, default=2, metavar="N", help="parallel workers (default: 2)")
+    add_seed_options(p, seeds=10, seeds_help="runs per map and method (default: 10)", workers=2)
     p.add_argument("--executor", choices=("process", "serial", "ray"), default="process",
                    help="where tasks run (default: process; ray needs pip install 'ndrql[ray]')")
     p.add_argument("--ray-address", metavar="ADDR", help="connect to this Ray cluster instead of starting a local one")

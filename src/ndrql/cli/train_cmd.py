@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ndrql.cli.options import add_dataclass_options, dataclass_from_args
+from ndrql.cli.options import add_command, add_dataclass_options, dataclass_from_args
 from ndrql.dataset.cache import cache_dir
 from ndrql.dataset.layout import check_root, default_root
 from ndrql.errors import CheckpointError
@@ -30,7 +30,7 @@ def default_run_dir(model: str) -> Path:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("train", help="train or resume an NDR model", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(sub, "train", help="train or resume an NDR model", description=__doc__)
     p.add_argument("--run-dir", type=Path, default=None, help="where checkpoints and metrics.csv go (default: $NDRQL_CACHE/runs/<model>)")
     p.add_argument("--resume", action="store_true", help="continue from <run-dir>/last.pt (same data order and schedule)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (log lines only)")

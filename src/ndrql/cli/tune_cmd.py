@@ -7,6 +7,7 @@ import argparse
 import sys
 
 from ndrql.cli.common import add_weights_argument, check_outputs
+from ndrql.cli.options import add_command
 from ndrql.dataset.layout import resolve_root
 from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
@@ -31,8 +32,8 @@ Use the result with --preset FILE on plan, demo and reproduce.
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("tune", help="search a planner's constants on validation maps (needs ndrql[tune])",
-                       description=__doc__, epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(sub, "tune", help="search a planner's constants on validation maps (needs ndrql[tune])",
+                    description=__doc__, examples=EXAMPLES)
     p.add_argument("--method", metavar="NAME", help="method to tune (QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL)")
     p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the spec "
                    "preset's point included (default: 200)")

@@ -12,9 +12,11 @@ In both modes the model sees about 4 px per planning cell whatever the grid, so 
 disconnected or in one cell on the grid) renders to ``None``.
 
 A map of another size meets a ``map``-mode model through :func:`to_model_input`: the longer side
-resized to 201 px (area averaging of the obstacle fraction, blocked at >= 0.5, the planning grid's
-rule), the shorter side padded with obstacles to 201, start and goal scaled with it (moved to the
-nearest free pixel if the resize blocked them); :func:`from_model_output` maps the probabilities back.
+resized to 201 px by whole pixels (:func:`ndrql.maps.area.whole_pixel_majority`: a cell blocked when
+at least half of its pixels are obstacles; the rule the models were trained on, not the planning
+grid's exact-area rule), the shorter side padded with obstacles to 201, start and goal scaled with it
+(moved to the nearest free pixel if the resize blocked them); :func:`from_model_output` maps the
+probabilities back (each map pixel samples the model pixel its centre falls in).
 """
 
 from __future__ import annotations
@@ -24,8 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ndrql.errors import NdrqlError, NoPathError
-from ndrql.maps.area import group_sums
+from ndrql.maps.area import whole_pixel_majority
 from ndrql.maps.grid import MODEL_SIDE, bfs_distances, nearest_free_euclidean
+from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import conservative_grid
 from ndrql.synth.labels import dilate_region, draw_guideline
 from ndrql.synth.oracle import oracle_prediction
@@ -39,14 +42,13 @@ PX_PER_CELL = 4
 
 
 @dataclass(frozen=True)
-class Rendered:
-    """One model input and its labels, all (side, side)."""
+class Rendered(MapProblem):
+    """One model input (the map, start and goal at the model's scale) and its labels, all (side, side)."""
 
-    obstacles: np.ndarray
-    start: Point
-    goal: Point
     guideline: np.ndarray
+    """bool, the path drawn 2 px wide."""
     region: np.ndarray
+    """bool, the guideline's 30x30 dilation."""
 
 
 def input_side(mode: str, n: int) -> int:
@@ -113,23 +115,8 @@ def to_model_input(obstacles: np.ndarray, start: Point, goal: Point, side: int =
         return obstacles, tuple(start), tuple(goal), 1.0
     scale = side / max(h, w)
     nh, nw = max(1, round(h * scale)), max(1, round(w * scale))
-    # area averaging via per-pixel bin membership (works for up- and downscaling); the bins are
-    # contiguous runs of pixels, so each axis is one reduceat pass: O(pixels) time and memory
-    rows = np.minimum((np.arange(h) * nh) // h, nh - 1)
-    cols = np.minimum((np.arange(w) * nw) // w, nw - 1)
-    if h >= nh and w >= nw:
-        r0 = np.searchsorted(rows, np.arange(nh))  # first pixel of each bin (every bin has one)
-        c0 = np.searchsorted(cols, np.arange(nw))
-        rows_sum = group_sums(np.ascontiguousarray(obstacles).view(np.uint8), r0, 0, np.int64)
-        sums = np.add.reduceat(rows_sum, c0, axis=1).astype(np.float64)
-        counts = np.outer(np.diff(np.append(r0, h)), np.diff(np.append(c0, w))).astype(np.float64)
-        small = sums / np.maximum(counts, 1) >= 0.5
-    else:  # upscaling: nearest source pixel
-        src_r = np.minimum((np.arange(nh) * h) // nh, h - 1)
-        src_c = np.minimum((np.arange(nw) * w) // nw, w - 1)
-        small = obstacles[src_r[:, None], src_c[None, :]]
     out = np.ones((side, side), bool)
-    out[:nh, :nw] = small
+    out[:nh, :nw] = whole_pixel_majority(obstacles, (nh, nw))
     s = nearest_free_euclidean(out, point_on_grid(tuple(start), nh / h, side))
     g = nearest_free_euclidean(out, point_on_grid(tuple(goal), nh / h, side))
     return out, s, g, scale

@@ -154,15 +154,16 @@ class GridPathEnv(gym.Env):
                      old: EnvProblem | None) -> EnvProblem:
         """The problem for a map (pixels) or a grid (cells); points default to ``old``'s (or the corners)."""
         if map_ is not None:
-            start = start if start is not None else (old.start_px if old is not None else None)
-            goal = goal if goal is not None else (old.goal_px if old is not None else None)
+            source = old.source if old is not None else None
+            start = start if start is not None else (source.start if source is not None else None)
+            goal = goal if goal is not None else (source.goal if source is not None else None)
             if start is None or goal is None:
                 raise PointError("a map needs start and goal, (row, col) in map pixels")
             return map_problem(map_, start, goal, self.size, self.grid_rule)
-        if grid is None and old is not None and old.obstacles is not None:  # new points on the same map
-            return map_problem(old.name, start if start is not None else old.start_px,
-                               goal if goal is not None else old.goal_px, self.size, self.grid_rule,
-                               obstacles=old.obstacles)
+        if grid is None and old is not None and old.source is not None:  # new points on the same map
+            return map_problem(old.name, start if start is not None else old.source.start,
+                               goal if goal is not None else old.source.goal, self.size, self.grid_rule,
+                               obstacles=old.source.obstacles)
         if grid is None:
             blocked = old.blocked if old is not None else _parse_map(DEFAULT_MAP)
         else:

@@ -100,9 +100,9 @@ def _grid_area(values: np.ndarray, shape: tuple[int, int], rule: str, size: int)
 
 def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int) -> np.ndarray:
     """``(2, h, w)`` region and guideline of the NDR model on the source map, averaged onto the grid."""
-    if problem.obstacles is None or problem.start_px is None or problem.goal_px is None:
+    if problem.source is None:
         raise NdrqlError("the NDR prior needs the map in pixels; this problem came as a planning grid (use prior='oracle')")
-    pred = predictor.predict(problem.obstacles, problem.start_px, problem.goal_px)
+    pred = predictor.predict(problem.source.obstacles, problem.source.start, problem.source.goal)
     guideline = pred.guideline if pred.guideline is not None else pred.region
     shape = problem.blocked.shape
     return np.stack([_grid_area(np.asarray(pred.region, np.float64), shape, rule, size),

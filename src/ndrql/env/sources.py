@@ -29,6 +29,7 @@ from ndrql.dataset.layout import check_root, normalize_split
 from ndrql.errors import NdrqlError, NoPathError, PointError
 from ndrql.maps.grid import (MODEL_SIDE, PLANNING_SIZE, GridMap, bfs_distances, nearest_free_bfs, planning_grid,
                              point_to_cell)
+from ndrql.maps.problem import MapProblem
 from ndrql.maps.readers import load_map
 from ndrql.maps.safe import conservative_grid, point_to_square_cell
 from ndrql.synth.endpoints import sample_endpoints
@@ -53,12 +54,9 @@ class EnvProblem:
     """Start cell ``(row, col)``."""
     goal: Cell
     """Goal cell ``(row, col)``."""
-    obstacles: np.ndarray | None = None
-    """The source map in pixels (bool, ``True`` = obstacle); ``None`` when the grid was given directly."""
-    start_px: Cell | None = None
-    """Start in source-map pixels (``None`` without a source map)."""
-    goal_px: Cell | None = None
-    """Goal in source-map pixels (``None`` without a source map)."""
+    source: MapProblem | None = None
+    """The map in pixels with start and goal in its pixels (for the NDR model's prior channels);
+    ``None`` when the grid was given directly."""
     name: str = ""
     """Where it came from: a file, ``family:maze`` or ``dataset:seen:12``."""
     astar_length: int = field(default=-1)
@@ -167,8 +165,7 @@ def map_problem(
             raise PointError(f"{label} {p[0]},{p[1]} is on an obstacle of the map")
         cells.append(_snap(blocked, pixel_to_cell(p, (h, w), blocked.shape, int(size), rule), f"{label} {p}"))
         points.append(p)
-    return _checked(blocked, cells[0], cells[1], obstacles=obstacles, start_px=points[0], goal_px=points[1],
-                    name=name or shown)
+    return _checked(blocked, cells[0], cells[1], source=MapProblem(obstacles, points[0], points[1]), name=name or shown)
 
 
 def _quiet_problem(obstacles: np.ndarray, start: Cell, goal: Cell, size: int, rule: str, name: str) -> EnvProblem | None:

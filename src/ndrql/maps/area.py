@@ -1,6 +1,16 @@
-"""Exact area sums for resizing 2-D arrays in O(pixels): the planning grid's and the model input's arithmetic.
+"""The two rules that resize a map, in O(pixels).
 
-Output cell ``i`` of an axis of ``n_in`` pixels resized to ``n_out`` cells covers the input interval
+- **Exact area** (:func:`area_sums`; :func:`ndrql.maps.grid.area_downscale` and
+  :func:`ndrql.maps.grid.planning_grid` use it): each output cell covers its exact share of the
+  input, pixels split between cells where a boundary falls inside them. The planning grid (blocked
+  where the obstacle area is >= half the cell) and every probability averaged onto a grid use it.
+- **Whole pixels** (:func:`pixel_bins`, :func:`whole_pixel_majority`): each pixel goes wholly to one
+  cell, a cell is blocked when at least half of its pixels are obstacles; growing, a cell takes one
+  pixel. The model's input is resized this way (:func:`ndrql.dataset.render.to_model_input`): the
+  shipped NDR models were trained on inputs resized by it, so the model keeps its own rule. The two
+  agree when the sizes divide (402 -> 201) and differ at cells that straddle a pixel (256 -> 201).
+
+Exact area: output cell ``i`` of an axis of ``n_in`` pixels resized to ``n_out`` cells covers the input interval
 ``[i * n_in / n_out, (i + 1) * n_in / n_out)``. Scaled by ``n_out`` this is ``[i * n_in, (i + 1) * n_in)``
 and pixel ``j`` is ``[j * n_out, (j + 1) * n_out)``: overlaps are integers in units of ``1 / n_out`` pixel,
 so sums of integer inputs are exact. The resize is separable (rows, then columns) and each pass costs
@@ -96,3 +106,28 @@ def area_sums(values: np.ndarray, shape: tuple[int, int], acc: type = np.int64) 
     if h_out * x.shape[1] <= x.shape[0] * w_out:  # resize the axis that keeps the intermediate smaller first
         return _overlap_sums(_overlap_sums(x, h_out, 0, acc), w_out, 1, acc)
     return _overlap_sums(_overlap_sums(x, w_out, 1, acc), h_out, 0, acc)
+
+
+def pixel_bins(n_in: int, n_out: int) -> np.ndarray:
+    """For each of ``n_in`` pixels of an axis, the one of ``n_out`` cells it goes to whole: ``floor(j * n_out / n_in)``.
+
+    Read the other way (``pixel_bins(n_out, n_in)``) it is the pixel each cell samples when an axis grows.
+    """
+    return np.minimum((np.arange(n_in) * n_out) // n_in, n_out - 1)
+
+
+def whole_pixel_majority(obstacles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """A bool map resized to ``shape`` by whole pixels (module docstring): shrinking both axes, a cell is
+    blocked when at least half of the pixels of its :func:`pixel_bins` are obstacles; otherwise each
+    cell takes the pixel it samples (nearest). O(pixels) time and memory: the bins are contiguous runs
+    of pixels, so each axis is one ``reduceat`` pass."""
+    obstacles = np.asarray(obstacles, bool)
+    (h, w), (nh, nw) = obstacles.shape, shape
+    if h >= nh and w >= nw:
+        r0 = np.searchsorted(pixel_bins(h, nh), np.arange(nh))  # first pixel of each bin (every bin has one)
+        c0 = np.searchsorted(pixel_bins(w, nw), np.arange(nw))
+        rows_sum = group_sums(np.ascontiguousarray(obstacles).view(np.uint8), r0, 0, np.int64)
+        sums = np.add.reduceat(rows_sum, c0, axis=1).astype(np.float64)
+        counts = np.outer(np.diff(np.append(r0, h)), np.diff(np.append(c0, w))).astype(np.float64)
+        return sums / np.maximum(counts, 1) >= 0.5
+    return obstacles[pixel_bins(nh, h)[:, None], pixel_bins(nw, w)[None, :]]

@@ -8,7 +8,8 @@
   on 4000x4000 maps; it pops the same nodes in the same order, so path, cost and expansions are
   identical, and :func:`astar8` delegates to it.
 
-Both are deterministic (ties broken by insertion order), keep no state between calls, and raise
+The plain-Python searches are one best-first search over a table of moves (:func:`_best_first`).
+All are deterministic (ties broken by insertion order), keep no state between calls, and raise
 :class:`~ndrql.errors.NoPathError` when the goal cannot be reached.
 """
 
@@ -17,7 +18,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -49,6 +50,29 @@ class AStarResult:
         return self.cost
 
 
+#: Moves ``(d_row, d_col, cost)`` of the two searches, in the order they are tried (ties go to the earlier).
+_MOVES4 = tuple((dr, dc, 1) for dr, dc in MOVES4)
+_MOVES8 = _MOVES4 + ((-1, -1, SQRT2), (-1, 1, SQRT2), (1, -1, SQRT2), (1, 1, SQRT2))
+
+
+def octile(a: Sequence[int], b: Sequence[int]) -> float:
+    """Octile distance between two cells: the 8-connected cost on an empty map."""
+    dr, dc = abs(a[0] - b[0]), abs(a[1] - b[1])
+    return (SQRT2 - 1.0) * min(dr, dc) + max(dr, dc)
+
+
+def _priority4(cost: float, cell: Sequence[int], goal: Sequence[int]) -> float:
+    """``cost`` plus the Manhattan distance to ``goal``: the A* priority of :func:`astar4`."""
+    return cost + abs(cell[0] - goal[0]) + abs(cell[1] - goal[1])
+
+
+def _priority8(cost: float, cell: Sequence[int], goal: Sequence[int]) -> float:
+    """``cost`` plus the octile distance to ``goal``, summed left to right as the compiled search
+    (:mod:`ndrql.maps.astar_kernel`) sums it, so both order ties alike to the last bit."""
+    dr, dc = abs(cell[0] - goal[0]), abs(cell[1] - goal[1])
+    return cost + (SQRT2 - 1.0) * min(dr, dc) + max(dr, dc)
+
+
 def _check_point(blocked: np.ndarray, point: Sequence[int], name: str) -> Cell:
     r, c = int(point[0]), int(point[1])
     h, w = blocked.shape
@@ -71,54 +95,7 @@ def _reconstruct(parent: np.ndarray, goal_idx: int, w: int) -> list[Cell]:
 
 def astar4(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> AStarResult:
     """Shortest 4-connected path (unit moves) from ``start`` to ``goal`` avoiding ``blocked`` cells."""
-    blocked = np.asarray(blocked, dtype=bool)
-    h, w = blocked.shape
-    s = _check_point(blocked, start, "start")
-    g = _check_point(blocked, goal, "goal")
-    flat_blocked = blocked.ravel()
-    gr, gc = g
-    inf = np.iinfo(np.int64).max
-    best = np.full(h * w, inf, dtype=np.int64)
-    parent = np.full(h * w, -1, dtype=np.int64)
-    closed = np.zeros(h * w, dtype=bool)
-    s_idx = s[0] * w + s[1]
-    g_idx = gr * w + gc
-    best[s_idx] = 0
-    counter = 0
-    heap = [(abs(s[0] - gr) + abs(s[1] - gc), counter, 0, s_idx)]
-    expanded = 0
-    while heap:
-        _, _, gcost, idx = heapq.heappop(heap)
-        if closed[idx]:
-            continue
-        closed[idx] = True
-        expanded += 1
-        if idx == g_idx:
-            return AStarResult(_reconstruct(parent, g_idx, w), float(gcost), expanded)
-        r, c = divmod(idx, w)
-        ng = gcost + 1
-        for dr, dc in MOVES4:
-            nr, nc = r + dr, c + dc
-            if 0 <= nr < h and 0 <= nc < w:
-                nidx = nr * w + nc
-                if not flat_blocked[nidx] and not closed[nidx] and ng < best[nidx]:
-                    best[nidx] = ng
-                    parent[nidx] = idx
-                    counter += 1
-                    heapq.heappush(heap, (ng + abs(nr - gr) + abs(nc - gc), counter, ng, nidx))
-    raise NoPathError(f"no 4-connected path from start {s} to goal {g}")
-
-
-_MOVES8 = (
-    (-1, 0, 1.0), (1, 0, 1.0), (0, -1, 1.0), (0, 1, 1.0),
-    (-1, -1, SQRT2), (-1, 1, SQRT2), (1, -1, SQRT2), (1, 1, SQRT2),
-)
-
-
-def octile(a: Sequence[int], b: Sequence[int]) -> float:
-    """Octile distance between two cells: the 8-connected cost on an empty map."""
-    dr, dc = abs(a[0] - b[0]), abs(a[1] - b[1])
-    return (SQRT2 - 1.0) * min(dr, dc) + max(dr, dc)
+    return _best_first(blocked, start, goal, _MOVES4, _priority4, corner_cutting=True, name="4-connected")
 
 
 def shortest_path8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> AStarResult:
@@ -163,20 +140,28 @@ def _astar8_python(
     blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], corner_cutting: bool = False
 ) -> AStarResult:
     """Pure-Python reference of :func:`astar8` (same pops in the same order)."""
+    return _best_first(blocked, start, goal, _MOVES8, _priority8, corner_cutting, name="8-connected")
+
+
+def _best_first(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], moves: Sequence[tuple[int, int, float]],
+                priority: Callable[[float, Sequence[int], Sequence[int]], float], corner_cutting: bool,
+                name: str) -> AStarResult:
+    """A* in plain Python over ``moves``, ``priority(cost, cell, goal)`` = cost so far plus an admissible
+    heuristic: :func:`astar4` and the reference of :func:`astar8`. Ties on the priority go to the node
+    pushed first; a diagonal move needs both orthogonal neighbours free unless ``corner_cutting``."""
     blocked = np.asarray(blocked, dtype=bool)
     h, w = blocked.shape
     s = _check_point(blocked, start, "start")
     g = _check_point(blocked, goal, "goal")
     flat_blocked = blocked.ravel()
-    gr, gc = g
     best = np.full(h * w, np.inf, dtype=np.float64)
     parent = np.full(h * w, -1, dtype=np.int64)
     closed = np.zeros(h * w, dtype=bool)
     s_idx = s[0] * w + s[1]
-    g_idx = gr * w + gc
+    g_idx = g[0] * w + g[1]
     best[s_idx] = 0.0
     counter = 0
-    heap = [(octile(s, g), counter, 0.0, s_idx)]
+    heap = [(priority(0, s, g), counter, 0, s_idx)]
     expanded = 0
     while heap:
         _, _, gcost, idx = heapq.heappop(heap)
@@ -187,7 +172,7 @@ def _astar8_python(
         if idx == g_idx:
             return AStarResult(_reconstruct(parent, g_idx, w), float(gcost), expanded)
         r, c = divmod(idx, w)
-        for dr, dc, step in _MOVES8:
+        for dr, dc, step in moves:
             nr, nc = r + dr, c + dc
             if not (0 <= nr < h and 0 <= nc < w):
                 continue
@@ -201,10 +186,8 @@ def _astar8_python(
                 best[nidx] = ng
                 parent[nidx] = idx
                 counter += 1
-                dh = abs(nr - gr)
-                dw = abs(nc - gc)
-                heapq.heappush(heap, (ng + (SQRT2 - 1.0) * min(dh, dw) + max(dh, dw), counter, ng, nidx))
-    raise NoPathError(f"no 8-connected path from start {s} to goal {g}")
+                heapq.heappush(heap, (priority(ng, (nr, nc), g), counter, ng, nidx))
+    raise NoPathError(f"no {name} path from start {s} to goal {g}")
 
 
 def path_is_valid(blocked: np.ndarray, path: Sequence[Sequence[int]], diagonal: bool = False, corner_cutting: bool = False) -> bool:

@@ -3,9 +3,9 @@
 :func:`train` runs every episode (epsilon-greedy with random tie-breaking, the Q-update :func:`rules.q_update`,
 visited-cell tracking per episode) and, after each episode, the deterministic greedy rollout that
 decides convergence (docs/method.md). Nothing runs in Python per step or per episode. The reward and the
-transition are :func:`ndrql.planning.rules.step`, compiled here; the random stream is xoshiro256**
-seeded by splitmix64 (:mod:`ndrql.planning.rng` is its Python twin), so a run depends only on its
-seed, whatever else runs in the process.
+transition are :func:`ndrql.planning.rules.step` and convergence :func:`ndrql.planning.rules.greedy_streak`,
+compiled here; the random stream is :mod:`ndrql.planning.rng` (xoshiro256** seeded by splitmix64),
+compiled here too, so a run depends only on its seed, whatever else runs in the process.
 
 Importing this module imports numba; compiled code is cached on disk (``cache=True``).
 """
@@ -15,12 +15,15 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ndrql.planning import rules
+from ndrql.planning import rng, rules
 from ndrql.planning.rules import GOAL
 
 _step = nb.njit(cache=True)(rules.step)
 _greedy_action = nb.njit(cache=True)(rules.greedy_action)
 _max_q = nb.njit(cache=True)(rules.max_q)
+_greedy_streak = nb.njit(cache=True)(rules.greedy_streak)
+_seed_state = nb.njit(cache=True)(rng.state_from_seed)
+_xoshiro = nb.njit(cache=True)(rng.xoshiro)
 
 #: ``_SELECT[mask, j]``: the j-th set bit of a 4-bit action mask (the j-th candidate action).
 _SELECT = np.array([[[b for b in range(4) if m >> b & 1][min(j, max(bin(m).count("1") - 1, 0))] if m else 0
@@ -28,52 +31,13 @@ _SELECT = np.array([[[b for b in range(4) if m >> b & 1][min(j, max(bin(m).count
 
 
 @nb.njit(cache=True)
-def _rotl(x, k):
-    return (x << np.uint64(k)) | (x >> np.uint64(64 - k))
-
-
-@nb.njit(cache=True)
-def seed_state(seed):
-    """xoshiro256** state from ``seed`` via splitmix64 (same as :func:`ndrql.planning.rng.seed_state`)."""
-    st = np.empty(4, dtype=np.uint64)
-    x = np.uint64(seed)
-    for i in range(4):
-        x = x + np.uint64(0x9E3779B97F4A7C15)
-        z = x
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        st[i] = z ^ (z >> np.uint64(31))
-    return st
-
-
-@nb.njit(cache=True)
-def next_u64(st):
-    """Next output of xoshiro256** (state updated in place)."""
-    result, st[0], st[1], st[2], st[3] = _xoshiro(st[0], st[1], st[2], st[3])
-    return result
-
-
-@nb.njit(cache=True)
-def _xoshiro(s0, s1, s2, s3):
-    """xoshiro256** on a state held in locals: returns ``(output, s0, s1, s2, s3)``."""
-    result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
-    t = s1 << np.uint64(17)
-    s2 ^= s0
-    s3 ^= s1
-    s1 ^= s2
-    s0 ^= s3
-    s2 ^= t
-    s3 = _rotl(s3, 45)
-    return result, s0, s1, s2, s3
-
-
-@nb.njit(cache=True)
 def _draws(seed, n):
-    """``n`` raw draws for ``seed`` (tests compare them with the Python twin)."""
-    st = seed_state(seed)
+    """``n`` raw draws for ``seed``, compiled (tests compare them with :func:`ndrql.planning.rng.next_u64`)."""
+    st = _seed_state(seed)
+    x0, x1, x2, x3 = st[0], st[1], st[2], st[3]
     out = np.empty(n, dtype=np.uint64)
     for i in range(n):
-        out[i] = next_u64(st)
+        out[i], x0, x1, x2, x3 = _xoshiro(x0, x1, x2, x3)
     return out
 
 
@@ -133,7 +97,7 @@ def train(
     (``path_len == -1`` if no rollout ever reached the goal).
     """
     cells = nxt.shape[0]
-    st = seed_state(seed)
+    st = _seed_state(seed)
     x0 = st[0]
     x1 = st[1]
     x2 = st[2]
@@ -198,22 +162,11 @@ def train(
         n_done = ep + 1
         length = _rollout(q, nxt, start, goal, seen, mark, cur, cells)
         greedy_len[ep] = length
-        if length >= 0:
-            same = length == best_len
-            if same:
-                for i in range(length + 1):
-                    if cur[i] != best[i]:
-                        same = False
-                        break
-            if same:
-                streak += 1
-            else:
-                streak = 1
-                for i in range(length + 1):
-                    best[i] = cur[i]
-                best_len = length
-        else:
-            streak = 0
+        streak = _greedy_streak(streak, cur, length, best, best_len)
+        if streak == 1:  # a new path (or the same one after a failed rollout): it becomes the best
+            for i in range(length + 1):
+                best[i] = cur[i]
+            best_len = length
         if streak >= window:
             conv_episode = ep
             conv_steps = total

@@ -1,10 +1,10 @@
 """Q-learning in numpy and a Python loop: the readable twin of :mod:`ndrql.planning.kernel`.
 
 Written the way one would write it by hand (a numpy Q-table, ``np.argmax``, a loop per step), with
-the same rules (:func:`ndrql.planning.rules.step`) and the same random stream
-(:mod:`ndrql.planning.rng`), so for the same inputs and seed it makes exactly the same run as the
-compiled kernel. Tests use it to check the kernel; ``benchmarks/qlearning_speed.py`` times both.
-It is about a hundred times slower than the kernel: use it only on small runs.
+the same rules (:func:`ndrql.planning.rules.step`, :func:`~ndrql.planning.rules.greedy_streak`) and the
+same random stream (:mod:`ndrql.planning.rng`), so for the same inputs and seed it makes exactly the
+same run as the compiled kernel. Tests use it to check the kernel; ``benchmarks/qlearning_speed.py``
+times both. It is a few hundred times slower than the kernel: use it only on small runs.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def train(
     max_steps = config.steps_cap(cells)
     visited = np.zeros(cells, dtype=np.int64)
     out = ReferenceRun(q, [], [], [], [], -1, -1, None)
-    best: list[int] | None = None
+    best: list[int] = []
     streak = 0
     total = 0
     for ep in range(config.max_episodes):
@@ -104,15 +104,14 @@ def train(
         out.returns.append(ret)
         out.success.append(reached)
         path = greedy_rollout(q, nxt, s0, g)
-        out.greedy_length.append(len(path) - 1 if path is not None else -1)
+        length = len(path) - 1 if path is not None else -1
+        out.greedy_length.append(length)
+        streak = rules.greedy_streak(streak, path, length, best, len(best) - 1)
         if path is not None:
-            streak = streak + 1 if path == best else 1
             best = path
-        else:
-            streak = 0
         if streak >= config.window:
             out.convergence_episode = ep
             out.convergence_steps = total
             break
-    out.path = best
+    out.path = best or None
     return out

@@ -3,9 +3,10 @@
 The compiled kernel (:mod:`ndrql.planning.kernel`), the numpy reference
 (:mod:`ndrql.planning.reference`) and the Gymnasium environment (:mod:`ndrql.env`) all use the
 functions below: :func:`next_table` fixes where each action leads, :func:`step` fixes the reward,
-the visited-cell bookkeeping and termination, :func:`q_update` the learning rule. :func:`step`,
-:func:`greedy_action` and :func:`max_q` are written in the subset of Python that numba compiles; the
-kernel compiles these very functions (and inlines :func:`q_update`, which the reference calls).
+the visited-cell bookkeeping and termination, :func:`q_update` the learning rule and
+:func:`greedy_streak` when a run has converged. :func:`step`, :func:`greedy_action`, :func:`max_q`
+and :func:`greedy_streak` are written in the subset of Python that numba compiles; the kernel
+compiles these very functions (and inlines :func:`q_update`, which the reference calls).
 
 States are flat cell indices ``s = row * W + col`` of the planning grid. Obstacle cells are never
 states; their rows of the transition table point to themselves.
@@ -115,6 +116,25 @@ def q_update(q, s, a, r, s2, terminal, alpha, gamma):
         q[s, a] += alpha * (r - q[s, a])
     else:
         q[s, a] += alpha * (r + gamma * max_q(q, s2) - q[s, a])
+
+
+def greedy_streak(streak, path, length, best, best_len):
+    """Convergence (docs/method.md): episodes in a row whose greedy rollout reached the goal on one same path.
+
+    ``path[0..length]`` is this episode's rollout (``length == -1``: it failed), ``best[0..best_len]``
+    the last rollout that reached the goal, ``streak`` the count before this episode. Returns the
+    new count: 0 after a failed rollout, ``streak + 1`` when the path repeats ``best``, else 1 (the
+    caller then keeps ``path`` as the new ``best``). A run has converged once the count reaches the
+    window ``W``. Paths may be lists or arrays of flat cell indices.
+    """
+    if length < 0:
+        return 0
+    if length != best_len:
+        return 1
+    for i in range(length + 1):
+        if path[i] != best[i]:
+            return 1
+    return streak + 1
 
 
 def cell_index(cell, width: int) -> int:

@@ -13,7 +13,8 @@ import numpy as np
 from scipy import ndimage
 
 from ndrql.synth.layouts import rect_union_footprint, recursive_division
-from ndrql.synth.shapes import check_range, feature_px, orient, paint_rects, redraw_until_open, smooth_noise
+from ndrql.synth.shapes import (check_px, check_range, feature_px, paint_rects, redraw_oriented, redraw_until_open,
+                                smooth_noise)
 
 Rect = tuple[int, int, int, int]
 
@@ -71,8 +72,8 @@ def _office_plan(rng: np.random.Generator, h: int, w: int, wall: int | None, cor
                  furniture: int | None) -> np.ndarray:
     """An office with corridors along the rows (canonical orientation); see :func:`office`."""
     L = max(h, w)
-    t = wall if wall is not None else feature_px(rng, L, px=(1, 10), rel=(0.0005, 0.02))
-    cw = corridor if corridor is not None else feature_px(rng, L, px=(5, 120), rel=(0.015, 0.09))
+    t = feature_px(rng, L, px=(1, 10), rel=(0.0005, 0.02), given=wall)
+    cw = feature_px(rng, L, px=(5, 120), rel=(0.015, 0.09), given=corridor)
     room_w = feature_px(rng, L, px=(20, 400), rel=(0.025, 0.2))
     door = max(1, min(feature_px(rng, L, px=(4, 60), rel=(0.008, 0.05)), int(0.4 * room_w)))
     n_furn = furniture if furniture is not None else int(rng.integers(0, 5))
@@ -152,19 +153,17 @@ def office(rng: np.random.Generator, height: int, width: int, *, wall: int | Non
     (a quarter of the rows) and up to about ``furniture`` (0-4) desks and cabinets per room-sized
     area. Doorways are kept clear.
     """
-    check_range("wall", wall, 1, max(height, width), integer=True)
-    check_range("corridor", corridor, 1, max(height, width), integer=True)
+    check_px(height, width, wall=wall, corridor=corridor)
     check_range("furniture", furniture, 0, 64, integer=True)
-    return redraw_until_open(lambda: orient(rng, height, width, lambda h, w: _office_plan(
-        rng, h, w, wall, corridor, furniture)))
+    return redraw_oriented(rng, height, width, lambda h, w: _office_plan(rng, h, w, wall, corridor, furniture))
 
 
 def _warehouse_plan(rng: np.random.Generator, h: int, w: int, aisle: int | None, shelf: int | None,
                     cross: int | None) -> np.ndarray:
     """A warehouse with shelving along the rows (canonical orientation); see :func:`warehouse`."""
     L = max(h, w)
-    a = aisle if aisle is not None else feature_px(rng, L, px=(4, 80), rel=(0.008, 0.07))
-    s = shelf if shelf is not None else feature_px(rng, L, px=(2, 40), rel=(0.003, 0.03))
+    a = feature_px(rng, L, px=(4, 80), rel=(0.008, 0.07), given=aisle)
+    s = feature_px(rng, L, px=(2, 40), rel=(0.003, 0.03), given=shelf)
     depth = 2 * s if rng.random() < 0.6 else s
     a, depth = max(2, min(a, min(h, w) // 5)), max(1, min(depth, min(h, w) // 5))
     t = feature_px(rng, L, px=(1, 8), rel=(0.0005, 0.01)) if rng.random() < 0.7 else 0
@@ -215,18 +214,16 @@ def warehouse(rng: np.random.Generator, height: int, width: int, *, aisle: int |
     the racks (1-2 aisles), an outer wall (70 %), the share of aisles blocked at one end (0-40 %)
     and pallets in the main aisle (half the maps).
     """
-    check_range("aisle", aisle, 1, max(height, width), integer=True)
-    check_range("shelf", shelf, 1, max(height, width), integer=True)
+    check_px(height, width, aisle=aisle, shelf=shelf)
     check_range("cross", cross, 0, 64, integer=True)
-    return redraw_until_open(lambda: orient(rng, height, width, lambda h, w: _warehouse_plan(
-        rng, h, w, aisle, shelf, cross)))
+    return redraw_oriented(rng, height, width, lambda h, w: _warehouse_plan(rng, h, w, aisle, shelf, cross))
 
 
 def _ros_once(rng: np.random.Generator, h: int, w: int, outside: float | None, wall: int | None,
               noise: float | None) -> np.ndarray:
     L = max(h, w)
     frac = outside if outside is not None else rng.uniform(0.3, 0.6)
-    t = wall if wall is not None else feature_px(rng, L, px=(1, 6), rel=(0.0005, 0.012))
+    t = feature_px(rng, L, px=(1, 6), rel=(0.0005, 0.012), given=wall)
     rotate = rng.random() < 0.35 and max(h, w) <= 1.3 * min(h, w)  # a turned building, on squarish maps
     t = max(t, 2) if rotate else t
     m = int(min(h, w) * rng.uniform(0.0, 0.06))  # unknown margin all round
@@ -276,6 +273,6 @@ def ros_scan(rng: np.random.Generator, height: int, width: int, *, outside: floa
     scan by up to 30 degrees.
     """
     check_range("outside", outside, 0.0, 0.85)
-    check_range("wall", wall, 1, max(height, width), integer=True)
+    check_px(height, width, wall=wall)
     check_range("noise", noise, 0.0, 0.2)
     return redraw_until_open(lambda: _ros_once(rng, height, width, outside, wall, noise))

@@ -25,15 +25,15 @@ from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.buildings import office, ros_scan, warehouse
 from ndrql.synth.layouts import expand_grid, perfect_maze, recursive_division
-from ndrql.synth.shapes import (check_range, disc, feature_px, fill_to_density, loguniform, orient, paint_rects,
-                                random_rects, redraw_until_open, scatter_batch, trap_box, trap_rects)
+from ndrql.synth.shapes import (check_px, check_range, disc, feature_px, fill_to_density, loguniform, paint_rects,
+                                random_rects, redraw_oriented, redraw_until_open, scatter_batch, trap_box, trap_rects)
 
 #: Smallest map side :func:`generate_map` accepts.
 MIN_SIDE = 16
 
 
 def _blocks_once(rng: np.random.Generator, h: int, w: int, density: float | None, size: int | None) -> np.ndarray:
-    side = size if size is not None else feature_px(rng, max(h, w), px=(4, 500), rel=(0.004, 0.15))
+    side = feature_px(rng, max(h, w), px=(4, 500), rel=(0.004, 0.15), given=size)
     d = density if density is not None else rng.uniform(0.08, 0.3)
     clusters = rng.uniform(0, 1, (int(rng.integers(2, 7)), 2)) * (h, w) if rng.random() < 0.5 else None
     bars = rng.uniform(0.0, 0.3)
@@ -51,7 +51,7 @@ def blocks(rng: np.random.Generator, height: int, width: int, *, density: float 
     3-8x longer).
     """
     check_range("density", density, 0.01, 0.6)
-    check_range("size", size, 1, max(height, width), integer=True)
+    check_px(height, width, size=size)
     return redraw_until_open(lambda: _blocks_once(rng, height, width, density, size))
 
 
@@ -60,17 +60,18 @@ def _extra_block_side(rng: np.random.Generator, h: int, w: int) -> int:
     return feature_px(rng, max(h, w), px=(5, 300), rel=(0.005, 0.08))
 
 
+#: Wall thickness and gap width of :func:`gaps` (pixel range, range relative to the longer side, each).
+_WALLS = ((3, 250), (0.005, 0.12), (6, 300), (0.015, 0.2))
+#: The same for :func:`narrow_passage`: thick walls, narrow passages.
+_NARROW_WALLS = ((10, 1000), (0.03, 0.22), (2, 16), (0.008, 0.03))
+
+
 def _walls_with_gaps(rng: np.random.Generator, h: int, w: int, *, walls: int | None, thickness: int | None,
                      gap: int | None, narrow: bool) -> np.ndarray:
     """Vertical walls across all rows, each with 1-3 gaps (``narrow``: thick, ragged, narrow passages)."""
     L = max(h, w)
-    if thickness is not None:
-        t = thickness
-    elif narrow:
-        t = feature_px(rng, L, px=(10, 1000), rel=(0.03, 0.22))
-    else:
-        t = feature_px(rng, L, px=(3, 250), rel=(0.005, 0.12))
-    t = max(1, min(t, w // 3))
+    wall_px, wall_rel, gap_px, gap_rel = _NARROW_WALLS if narrow else _WALLS
+    t = max(1, min(feature_px(rng, L, px=wall_px, rel=wall_rel, given=thickness), w // 3))
     n = walls if walls is not None else int(rng.choice([1, 2, 3, 4], p=[0.4, 0.35, 0.18, 0.07])) + int(
         rng.integers(0, 1 + L // 400))
     n = max(1, min(n, int(0.6 * w / (t + 2))))
@@ -93,13 +94,7 @@ def _walls_with_gaps(rng: np.random.Generator, h: int, w: int, *, walls: int | N
         else:
             out[:, c0:c1] = True
         for _ in range(int(rng.choice([1, 2, 3], p=[0.5, 0.35, 0.15]))):
-            if gap is not None:
-                g = gap
-            elif narrow:
-                g = feature_px(rng, L, px=(2, 16), rel=(0.008, 0.03))
-            else:
-                g = feature_px(rng, L, px=(6, 300), rel=(0.015, 0.2))
-            g = max(1, min(g, int(0.6 * h)))
+            g = max(1, min(feature_px(rng, L, px=gap_px, rel=gap_rel, given=gap), int(0.6 * h)))
             r = int(rng.integers(0, h - g + 1))
             if narrow and rng.random() < 0.4 and c1 - c0 > 3 * g:  # a dog-leg passage
                 r2 = int(np.clip(r + rng.integers(-4 * g, 4 * g + 1), 0, h - g))
@@ -136,8 +131,7 @@ def gaps(rng: np.random.Generator, height: int, width: int, *, walls: int | None
     60 % of the wall) and position.
     """
     check_range("walls", walls, 1, 64, integer=True)
-    check_range("thickness", thickness, 1, max(height, width), integer=True)
-    check_range("gap", gap, 1, max(height, width), integer=True)
+    check_px(height, width, thickness=thickness, gap=gap)
     return redraw_until_open(lambda: _gaps_once(rng, height, width, walls, thickness, gap))
 
 
@@ -166,10 +160,9 @@ def narrow_passage(rng: np.random.Generator, height: int, width: int, *, walls: 
     ``passage`` width (0.8-3 %, clipped to 2-16 px) and position, and dog-leg passages (40 %).
     """
     check_range("walls", walls, 1, 64, integer=True)
-    check_range("thickness", thickness, 1, max(height, width), integer=True)
-    check_range("passage", passage, 1, max(height, width), integer=True)
-    return redraw_until_open(lambda: orient(rng, height, width, lambda a, b: _walls_with_gaps(
-        rng, a, b, walls=walls, thickness=thickness, gap=passage, narrow=True)))
+    check_px(height, width, thickness=thickness, passage=passage)
+    return redraw_oriented(rng, height, width, lambda a, b: _walls_with_gaps(
+        rng, a, b, walls=walls, thickness=thickness, gap=passage, narrow=True))
 
 
 def _trap(rng: np.random.Generator, box: tuple[int, int, int, int], thickness: int) -> list:
@@ -193,7 +186,7 @@ def bugtrap(rng: np.random.Generator, height: int, width: int, *, size: int | No
     :func:`gaps_blocks`).
     """
     check_range("size", size, 8, max(height, width), integer=True)
-    check_range("thickness", thickness, 1, max(height, width), integer=True)
+    check_px(height, width, thickness=thickness)
 
     def draw() -> np.ndarray:
         s = size if size is not None else rng.uniform(0.2, 0.55) * min(height, width)
@@ -217,7 +210,7 @@ def bugtraps(rng: np.random.Generator, height: int, width: int, *, count: int | 
     (3-10 %).
     """
     check_range("count", count, 1, 256, integer=True)
-    check_range("thickness", thickness, 1, max(height, width), integer=True)
+    check_px(height, width, thickness=thickness)
 
     def draw() -> np.ndarray:
         n = count if count is not None else int(rng.integers(2, 7 + max(height, width) // 300))
@@ -252,8 +245,7 @@ def maze(rng: np.random.Generator, height: int, width: int, *, corridor: int | N
     the lattice; the pixels left over beside the lattice are wall. The tree is a random minimum
     spanning tree (randomised Kruskal) of the cell lattice.
     """
-    check_range("corridor", corridor, 1, max(height, width), integer=True)
-    check_range("wall", wall, 1, max(height, width), integer=True)
+    check_px(height, width, corridor=corridor, wall=wall)
     L, S = max(height, width), min(height, width)
 
     def draw() -> np.ndarray:
@@ -288,14 +280,13 @@ def rooms(rng: np.random.Generator, height: int, width: int, *, room: int | None
     4-120 px) and how often mid-sized regions stay undivided (0-40 %). Every room is reachable.
     """
     check_range("room", room, 3, max(height, width), integer=True)
-    check_range("wall", wall, 1, max(height, width), integer=True)
-    check_range("door", door, 1, max(height, width), integer=True)
+    check_px(height, width, wall=wall, door=door)
     L = max(height, width)
 
     def draw() -> np.ndarray:
-        t = wall if wall is not None else feature_px(rng, L, px=(1, 8), rel=(0.0005, 0.02))
-        rm = room if room is not None else feature_px(rng, L, px=(20, 900), rel=(0.03, 0.3))
-        d = door if door is not None else feature_px(rng, L, px=(4, 80), rel=(0.006, 0.07))
+        t = feature_px(rng, L, px=(1, 8), rel=(0.0005, 0.02), given=wall)
+        rm = feature_px(rng, L, px=(20, 900), rel=(0.03, 0.3), given=room)
+        d = feature_px(rng, L, px=(4, 80), rel=(0.006, 0.07), given=door)
         out = np.ones((height, width), dtype=bool)
         out[t:height - t, t:width - t] = False
         recursive_division(rng, out, (t, t, height - t, width - t), room=rm, wall=t, door=max(1, min(d, rm - 2)),
@@ -316,7 +307,7 @@ def scatter(rng: np.random.Generator, height: int, width: int, *, density: float
     ``squares`` (none, all, or a random share).
     """
     check_range("density", density, 0.01, 0.6)
-    check_range("size", size, 1, max(height, width), integer=True)
+    check_px(height, width, size=size)
     check_range("squares", squares, 0.0, 1.0)
     L = max(height, width)
 

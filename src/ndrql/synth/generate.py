@@ -12,26 +12,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ndrql.errors import NdrqlError
+from ndrql.maps.problem import MapProblem
 from ndrql.synth.endpoints import sample_endpoints
 from ndrql.synth.families import family_names, generate_map
 from ndrql.synth.labels import near_optimal_path
-
-Point = tuple[int, int]
 
 #: Map draws tried per sample before giving up (a family that never yields a long start/goal pair is a bug).
 MAX_DRAWS = 25
 
 
 @dataclass(frozen=True)
-class RawSample:
-    """A map with start, goal and a near-optimal path at the map's own resolution."""
+class RawSample(MapProblem):
+    """A map with start, goal and a near-optimal path at the map's own resolution (square maps)."""
 
-    obstacles: np.ndarray
-    """(S, S) bool, ``True`` = obstacle."""
-    start: Point
-    """Start pixel (row, col)."""
-    goal: Point
-    """Goal pixel (row, col)."""
     waypoints: np.ndarray
     """(K, 2) int waypoints from start to goal (8-connected optimum, line-of-sight shortcut)."""
     family: str

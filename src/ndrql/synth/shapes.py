@@ -28,13 +28,17 @@ def loguniform(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
 
 
-def feature_px(rng: np.random.Generator, extent: int, px: tuple[float, float], rel: tuple[float, float]) -> int:
-    """A feature size in pixels: log-uniform over ``rel`` times ``extent``, that range clipped into ``px``.
+def feature_px(rng: np.random.Generator, extent: int, px: tuple[float, float], rel: tuple[float, float],
+               given: int | None = None) -> int:
+    """A feature size in pixels: ``given`` when the caller set it (nothing is drawn), else log-uniform over
+    ``rel`` times ``extent``, that range clipped into ``px``.
 
     The relative range makes features grow with the map, the pixel range bounds them: a 2000 px map
     gets features that are relatively smaller than on a 201 px map where ``px[1]`` is reached, and
     relatively larger where ``px[0]`` is.
     """
+    if given is not None:
+        return given
     lo = min(max(rel[0] * extent, px[0]), px[1])
     hi = min(max(rel[1] * extent, px[0]), px[1])
     return max(1, int(round(loguniform(rng, lo, hi))))
@@ -188,6 +192,18 @@ def check_range(name: str, value: float | None, lo: float, hi: float, integer: b
         raise NdrqlError(f"{name} must be {'an integer' if integer else 'a number'}, got {type(value).__name__}")
     if not lo <= value <= hi:
         raise NdrqlError(f"{name} must be in [{lo:g}, {hi:g}], got {value:g}")
+
+
+def check_px(height: int, width: int, **sizes: int | None) -> None:
+    """:func:`check_range` for feature sizes in pixels: each is ``None`` or an integer in 1..the longer side."""
+    for name, value in sizes.items():
+        check_range(name, value, 1, max(height, width), integer=True)
+
+
+def redraw_oriented(rng: np.random.Generator, height: int, width: int,
+                    plan: Callable[[int, int], np.ndarray]) -> np.ndarray:
+    """``plan(h, w)`` in a random orientation (:func:`orient`), redrawn until open (:func:`redraw_until_open`)."""
+    return redraw_until_open(lambda: orient(rng, height, width, plan))
 
 
 def fill_to_density(shape: tuple[int, int], density: float, batch: Callable[[int], np.ndarray],

@@ -23,6 +23,17 @@ def new_figure(figsize: tuple[float, float] = (6.0, 6.0), dpi: int = 100) -> Any
     return fig
 
 
+def figure_or_new(fig: Any, figsize: tuple[float, float], dpi: int = 100, layout: str | None = None) -> Any:
+    """The figure a builder draws on: ``fig`` as the caller gave it (its size and layout are the caller's),
+    else a :func:`new_figure` of ``figsize`` and ``dpi`` with the layout engine ``layout`` (e.g. ``"constrained"``)."""
+    if fig is not None:
+        return fig
+    fig = new_figure(figsize=figsize, dpi=dpi)
+    if layout is not None:
+        fig.set_layout_engine(layout)
+    return fig
+
+
 def frame_map(ax: Any, shape: tuple[int, int]) -> None:
     """Fit ``ax`` to a map or grid of ``shape`` (row 0 on top, pixel centres on integers), equal aspect, no ticks."""
     h, w = shape

@@ -2,8 +2,9 @@
 a side-by-side comparison of methods; convergence steps per method.
 
 Plot functions draw on a given ``ax`` and return their artists; none calls ``show``. The figure
-builders (:func:`plan_figure`, :func:`compare_figure`) return an Agg ``Figure`` for the caller to save.
-Paths are planning-grid cells, drawn at their centres in map pixels.
+builders (:func:`plan_figure`, :func:`compare_figure`) draw on the ``ax`` or ``fig`` they are given,
+or on a new Agg ``Figure`` sized for the map when none is, and return the figure for the caller to
+save. Paths are planning-grid cells, drawn at their centres in map pixels.
 """
 
 from __future__ import annotations
@@ -158,27 +159,35 @@ def _grid_kw(report: Any, r: Any) -> dict[str, Any]:
     return kw
 
 
-def plan_figure(report: Any, method: str | None = None, seed: int | None = None, dpi: int = 110) -> Any:
-    """One run of a :class:`~ndrql.api.PlanReport` over the map, with the NDR overlay if predicted."""
+def plan_figure(report: Any, method: str | None = None, seed: int | None = None, dpi: int = 110,
+                ax: Any = None) -> Any:
+    """One run of a :class:`~ndrql.api.PlanReport` over the map, with the NDR overlay if predicted; drawn
+    on ``ax`` (or on a new figure sized for the map, laid out tight, at ``dpi``). Returns the figure."""
     r = next(x for x in report.results if (method is None or x.method == method) and (seed is None or x.seed == seed))
-    h, w = report.grid_map.shape
-    fig = new_figure(figsize=(5.2, min(9.0, max(2.5, 5.2 * h / w)) + 1.3), dpi=dpi)  # room for title and legend
-    ax = fig.add_subplot(1, 1, 1)
+    own = ax is None
+    if own:
+        h, w = report.grid_map.shape
+        fig = new_figure(figsize=(5.2, min(9.0, max(2.5, 5.2 * h / w)) + 1.3), dpi=dpi)  # room for title and legend
+        ax = fig.add_subplot(1, 1, 1)
     plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
               path=r.path, astar_path=_astar(report), region=report.region, guideline=report.guideline,
               label=r.method, color=method_color(r.method), title=_run_title(r), **_grid_kw(report, r))
-    fig.tight_layout()
-    return fig
+    if own:
+        ax.figure.tight_layout()
+    return ax.figure
 
 
-def compare_figure(report: Any, dpi: int = 110) -> Any:
+def compare_figure(report: Any, dpi: int = 110, fig: Any = None) -> Any:
     """Every method's first-seed path side by side (NDR overlay on the NDR methods' panels) and,
-    with several seeds, a last panel of convergence steps."""
+    with several seeds, a last panel of convergence steps; drawn on ``fig`` (or on a new figure sized
+    for the panels, laid out tight, at ``dpi``). Returns the figure."""
     methods = list(report.methods)
     with_steps = len(report.seeds) > 1
     n = len(methods) + int(with_steps)
-    h, w = report.grid_map.shape
-    fig = new_figure(figsize=(4.2 * n, min(7.0, max(2.0, 4.2 * h / w)) + 1.4), dpi=dpi)
+    own = fig is None
+    if own:
+        h, w = report.grid_map.shape
+        fig = new_figure(figsize=(4.2 * n, min(7.0, max(2.0, 4.2 * h / w)) + 1.4), dpi=dpi)
     best = _astar(report)
     for i, name in enumerate(methods):
         ax = fig.add_subplot(1, n, i + 1)
@@ -192,5 +201,6 @@ def compare_figure(report: Any, dpi: int = 110) -> Any:
         ax = fig.add_subplot(1, n, n)
         plot_convergence(ax, {m: [r.convergence_steps for r in report.runs(m)] for m in methods},
                          title=f"convergence steps, {len(report.seeds)} seeds")
-    fig.tight_layout()
+    if own:
+        fig.tight_layout()
     return fig

@@ -1,7 +1,8 @@
 """The figures ``ndrql reproduce`` writes beside its tables: Tables 2-3, ``scale``, Fig. 5 and ``sizing``.
 
-Each function builds one figure from results already computed (it runs nothing) and returns it;
-the experiment saves it. A *problem* here is a planning problem of the dataset (``blocked``,
+Each function draws one figure from results already computed (it runs nothing) on the ``fig`` it is
+given, or on a new Agg figure of its own size and layout when none is, and returns it; the experiment
+saves it. A *problem* here is a planning problem of the dataset (``blocked``,
 ``start``, ``goal`` on the planning grid, ``obstacles``, ``source_start``, ``source_goal`` on the
 map, ``astar``, ``split``, ``index``, ``category``, and ``region``/``guideline`` on the grid
 once predictions are attached); a *run* is a stored :meth:`PlanResult.to_dict`.
@@ -13,16 +14,17 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ndrql.maps.area import pixel_bins
 from ndrql.maps.grid import cell_to_point
 from ndrql.viz.curves import plot_training_curves, plot_validation_curve
-from ndrql.viz.maps import new_figure, plot_endpoints
+from ndrql.viz.maps import figure_or_new, plot_endpoints
 from ndrql.viz.overlays import plot_method_paths, plot_prediction
 from ndrql.viz.qtable import plot_qtable
 from ndrql.viz.style import METHOD_COLORS
 
 
 def curves_figure(p: Any, names: Sequence[str], titles: Sequence[str], first_runs: Sequence[Mapping[str, Any]],
-                  replays: Sequence[Any], suptitle: str) -> Any:
+                  replays: Sequence[Any], suptitle: str, fig: Any = None) -> Any:
     """Paper Fig. 6 style, one column per method: steps and return per episode of its first run
     (dashed line at convergence), and the Q-table after convergence with the greedy path.
 
@@ -31,8 +33,7 @@ def curves_figure(p: Any, names: Sequence[str], titles: Sequence[str], first_run
     ``q_table``, ``path``, ``path_length``).
     """
     n = len(names)
-    fig = new_figure(figsize=(3.2 * n, 9.0))
-    fig.set_layout_engine("constrained")
+    fig = figure_or_new(fig, (3.2 * n, 9.0), layout="constrained")
     axes = fig.subplots(3, n, squeeze=False)
     for j, (name, run0, r) in enumerate(zip(names, first_runs, replays)):
         color = METHOD_COLORS.get(name)
@@ -55,13 +56,12 @@ def curves_figure(p: Any, names: Sequence[str], titles: Sequence[str], first_run
 
 def maps_figure(problems: Sequence[Any], labels: Sequence[str],
                 predictions: Sequence[tuple[np.ndarray | None, np.ndarray | None]],
-                paths: Sequence[Mapping[str, Sequence[Sequence[int]] | None]]) -> Any:
+                paths: Sequence[Mapping[str, Sequence[Sequence[int]] | None]], fig: Any = None) -> Any:
     """Row 1: region (green) and guideline (red) predictions on each map (``predictions[j]`` at the
     map's resolution, ``(None, None)`` for none); row 2: every method's greedy path (``paths[j]``:
     method -> planning cells) on the same planning grid."""
     n = len(problems)
-    fig = new_figure(figsize=(2.6 * n, 6.2))
-    fig.set_layout_engine("constrained")
+    fig = figure_or_new(fig, (2.6 * n, 6.2), layout="constrained")
     axes = fig.subplots(2, n, squeeze=False)
     for j, (p, label) in enumerate(zip(problems, labels)):
         region, guide = predictions[j]
@@ -71,11 +71,11 @@ def maps_figure(problems: Sequence[Any], labels: Sequence[str],
     return fig
 
 
-def scale_figure(agg: Mapping[str, Mapping[str, Any]], names: Sequence[str]) -> Any:
+def scale_figure(agg: Mapping[str, Mapping[str, Any]], names: Sequence[str], fig: Any = None) -> Any:
     """Per category (the groups named ``split/category`` of ``agg``): median convergence steps (bars,
     log scale) and mean optimality gap per method."""
     cats = [g for g in agg if "/" in g]
-    fig = new_figure(figsize=(12, 7))
+    fig = figure_or_new(fig, (12, 7))
     ax1, ax2 = fig.subplots(2, 1)
     w = 0.8 / len(names)
     x = np.arange(len(cats))
@@ -91,10 +91,10 @@ def scale_figure(agg: Mapping[str, Mapping[str, Any]], names: Sequence[str]) -> 
     return fig
 
 
-def scale_distributions(converged: Mapping[str, Sequence[Mapping[str, Any]]]) -> Any:
+def scale_distributions(converged: Mapping[str, Sequence[Mapping[str, Any]]], fig: Any = None) -> Any:
     """Distributions over the converged runs of each method (``converged``: method -> runs):
     convergence steps (ECDF, log x) and optimality gap (histogram)."""
-    fig = new_figure(figsize=(12, 4.5))
+    fig = figure_or_new(fig, (12, 4.5))
     ax1, ax2 = fig.subplots(1, 2)
     for m, runs in converged.items():
         st = np.sort([r["convergence_steps"] for r in runs])
@@ -112,12 +112,11 @@ def scale_distributions(converged: Mapping[str, Sequence[Mapping[str, Any]]]) ->
     return fig
 
 
-def dynamic_figure(rows: Sequence[Sequence[tuple[str, Any, Mapping[str, Any]]]]) -> Any:
+def dynamic_figure(rows: Sequence[Sequence[tuple[str, Any, Mapping[str, Any]]]], fig: Any = None) -> Any:
     """Fig. 5 with numbers: one row per scenario, one panel per stage ``(title, problem, run)``: the
     predictions on the stage's map and the run's greedy path (white)."""
     n = max(len(row) for row in rows)
-    fig = new_figure(figsize=(2.7 * n, 6.0))
-    fig.set_layout_engine("constrained")
+    fig = figure_or_new(fig, (2.7 * n, 6.0), layout="constrained")
     axes = fig.subplots(2, n, squeeze=False)
     for r, row in enumerate(rows):
         for i in range(n):
@@ -126,10 +125,9 @@ def dynamic_figure(rows: Sequence[Sequence[tuple[str, Any, Mapping[str, Any]]]])
                 ax.axis("off")
                 continue
             title, p, run = row[i]
-            # upsample the planning-grid predictions for display at map resolution
+            # upsample the planning-grid predictions for display at map resolution: each pixel shows its cell
             h, w = p.obstacles.shape
-            rr = np.minimum((np.arange(h) * p.blocked.shape[0]) // h, p.blocked.shape[0] - 1)
-            cc = np.minimum((np.arange(w) * p.blocked.shape[1]) // w, p.blocked.shape[1] - 1)
+            rr, cc = pixel_bins(h, p.blocked.shape[0]), pixel_bins(w, p.blocked.shape[1])
             region = p.region[rr[:, None], cc[None, :]] if p.region is not None else None
             guide = p.guideline[rr[:, None], cc[None, :]] if p.guideline is not None else None
             plot_prediction(ax, p.obstacles, region, guide, p.source_start, p.source_goal)
@@ -140,10 +138,12 @@ def dynamic_figure(rows: Sequence[Sequence[tuple[str, Any, Mapping[str, Any]]]])
     return fig
 
 
-def sizing_figure(curves: Sequence[tuple[str, Sequence[Mapping[str, float]]]]) -> Any:
+def sizing_figure(curves: Sequence[tuple[str, Sequence[Mapping[str, float]]]], fig: Any = None) -> Any:
     """Validation region and guideline F1 against training hours, one line per run (``curves``:
-    ``(label, per-epoch metrics rows)`` with ``train_hours``, ``val_region_f1``, ``val_guideline_f1``)."""
-    fig = new_figure(figsize=(10, 3.8))
+    ``(label, per-epoch metrics rows)`` with ``train_hours``, ``val_region_f1``, ``val_guideline_f1``);
+    a figure of its own is laid out tight."""
+    own = fig is None
+    fig = figure_or_new(fig, (10, 3.8))
     ax_r, ax_g = fig.subplots(1, 2)
     for label, metrics in curves:
         for ax, key in ((ax_r, "val_region_f1"), (ax_g, "val_guideline_f1")):
@@ -151,5 +151,6 @@ def sizing_figure(curves: Sequence[tuple[str, Sequence[Mapping[str, float]]]]) -
     ax_r.set(xlabel="training hours (one CPU thread)", ylabel="validation region F1 (%)")
     ax_g.set(xlabel="training hours (one CPU thread)", ylabel="validation guideline F1 (%)")
     ax_r.legend(fontsize=7)
-    fig.tight_layout()
+    if own:
+        fig.tight_layout()
     return fig

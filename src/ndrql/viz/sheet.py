@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from ndrql.io import save_figure
+from ndrql.viz.maps import new_figure
 
 #: Colours shared with the plan figures: region green, guideline orange.
 REGION_RGB = (0.2, 0.7, 0.3)
@@ -23,11 +23,16 @@ def sample_image(r) -> np.ndarray:
     return img
 
 
+def sheet_grid(count: int) -> tuple[int, int]:
+    """Rows and columns of the near-square grid that holds ``count`` items."""
+    n = max(1, count)
+    cols = math.ceil(math.sqrt(n))
+    return math.ceil(n / cols), cols
+
+
 def draw_sheet(fig, items: list, title: str = "") -> list:
     """Draw ``(label, Rendered | None)`` items on ``fig`` in a near-square grid; returns the axes."""
-    n = max(1, len(items))
-    cols = math.ceil(math.sqrt(n))
-    rows = math.ceil(n / cols)
+    rows, cols = sheet_grid(len(items))
     axes = []
     for k, (label, r) in enumerate(items):
         ax = fig.add_subplot(rows, cols, k + 1)
@@ -46,18 +51,14 @@ def draw_sheet(fig, items: list, title: str = "") -> list:
     return axes
 
 
-def save_contact_sheet(items: list, path: str | Path, title: str = "") -> Path:
-    """Draw :func:`draw_sheet` into a new figure and save it as PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    n = max(1, len(items))
-    cols = math.ceil(math.sqrt(n))
-    rows = math.ceil(n / cols)
-    fig = Figure(figsize=(2.2 * cols, 2.3 * rows + 0.4))
+def contact_sheet(items: list, title: str = "", fig: Any = None) -> Any:
+    """:func:`draw_sheet` on ``fig``, or on a new figure sized for the grid of items and laid out tight;
+    returns the figure (``ndrql data show`` saves it)."""
+    own = fig is None
+    if own:
+        rows, cols = sheet_grid(len(items))
+        fig = new_figure(figsize=(2.2 * cols, 2.3 * rows + 0.4))
     draw_sheet(fig, items, title)
-    fig.tight_layout()
-
-    return save_figure(fig, Path(path), dpi=110)
+    if own:
+        fig.tight_layout()
+    return fig

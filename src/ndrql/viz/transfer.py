@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ndrql.viz.maps import new_figure
+from ndrql.viz.maps import figure_or_new
 from ndrql.viz.overlays import plot_prediction
 
 Point = tuple[int, int]
@@ -34,14 +34,14 @@ class PredictionPanel:
 def transfer_figure(panels: Sequence[PredictionPanel], model_label: str, fig: Any = None, columns: int = 6) -> Any:
     """Model (upper row of each pair) over oracle (lower row), ``columns`` families per row pair.
 
-    Draws on ``fig`` when given (a bare :class:`matplotlib.figure.Figure` will do), else on a new one.
+    Draws on ``fig`` when given (a bare :class:`matplotlib.figure.Figure` will do; its size and layout
+    are the caller's), else on a new one of its own size with constrained layout.
     """
     if not panels:
         raise ValueError("no panels to draw")
     cols = min(columns, len(panels))
     pairs = -(-len(panels) // cols)
-    fig = fig if fig is not None else new_figure(figsize=(2.2 * cols, 4.6 * pairs))
-    fig.set_layout_engine("constrained")
+    fig = figure_or_new(fig, (2.2 * cols, 4.6 * pairs), layout="constrained")
     axes = fig.subplots(2 * pairs, cols, squeeze=False)
     for ax in axes.ravel():
         ax.set_axis_off()

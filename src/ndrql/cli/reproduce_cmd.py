@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from pathlib import Path
 
 from ndrql.cli.common import add_weights_argument
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
@@ -15,6 +16,7 @@ from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import builtin_path, load_preset
+from ndrql.synth.oracle import PRIOR_SOURCES
 from ndrql.workers import ray_available
 
 TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "all")
@@ -28,6 +30,8 @@ EXAMPLES = """examples:
   ndrql reproduce sizing                       # validation F1 per training hour by width and precision
   ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
   ndrql reproduce transfer --grids 50,100      # held-out generated maps of every family: model vs oracle vs QL/IQL
+  ndrql reproduce scale --grids 50,100         # also on the 100x100 grid -> results/scale-g100/
+  ndrql reproduce table3 --prior-from oracle   # NDR-QL with the oracle's priors (a diagnostic) -> results/table3-oracle/
   ndrql reproduce dynamic
   ndrql reproduce scale --preset tuned         # only the tuned constants (default for table2/3, scale: spec,tuned)
 
@@ -69,8 +73,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "$NDRQL_CACHE/runs; table4 uses DIR/table4/<variant>)")
     p.add_argument("--rgp-weights", metavar="FILE", help="table1: RGP peer weights (default: $NDRQL_RGP_WEIGHTS or "
                    "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
-    p.add_argument("--grids", default="50,100", metavar="LIST",
-                   help="transfer: planning grid sizes, safe grid (default: 50,100)")
+    p.add_argument("--grids", metavar="LIST", help="transfer: planning grid sizes, safe grid (default: 50,100); scale: "
+                   "the paper's grid, sizes other than 50 into results/scale-g<N> (default: 50)")
+    p.add_argument("--prior-from", choices=PRIOR_SOURCES, default="model",
+                   help="table3/scale: priors of the NDR-QL row, from the model (--weights; the table adds a row with "
+                   "the oracle's priors and the model's share of its reduction) or the oracle (the grid's own shortest "
+                   "path: a diagnostic, default --out results/<target>-oracle) (default: model)")
     p.add_argument("--per-family", type=int, default=None, metavar="N",
                    help="transfer: at most N maps per family of the evaluation set (default: all)")
     p.add_argument("--eval-set", default="transfer", metavar="NAME",
@@ -98,7 +106,26 @@ def _options(args: argparse.Namespace):
     command = "ndrql " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv and "ndrql" in sys.argv[0] else ""
     return SweepOptions(seeds=args.seeds, seed0=args.seed, workers=args.workers, executor=args.executor,
                         ray_address=args.ray_address, progress=not args.no_progress, ql=cfgs[0], priors=cfgs[1],
-                        data=args.data, weights=args.weights, command=command)
+                        data=args.data, weights=args.weights, command=command, prior_from=args.prior_from)
+
+
+def _check_prior_from(args: argparse.Namespace) -> None:
+    """``--prior-from oracle`` is for table3 and scale, and replaces the model (so no ``--weights``)."""
+    if args.prior_from != "oracle":
+        return
+    if args.target not in ("table3", "scale"):
+        raise NdrqlError(f"--prior-from oracle applies to table3 and scale, not {args.target}")
+    if args.weights:
+        raise NdrqlError("give either --weights or --prior-from oracle, not both")
+
+
+def _scale_runs(args: argparse.Namespace, out: Path) -> list[tuple[int, Path]]:
+    """``scale``'s planning grids (``--grids``, default the paper's 50) and their results folders."""
+    from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
+    from ndrql.maps.grid import PLANNING_SIZE
+
+    grids = parse_sizes(args.grids) if args.grids else (PLANNING_SIZE,)
+    return [(n, out if n == PLANNING_SIZE else out.with_name(f"{out.name}-g{n}")) for n in dict.fromkeys(grids)]
 
 
 def _presets(args: argparse.Namespace, target: str) -> list:
@@ -122,11 +149,13 @@ def run(args: argparse.Namespace) -> int:
             raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)")
     if args.per_category < 1 or args.per_category > 300:
         raise NdrqlError(f"--per-category must be in 1..300, got {args.per_category}")
+    _check_prior_from(args)
     opts = _options(args)
     targets = ["table1", "table3", "table2", "dynamic", "scale", "table4", "sizing", "labels"] if args.target == "all" else [args.target]
     log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
+    suffix = "-oracle" if args.prior_from == "oracle" else ""
     for target in targets:
-        out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / target)
+        out = Path(args.out) / target if (args.out and args.target == "all") else Path(args.out or Path("results") / f"{target}{suffix}")
         if target in ("table3", "table2", "scale", "dynamic"):
             from ndrql.experiments.dynamic import dynamic  # lazy: loads numba and tqdm
             from ndrql.experiments.scale import scale  # lazy: loads numba and tqdm
@@ -134,10 +163,11 @@ def run(args: argparse.Namespace) -> int:
             from ndrql.experiments.table3 import table3  # lazy: loads numba and tqdm
 
             fns = {"table3": lambda o, d: table3(o, d, log=log), "table2": lambda o, d: table2(o, d, log=log),
-                   "scale": lambda o, d: scale(o, d, per_category=args.per_category, log=log),
                    "dynamic": lambda o, d: dynamic(o, d, log=log)}
-            paths = run_presets(target, fns[target], opts, out,
-                                _presets(args, target), log=log)
+            runs = [(fns[target], out)] if target != "scale" else [
+                (lambda o, d, n=n: scale(o, d, per_category=args.per_category, log=log, grid=n), d)
+                for n, d in _scale_runs(args, out)]
+            paths = [x for fn, d in runs for x in run_presets(target, fn, opts, d, _presets(args, target), log=log)]
             path = ", ".join(str(x) for x in paths)
         elif target == "table1":
             from ndrql.experiments.table1 import table1  # lazy: loads torch
@@ -153,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
 
             if args.per_family is not None:
                 check_int(args.per_family, "--per-family", 1)
-            path = transfer(out, weights=args.weights, set_name=args.eval_set, grids=parse_sizes(args.grids),
+            path = transfer(out, weights=args.weights, set_name=args.eval_set, grids=parse_sizes(args.grids or "50,100"),
                             seeds=args.seeds, seed0=args.seed, per_family=args.per_family, workers=args.workers,
                             executor=args.executor, progress=not args.no_progress, command=opts.command, log=log)
         elif target == "sizing":

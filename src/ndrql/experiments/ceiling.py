@@ -16,6 +16,7 @@ import numpy as np
 
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, from_model_output, input_side, place_cells, to_model_input
+from ndrql.experiments.stats import share_of_oracle
 from ndrql.maps.grid import MODEL_SIDE, area_downscale
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -119,11 +120,8 @@ def pooled(results: list[CaseResult], row: str) -> float:
 
 
 def share(results: list[CaseResult], model_row: str = "NDR-QL (model)", oracle_row: str = "NDR-QL (oracle)") -> float:
-    """``(1 - NDR/QL) / (1 - oracle/QL)`` on pooled steps of the same runs."""
-    ql = pooled(results, "QL")
-    red_m = 1 - pooled(results, model_row) / ql
-    red_o = 1 - pooled(results, oracle_row) / ql
-    return red_m / red_o if red_o > 0 else float("nan")
+    """``(1 - NDR/QL) / (1 - oracle/QL)`` on pooled steps of the same runs (:func:`~ndrql.experiments.stats.share_of_oracle`)."""
+    return share_of_oracle(*([pooled(results, row)] for row in (model_row, oracle_row, "QL")))
 
 
 def summary_rows(results: list[CaseResult], rows: tuple[str, ...]) -> list[dict]:

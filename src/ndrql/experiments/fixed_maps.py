@@ -4,7 +4,9 @@
 (maps, mean and median steps beside the paper's single runs, the improvement over QL as the paper
 computes it (:func:`stats.relative_improvement`), one detail table per map), ``summary.json`` and
 the figures (:mod:`ndrql.viz.reproduce`). :mod:`~ndrql.experiments.table2` and
-:mod:`~ndrql.experiments.table3` choose the rows and the paper's reference numbers.
+:mod:`~ndrql.experiments.table3` choose the rows and the paper's reference numbers; a table may add
+oracle rows (a method again with the oracle's priors) and the model's share of the oracle's
+reduction (:func:`~ndrql.experiments.planning_runs.oracle_share`), per map and pooled.
 """
 
 from __future__ import annotations
@@ -15,13 +17,13 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ndrql.experiments import stats
-from ndrql.experiments.planning_runs import (SweepOptions, attach_predictions, preset_json, run_grid,
-                                             summarize_runs)
+from ndrql.experiments.planning_runs import (ORACLE_LABEL, SweepOptions, attach_predictions, oracle_share,
+                                             preset_json, run_grid, summarize_runs)
 from ndrql.experiments.presets import method_configs
 from ndrql.dataset.layout import resolve_root
 from ndrql.experiments.problems import MapRef, table3_maps
 from ndrql.pipeline.samples import PredictionCache, Problem, load_problems
-from ndrql.experiments.report import machine, md_table, pct, planning_header, save_figure
+from ndrql.experiments.report import SHARE_NOTE, machine, md_table, pct, planning_header, save_figure, share_table
 from ndrql.io import write_json, write_text
 from ndrql.planning.methods import Method, build_priors
 from ndrql.planning.results import PlanResult
@@ -125,11 +127,23 @@ def _figures(problems: Sequence[Problem], labels: Sequence[str], methods: Sequen
     return figs
 
 
+def _share_section(labels: Sequence[str], problems: Sequence[Problem], results: dict, row: str,
+                   seeds: int) -> tuple[list[str], dict[str, dict]]:
+    """Markdown of the share of the oracle's reduction, per map and pooled, and the numbers."""
+    shares = {lab: oracle_share(results, [p.key], row) for lab, p in zip(labels, problems)}
+    shares["**pooled**"] = oracle_share(results, [p.key for p in problems], row)
+    md = ["\n## Share of the oracle's reduction\n", SHARE_NOTE.format(oracle=row + ORACLE_LABEL, row=row) + "\n",
+          share_table(shares, row, row + ORACLE_LABEL, seeds)]
+    return md, {k.strip("*"): v for k, v in shares.items()}
+
+
 def fixed_map_table(target: str, methods: Sequence[Method], n_maps: int, opts: SweepOptions, out_dir: str | Path,
                     paper: dict[str, list[int]], paper_paths: dict[str, list[str]] | None = None,
-                    paper_improvement: dict[str, float] | None = None, log: Callable[[str], None] = print) -> Path:
+                    paper_improvement: dict[str, float] | None = None, log: Callable[[str], None] = print,
+                    oracle_rows: Sequence[Method] = ()) -> Path:
     """Table 2 or 3: ``methods`` on the first ``n_maps`` fixed maps; writes ``<out>/<target>.md``,
-    ``summary.json`` and figures; returns the markdown path."""
+    ``summary.json`` and figures; returns the markdown path. ``oracle_rows``: methods run again with the
+    oracle's priors (rows ``<name> (oracle priors)``), each with its share of the oracle's reduction."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     info = machine()
@@ -141,9 +155,10 @@ def fixed_map_table(target: str, methods: Sequence[Method], n_maps: int, opts: S
     refs: list[MapRef] = [r for r in all_refs if any(p.key == r.key for p in problems)]
     labels = [r.label for r in refs]
     problems, predictions = attach_predictions(problems, methods, out_dir.parent, opts)
-    results, rep = run_grid(problems, methods, opts, out_dir, predictions.digest if predictions else None, desc=target)
+    results, rep = run_grid(problems, methods, opts, out_dir, predictions, desc=target, oracle_rows=oracle_rows)
     names = [m.name for m in methods]
-    cells = {(p.key, m): summarize_runs(results[(p.key, m)]["runs"]) for p in problems for m in names}
+    rows = names + [m.name + ORACLE_LABEL for m in oracle_rows]
+    cells = {(p.key, m): summarize_runs(results[(p.key, m)]["runs"]) for p in problems for m in rows}
     md = [planning_header(f"{target}: convergence steps of Q-learning methods on fixed test maps", opts, info, predictions,
                           names=names)]
     md.append("Maps (`src/ndrql/experiments/maps_table3.json`):\n")
@@ -153,13 +168,17 @@ def fixed_map_table(target: str, methods: Sequence[Method], n_maps: int, opts: S
                         for lab, p, r in zip(labels, problems, refs)],
                        ["l", "l", "l", "r", "r", "l"]))
     md.append(f"\n## Convergence steps, mean over {opts.seeds} seeds (converged runs; paper: one run)\n")
-    md += _steps_tables(names, labels, problems, cells, paper)
-    md += _improvement_section(names, problems, cells, paper_improvement)
+    md += _steps_tables(rows, labels, problems, cells, paper)
+    md += _improvement_section(rows, problems, cells, paper_improvement)
+    shares = {}
+    for m in oracle_rows:
+        section, shares[m.name] = _share_section(labels, problems, results, m.name, opts.seeds)
+        md += section
     md.append("\n## Per map\n")
     for i, (lab, p) in enumerate(zip(labels, problems)):
         pp = {m: paper_paths[m][i] for m in paper_paths} if paper_paths else None
         md.append(f"\n### {lab}: {p.split} {p.index} ({p.category}), A* = {p.astar} moves\n")
-        md.append(detail_table(names, {m: cells[(p.key, m)] for m in names}, pp))
+        md.append(detail_table(rows, {m: cells[(p.key, m)] for m in rows}, pp))
     md.append("\nColumns: *converged* = runs whose greedy path was stable for W = 20 episodes within "
               f"{opts.ql.max_episodes} episodes; steps statistics over converged runs (Student-t 95% CI of the mean); "
               "*greedy / A\\** = converged greedy path length over the A* optimum on the same 50x50 grid; "
@@ -172,9 +191,11 @@ def fixed_map_table(target: str, methods: Sequence[Method], n_maps: int, opts: S
     summary: dict[str, Any] = {
         "target": target, "machine": info,
         "options": {"seeds": opts.seed_list, "ql": asdict(opts.ql), "priors": asdict(opts.priors), "preset": preset_json(opts)},
-        "weights": predictions.describe() if predictions else None, "skipped": skipped,
+        "weights": predictions.describe() if predictions else None, "prior_from": opts.prior_from, "skipped": skipped,
         "maps": [{"label": lab, "key": p.key, "category": p.category, "astar": p.astar} for lab, p in zip(labels, problems)],
         "cells": {f"{k[0]}|{k[1]}": v for k, v in cells.items()}}
+    if shares:
+        summary["oracle_share"] = shares
     write_json(out_dir / "summary.json", summary, indent=1, strict=False)
     log(f"{target}: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path

@@ -103,13 +103,16 @@ def planning_header(title: str, opts: Any, info: dict, predictions: Any, extra: 
     """Header of a planning table: command, machine, seeds, constants (or preset), NDR weights.
 
     ``opts``: the table's :class:`~ndrql.experiments.planning_runs.SweepOptions`; ``predictions``:
-    its prediction cache (``weights``, ``digest``) or ``None``; ``names``: the table's rows.
+    its prediction cache (``weights``, ``digest``), the oracle's priors or ``None``; ``names``: the table's rows.
     """
     lines = [f"# {title}", "", f"Command: `{opts.command}`" if opts.command else "", "",
              f"Machine: {machine_line(info)}.", "",
              f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method; QLConfig {asdict(opts.ql)}; "
              f"PriorConfig {asdict(opts.priors)}."]
-    if predictions is not None:
+    if getattr(predictions, "prior_from", None) == "oracle":
+        lines += ["", f"NDR priors: **{predictions.weights}** in place of a model: region and guideline drawn from each "
+                  "planning grid's own shortest path as the dataset draws its labels (a diagnostic, not a method)."]
+    elif predictions is not None:
         lines += ["", f"NDR weights: `{predictions.weights}` (sha256 {predictions.digest})."]
     if opts.preset is not None:
         lines[6] = f"Seeds {opts.seed0}..{opts.seed0 + opts.seeds - 1} per map and method."
@@ -117,6 +120,29 @@ def planning_header(title: str, opts: Any, info: dict, predictions: Any, extra: 
     if extra:
         lines += ["", extra]
     return "\n".join(lines) + "\n"
+
+
+#: What the share tables say about the oracle row and the share (tables 3 and scale).
+SHARE_NOTE = ("*{oracle}* is {row} with the **oracle's priors** in place of the model's: region and guideline drawn from "
+              "each planning grid's own shortest path as the dataset draws its labels, then Eqs. 3-7 as for the model "
+              "(a diagnostic of a perfect prediction, not a method); same maps, seeds and constants. Share of the oracle's "
+              "reduction = (1 - {row}/QL) / (1 - oracle/QL) on steps pooled over the same maps and seeds (a run that did not "
+              "converge counts the steps it ran); steps below are per run, every run.")
+
+
+def share_table(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int) -> str:
+    """One line per group (or map) of :func:`~ndrql.experiments.planning_runs.oracle_share` results: steps per
+    run of QL, ``row`` and ``oracle``, their change against QL and the share."""
+    header = ["group", "maps", "QL steps", f"{row} steps", "oracle steps", f"{row} vs QL", "oracle vs QL",
+              "share of oracle"]
+    rows = []
+    for name, sh in shares.items():
+        runs = sh["maps"] * seeds
+        share = sh["share"]
+        rows.append([name, sh["maps"], *(f"{sh['steps'][n] / runs:,.0f}" for n in ("QL", row, oracle)),
+                     f"{100 * sh['vs_ql'][row]:+.1f}%", f"{100 * sh['vs_ql'][oracle]:+.1f}%",
+                     "-" if share != share else f"{100 * share:.0f}%"])
+    return md_table(header, rows)
 
 
 # --------------------------------------------------------------------------------- model tables

@@ -4,7 +4,11 @@
 method with every seed; per group (all, each split, each split and category) the success rate, the
 convergence steps, the improvement over QL as the paper computes it (pooled over maps) and the
 optimality gap (converged greedy path / A* - 1). Samples whose start and goal do not connect on the
-planning grid are skipped and listed.
+planning grid are skipped and listed. The planning grid is the paper's (area-averaged) grid of 50
+cells, or of ``grid`` cells. With the model's priors, NDR-QL also runs with the oracle's (row
+``NDR-QL (oracle priors)``) and each group gets the model's share of the oracle's reduction
+(:func:`~ndrql.experiments.planning_runs.oracle_share`); with ``opts.prior_from == "oracle"`` the
+NDR-QL row itself has the oracle's priors.
 """
 
 from __future__ import annotations
@@ -17,13 +21,14 @@ from tqdm import tqdm
 
 from ndrql.errors import NoPathError
 from ndrql.experiments import stats
-from ndrql.experiments.planning_runs import (SweepOptions, attach_predictions, preset_json, run_grid,
-                                             summarize_runs)
+from ndrql.experiments.planning_runs import (ORACLE_LABEL, SweepOptions, attach_predictions, oracle_share,
+                                             preset_json, run_grid, summarize_runs)
 from ndrql.dataset.layout import resolve_root
 from ndrql.pipeline.samples import Problem, load_problem
-from ndrql.experiments.report import machine, md_table, pct, planning_header, save_figure
+from ndrql.experiments.report import SHARE_NOTE, machine, md_table, pct, planning_header, save_figure, share_table
 from ndrql.experiments.table3 import TABLE3_METHODS
 from ndrql.io import write_json, write_text
+from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.planning.methods import get_method
 from ndrql.viz.reproduce import scale_distributions, scale_figure
 
@@ -90,8 +95,10 @@ def results_table(agg: dict[str, dict], names: Sequence[str], groups: dict[str, 
     return md_table(header, rows, ["l", "l"] + ["r"] * (len(header) - 2))
 
 
-def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: Callable[[str], None] = print) -> Path:
-    """Table 3's comparison (plus A*) on ``8 * per_category`` test samples: success, steps, optimality gap."""
+def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: Callable[[str], None] = print,
+          grid: int = PLANNING_SIZE) -> Path:
+    """Table 3's comparison (plus A*) on ``8 * per_category`` test samples: success, steps, optimality gap;
+    on the planning grid of ``grid`` cells."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     info = machine()
@@ -100,25 +107,34 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
     problems, skipped = [], []
     for split, index in tqdm(refs, desc="load samples", unit="map", disable=not opts.progress):
         try:
-            problems.append(load_problem(root, split, index))
+            problems.append(load_problem(root, split, index, size=grid))
         except NoPathError as exc:
             skipped.append({"split": split, "index": index, "reason": str(exc)})
     methods = [get_method(m) for m in TABLE3_METHODS]
-    problems, predictions = attach_predictions(problems, methods, out_dir.parent, opts)
-    results, rep = run_grid(problems, methods, opts, out_dir, predictions.digest if predictions else None,
-                            desc="scale", records=False)
+    problems, predictions = attach_predictions(problems, methods, out_dir.parent, opts, grid)
+    oracle_rows = [get_method("NDR-QL")] if opts.prior_from == "model" else []
+    results, rep = run_grid(problems, methods, opts, out_dir, predictions, desc="scale", records=False,
+                            oracle_rows=oracle_rows)
     names = [m.name for m in methods]
+    rows = names + [m.name + ORACLE_LABEL for m in oracle_rows]
     groups = groups_of(problems)
     md = [planning_header(f"scale: {', '.join(names)} and A* on {len(refs)} test samples", opts, info, predictions,
                           f"Samples: {per_category} per category, evenly spaced in each block of 300 "
                           f"(`scale_refs({per_category})`); {len(skipped)} skipped as disconnected on the planning grid "
-                          f"({', '.join(s['split'] + ' ' + str(s['index']) for s in skipped) or 'none'}).", names)]
-    agg = {gname: aggregate(ps, names, results) for gname, ps in groups.items() if ps}
+                          f"({', '.join(s['split'] + ' ' + str(s['index']) for s in skipped) or 'none'})."
+                          + ("" if grid == PLANNING_SIZE else f" Planning grid: {grid}x{grid} cells (the paper's rule)."),
+                          names)]
+    agg = {gname: aggregate(ps, rows, results) for gname, ps in groups.items() if ps}
     md.append("\n## Results\n")
-    md.append(results_table(agg, names, groups))
+    md.append(results_table(agg, rows, groups))
     md.append("\nSuccess = runs that converged (docs/method.md) within the episode budget; steps over converged runs "
               "(pooled over maps and seeds, Student-t 95% CI); optimality gap = converged greedy path / A* - 1 "
-              "on the same 50x50 grid (A* is optimal by construction: gap 0 on every connected sample).\n")
+              f"on the same {grid}x{grid} grid (A* is optimal by construction: gap 0 on every connected sample).\n")
+    shares = {m.name: {g: oracle_share(results, [p.key for p in ps], m.name) for g, ps in groups.items() if ps}
+              for m in oracle_rows}
+    for m, sh in shares.items():
+        md += ["\n## Share of the oracle's reduction\n", SHARE_NOTE.format(oracle=m + ORACLE_LABEL, row=m) + "\n",
+               share_table(sh, m, m + ORACLE_LABEL, opts.seeds)]
     converged = {m: [r for p in problems for r in results[(p.key, m)]["runs"] if r["converged"]] for m in names}
     figs = [save_figure(scale_figure(agg, names), out_dir / "scale.png"),
             save_figure(scale_distributions(converged), out_dir / "scale_distributions.png")]
@@ -126,7 +142,8 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
     md += [f"![{f.stem}]({f.name})" for f in figs]
     path = write_text(out_dir / "scale.md", "\n".join(md) + "\n")
     write_json(out_dir / "summary.json", {"machine": info, "skipped": skipped, "groups": agg, "preset": preset_json(opts),
-                                          "weights": predictions.describe() if predictions else None},
+                                          "weights": predictions.describe() if predictions else None, "grid": grid,
+                                          "prior_from": opts.prior_from, **({"oracle_share": shares} if shares else {})},
                indent=1, strict=False)
     log(f"scale: {len(rep.computed)} tasks computed, {len(rep.reused)} reused, {rep.seconds:.0f} s")
     return path

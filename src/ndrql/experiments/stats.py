@@ -7,13 +7,14 @@ The confidence interval is the Student-t interval of the mean, as in
 from __future__ import annotations
 
 import math
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from ndrql.planning.results import summarize
 
-__all__ = ["summarize", "describe", "relative_improvement", "per_map_improvement", "fmt", "fmt_ci"]
+__all__ = ["summarize", "describe", "relative_improvement", "per_map_improvement", "run_steps", "share_of_oracle", "fmt",
+           "fmt_ci"]
 
 
 def describe(values: Iterable[float | int | None]) -> dict[str, float | int | None]:
@@ -48,6 +49,21 @@ def per_map_improvement(method_steps: Sequence[float], baseline_steps: Sequence[
     if m.shape != b.shape or m.size == 0:
         raise ValueError(f"need the same non-empty set of maps, got {m.shape} and {b.shape}")
     return float(np.mean(1.0 - m / b))
+
+
+def run_steps(run: Mapping[str, Any]) -> int:
+    """Steps a stored run cost: its convergence steps, or every step it ran when it did not converge."""
+    return int(run["convergence_steps"] if run["converged"] else run["total_steps"])
+
+
+def share_of_oracle(model_steps: Sequence[float], oracle_steps: Sequence[float], baseline_steps: Sequence[float]) -> float:
+    """The model's share of the oracle's reduction: ``(1 - model/QL) / (1 - oracle/QL)`` on pooled steps.
+
+    The three sequences hold steps of the same maps and seeds in the same order (per map, or per run);
+    each ratio is :func:`relative_improvement`. NaN when the oracle needs no fewer steps than the baseline.
+    """
+    oracle = relative_improvement(oracle_steps, baseline_steps)
+    return relative_improvement(model_steps, baseline_steps) / oracle if oracle > 0 else float("nan")
 
 
 def fmt(v: float | int | None, nd: int = 0) -> str:

@@ -29,6 +29,7 @@ from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
 from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_priors
 from ndrql.experiments.report import md_table
+from ndrql.experiments.stats import share_of_oracle
 from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import file_digest, save_figure, write_json, write_text
@@ -153,7 +154,7 @@ def summarize(records: list[dict]) -> dict:
         "path_ratio": float(np.mean(ratios)) if ratios else float("nan"),
         "threshold_below_half": float(np.mean([t is None or t < 0.5 for t in thd])),
         "not_converged": int(sum(not c for r in ok for c in r["runs"]["NDR-QL (model)"]["converged"])),
-        "share": red["NDR-QL (model)"] / red["NDR-QL (oracle)"] if red["NDR-QL (oracle)"] > 0 else float("nan"),
+        "share": share_of_oracle(*([sum(r["runs"][row]["steps"]) for r in ok] for row in (*ROWS[2:], "QL"))),
     }
 
 

@@ -1,24 +1,26 @@
-"""Dataset samples as planning problems, and cached NDR predictions.
+"""Dataset samples as planning problems, cached NDR predictions, and the oracle's priors.
 
 A :class:`Problem` is what every planning experiment and the tuning search run on: the 50x50
 planning grid, start and goal cells, the A* length and (for N-* methods) the NDR region/guideline
 downscaled to the grid, with the map it came from.
 Predictions are made once per sample with a :class:`~ndrql.model.predict.Predictor` and cached as
 ``.npz`` (float16, map resolution) under ``<results>/predictions/``, keyed by the weights' digest,
-so a different model never reuses a stale prediction.
+so a different model never reuses a stale prediction. :class:`OraclePriors` gives the same two
+methods (``attach``, ``full``) from each problem's own planning-grid shortest path instead of a model.
 """
 
 from __future__ import annotations
 
 import zipfile
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ndrql.dataset.layout import load_sample
+from ndrql.dataset.render import PX_PER_CELL
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.io import data_digest, file_digest, save_npz
 from ndrql.maps.astar import astar4
@@ -27,6 +29,7 @@ from ndrql.model.predict import Predictor
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 from ndrql.pipeline.predictions import cell_means, predict_on_grid, to_map_pixels
 from ndrql.planning.methods import downscale_priors
+from ndrql.synth.oracle import oracle_prediction
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,9 @@ def load_problems(root: str | Path, refs: list[tuple[str, int]],
 
 class PredictionCache:
     """NDR predictions per sample, made once and kept on disk (module docstring)."""
+
+    prior_from = "model"
+    """Where the priors come from: a model (the weights in :attr:`weights`)."""
 
     def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1):
         self.dir = Path(cache_dir)
@@ -148,8 +154,6 @@ class PredictionCache:
     def attach(self, p: Problem) -> Problem:
         """``p`` with region and guideline on its planning grid: area averaging of the map-resolution
         prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells."""
-        from dataclasses import replace
-
         mode, region, guideline = self._entry(p)
         if mode == "grid":
             r = np.clip(cell_means(region, p.blocked.shape), 0, 1)
@@ -157,3 +161,32 @@ class PredictionCache:
         else:
             r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
         return replace(p, region=r, guideline=g)
+
+
+class OraclePriors:
+    """Region and guideline drawn from each problem's own planning-grid shortest path, as the dataset draws
+    its labels (:func:`ndrql.synth.oracle.oracle_prediction`, 4 px per cell): the priors of a perfect
+    prediction. A diagnostic, never a method (it needs the answer); named "oracle priors" wherever
+    :class:`PredictionCache` would name its weights. Cheap to draw, so nothing is cached."""
+
+    prior_from = "oracle"
+    weights = "oracle priors"
+    """What the reports print where a model's weights file would be."""
+
+    def describe(self) -> dict[str, str]:
+        return {"weights": self.weights, "prior_from": self.prior_from}
+
+    @staticmethod
+    def _drawn(p: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Region and guideline at 4 px per planning cell (float32 in {0, 1})."""
+        return oracle_prediction(p.blocked, p.start, p.goal, PX_PER_CELL)
+
+    def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
+        """Region and guideline at the map's resolution (each map pixel takes its cell's mean; for figures)."""
+        n = max(p.blocked.shape)
+        return tuple(to_map_pixels(a, p.obstacles.shape, n).astype(np.float32) for a in self._drawn(p))  # type: ignore[return-value]
+
+    def attach(self, p: Problem) -> Problem:
+        """``p`` with the oracle's region and guideline on its planning grid (exact 4x4 means, Eqs. 3 and 6 take them)."""
+        region, guideline = self._drawn(p)
+        return replace(p, region=cell_means(region, p.blocked.shape), guideline=cell_means(guideline, p.blocked.shape))

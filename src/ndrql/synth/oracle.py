@@ -19,6 +19,9 @@ import numpy as np
 from ndrql.errors import NdrqlError
 from ndrql.synth.labels import GUIDE_PX, REGION_PX, dilate_region, draw_guideline, near_optimal_path
 
+#: Where the NDR priors of an experiment can come from: the model, or this oracle (a diagnostic).
+PRIOR_SOURCES = ("model", "oracle")
+
 
 def cell_centres(cells: np.ndarray, px_per_cell: int) -> np.ndarray:
     """Pixel centres ``cell * px + (px - 1) / 2`` of ``(row, col)`` cells, as floats."""

@@ -3,6 +3,9 @@
 F1 as in the paper (docs/method.md): threshold 0.5, pixel-wise per image, mean over the split, also per category.
 On UNSEEN the 300 NARROW PASSAGE region labels are broken upstream; the main column uses the labels
 regenerated from the guideline, and an extra column scores against the original (upstream) labels.
+With --prior-from oracle the oracle's arrays (the safe planning grid's own shortest path drawn like the
+dataset's labels) are scored in place of a model, as a grid-mode model is: the best a prediction on
+that grid can score against the dataset's labels (a diagnostic, not a model).
 """
 
 from __future__ import annotations
@@ -14,16 +17,18 @@ from ndrql.cli.common import add_weights_argument, check_outputs, write_json
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.layout import CATEGORIES, check_root, default_root
 from ndrql.dataset.splits import train_val_split
-from ndrql.errors import DatasetError
+from ndrql.errors import DatasetError, NdrqlError
 from ndrql.io import write_text
 from ndrql.limits import MAX_THREADS, check_int
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.weights import resolve_weights
+from ndrql.synth.oracle import PRIOR_SOURCES
 
 EXAMPLES = """examples:
   ndrql eval --split seen
   ndrql eval --split unseen --weights ~/.cache/ndrql/runs/ndr-default/best.pt --markdown out/unseen.md
   ndrql eval --split val --weights ~/.cache/ndrql/runs/ndr-default/best.pt
+  ndrql eval --split unseen --prior-from oracle --json out/oracle.json   # the oracle's arrays, no model
 """
 
 
@@ -39,6 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grid", type=int, default=PLANNING_SIZE, metavar="N",
                    help=f"grid-mode models: planning grid the model sees (default: {PLANNING_SIZE}, the paper's); "
                    "ignored for map-mode models")
+    p.add_argument("--prior-from", choices=PRIOR_SOURCES, default="model",
+                   help="score the model (--weights) or the oracle's arrays on the safe --grid (seen/unseen; named "
+                   "'oracle priors' in the output) (default: model)")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
     p.add_argument("--json", metavar="FILE", help="also write the numbers as JSON")
     p.set_defaults(func=run)
@@ -56,10 +64,18 @@ def run(args: argparse.Namespace) -> int:
     check_int(args.threads, "--threads", 0, MAX_THREADS)
 
     check_outputs(args.markdown, args.json)
+    if args.prior_from == "oracle":
+        if args.weights:
+            raise NdrqlError("give either --weights or --prior-from oracle, not both")
+        if args.split == "val":
+            raise NdrqlError("--split val is a model's own validation split; with --prior-from oracle use seen or unseen")
+        check_int(args.grid, "--grid", 8, 256)
     root = args.data or default_root()
     if root is None:
         raise DatasetError("no dataset found: pass --data DIR (the path-planning-dataset in its original layout)")
     check_root(root)
+    if args.prior_from == "oracle":
+        return _eval_oracle(args, root)
     if args.threads:
         torch.set_num_threads(args.threads)
     weights = resolve_weights(args.weights)
@@ -98,7 +114,31 @@ def run(args: argparse.Namespace) -> int:
     if args.markdown:
         write_text(args.markdown, table)
     if args.json:
-        write_json(args.json, {"split": args.split, "weights": str(weights), "input_mode": mode,
+        write_json(args.json, {"split": args.split, "weights": str(weights), "prior_from": "model", "input_mode": mode,
                                 "grid": args.grid if mode == "grid" else None, "rows": rows,
                                 "images_per_s": res.images_per_s})
+    return 0
+
+
+def _eval_oracle(args: argparse.Namespace, root) -> int:
+    """``--prior-from oracle``: the oracle's arrays scored as a grid-mode model's predictions."""
+    import numpy as np
+
+    from ndrql.experiments.grid_eval import evaluate_oracle  # lazy: loads torch and scipy and tqdm
+    from ndrql.training.evaluate import category_rows, markdown_table  # lazy: loads torch
+
+    data = load_split(root, args.split)
+    indices = np.arange(len(data))[:args.limit or None]
+    ge = evaluate_oracle(data, indices, n=args.grid, batch_size=min(args.batch_size, 16), progress=True)
+    rows = category_rows(ge.dataset, CATEGORIES[args.split], grid=(ge.grid_region_f1, ge.grid_guideline_f1))
+    title = (f"{args.split} ({len(indices)} samples, oracle priors); the oracle's arrays on the safe {args.grid}x{args.grid} "
+             f"grid (larger where start and goal need it: {int((ge.sizes > args.grid).sum())} maps): the grid's own shortest "
+             "path drawn like the dataset's labels, each map pixel scored with its cell's mean")
+    table = markdown_table(rows, title, args.split == "unseen")
+    print(table)
+    if args.markdown:
+        write_text(args.markdown, table)
+    if args.json:
+        write_json(args.json, {"split": args.split, "weights": "oracle priors", "prior_from": "oracle",
+                               "input_mode": "grid", "grid": args.grid, "rows": rows})
     return 0

@@ -12,11 +12,17 @@ the paper's test splits is measured
 
 A sample whose start and goal do not connect on the grid of ``n`` cells is rendered at the next size of
 ``--size auto``'s ladder that connects them (up to ``2n``), as ``ndrql plan`` would choose.
+
+:func:`evaluate_oracle` scores the **oracle's arrays** the same two ways (``ndrql eval --prior-from
+oracle``): the grid's own labels themselves, i.e. what a perfect grid-mode model would predict. Against
+the dataset's labels that is the best F1 a prediction on the planning grid can reach; against the grid's
+labels it is 100 by construction.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -52,15 +58,35 @@ def render_at(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> tuple
     return None
 
 
+#: Region and guideline probabilities ``(B, H, W)`` (guideline ``None`` for a region-only model) from a batch's
+#: input, region labels and guideline labels (torch tensors ``(B, C, H, W)``).
+PredictFn = Callable[..., tuple[np.ndarray, np.ndarray | None]]
+
+
 def evaluate_grid_model(model, data: SplitArrays, indices: np.ndarray, n: int = 50, encoding: str = "point",
                         batch_size: int = 16, progress: bool = False) -> GridEval:
     """F1 of grid-mode ``model`` on samples ``indices`` of ``data`` (module docstring); a sample that does
     not connect even at ``2n`` scores 0 everywhere."""
+    model.eval()
+    return _evaluate(lambda x, region, guide: predict_batch(model, x, False), data, indices, n, encoding, batch_size,
+                     progress)
+
+
+def evaluate_oracle(data: SplitArrays, indices: np.ndarray, n: int = 50, batch_size: int = 16,
+                    progress: bool = False) -> GridEval:
+    """F1 of the oracle's arrays (the grid's own labels, module docstring) on samples ``indices`` of ``data``,
+    scored as :func:`evaluate_grid_model` scores a model (no model runs: ``images_per_s`` means nothing)."""
+    return _evaluate(lambda x, region, guide: (region[:, 0].numpy(), guide[:, 0].numpy()), data, indices, n, "point",
+                     batch_size, progress)
+
+
+def _evaluate(predict: PredictFn, data: SplitArrays, indices: np.ndarray, n: int, encoding: str, batch_size: int,
+              progress: bool) -> GridEval:
+    """Per-image F1 of ``predict``'s arrays against the dataset's labels and the grid's own (module docstring)."""
     import time
 
     from tqdm import tqdm
 
-    model.eval()
     idx = np.asarray(indices)
     k = len(idx)
     rf, gf, ro = np.zeros(k), np.full(k, np.nan), np.zeros(k)
@@ -82,7 +108,7 @@ def evaluate_grid_model(model, data: SplitArrays, indices: np.ndarray, n: int = 
             sel = js[s:s + batch_size]
             x, region, guide = stack([rendered[j][0] for j in sel], encoding)
             t0 = time.perf_counter()
-            pr, pg = predict_batch(model, x, False)
+            pr, pg = predict(x, region, guide)
             infer += time.perf_counter() - t0
             grf[sel] = f1_per_image(pr >= 0.5, region[:, 0].numpy() > 0.5)
             if pg is not None:

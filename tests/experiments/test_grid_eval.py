@@ -8,7 +8,7 @@ import numpy as np
 
 from ndrql.pipeline.predictions import to_map_pixels
 
-from helpers.cli import run_cli
+from helpers.cli import assert_one_line_error, run_cli
 
 
 def test_map_pixels_take_their_cells_mean():
@@ -52,3 +52,25 @@ def test_prediction_cache_asks_a_grid_model_on_the_planning_grid(dataset_root, t
     assert np.array_equal(a.region, b.region) and np.array_equal(a.guideline, b.guideline)
     region_map, _ = cache.full(p)
     assert region_map.shape == p.obstacles.shape
+
+
+def test_eval_prior_from_oracle_scores_the_grids_own_labels(ndrql_exe, dataset_root, tmp_path):
+    """The oracle's arrays are the grid's labels: 100 against those, less against the dataset's (the ceiling
+    of a prediction on the 50x50 grid); no weights are named, 'oracle priors' is."""
+    out, md = tmp_path / "o.json", tmp_path / "o.md"
+    res = run_cli(ndrql_exe, "eval", "--split", "unseen", "--prior-from", "oracle", "--limit", "6",
+                  "--data", str(dataset_root), "--json", str(out), "--markdown", str(md))
+    assert res.returncode == 0, res.stderr
+    data = json.loads(out.read_text())
+    assert data["weights"] == "oracle priors" and data["prior_from"] == "oracle" and data["grid"] == 50
+    row = data["rows"][0]
+    assert row["n"] == 6 and row["grid_region_f1"] == row["grid_guideline_f1"] == 100.0
+    assert 50 < row["region_f1"] < 100 and 0 < row["guideline_f1"] < 100
+    assert "oracle priors" in res.stdout and ".pt" not in res.stdout and md.read_text() in res.stdout
+
+
+def test_eval_prior_from_oracle_bad_combinations(ndrql_exe, tmp_path):
+    r = run_cli(ndrql_exe, "eval", "--prior-from", "oracle", "--weights", "paper")
+    assert_one_line_error(r, "give either --weights or --prior-from oracle, not both")
+    r = run_cli(ndrql_exe, "eval", "--prior-from", "oracle", "--split", "val")
+    assert_one_line_error(r, "with --prior-from oracle use seen or unseen")

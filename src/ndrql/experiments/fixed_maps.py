@@ -23,7 +23,7 @@ from ndrql.experiments.presets import method_configs
 from ndrql.dataset.layout import resolve_root
 from ndrql.experiments.problems import MapRef, table3_maps
 from ndrql.pipeline.samples import PredictionCache, Problem, load_problems
-from ndrql.experiments.report import SHARE_NOTE, machine, md_table, pct, planning_header, save_figure, share_table
+from ndrql.experiments.report import machine, md_table, pct, planning_header, save_figure, share_section
 from ndrql.io import write_json, write_text
 from ndrql.planning.methods import Method, build_priors
 from ndrql.planning.results import PlanResult
@@ -132,9 +132,7 @@ def _share_section(labels: Sequence[str], problems: Sequence[Problem], results: 
     """Markdown of the share of the oracle's reduction, per map and pooled, and the numbers."""
     shares = {lab: oracle_share(results, [p.key], row) for lab, p in zip(labels, problems)}
     shares["**pooled**"] = oracle_share(results, [p.key for p in problems], row)
-    md = ["\n## Share of the oracle's reduction\n", SHARE_NOTE.format(oracle=row + ORACLE_LABEL, row=row) + "\n",
-          share_table(shares, row, row + ORACLE_LABEL, seeds)]
-    return md, {k.strip("*"): v for k, v in shares.items()}
+    return share_section(shares, row, row + ORACLE_LABEL, seeds), {k.strip("*"): v for k, v in shares.items()}
 
 
 def fixed_map_table(target: str, methods: Sequence[Method], n_maps: int, opts: SweepOptions, out_dir: str | Path,

@@ -130,6 +130,12 @@ SHARE_NOTE = ("*{oracle}* is {row} with the **oracle's priors** in place of the 
               "converge counts the steps it ran); steps below are per run, every run.")
 
 
+def share_section(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int) -> list[str]:
+    """The markdown section of a table's share of the oracle's reduction: heading, note and :func:`share_table`."""
+    return ["\n## Share of the oracle's reduction\n", SHARE_NOTE.format(oracle=oracle, row=row) + "\n",
+            share_table(shares, row, oracle, seeds)]
+
+
 def share_table(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int) -> str:
     """One line per group (or map) of :func:`~ndrql.experiments.planning_runs.oracle_share` results: steps per
     run of QL, ``row`` and ``oracle``, their change against QL and the share."""

@@ -25,7 +25,7 @@ from ndrql.experiments.planning_runs import (ORACLE_LABEL, SweepOptions, attach_
                                              preset_json, run_grid, summarize_runs)
 from ndrql.dataset.layout import resolve_root
 from ndrql.pipeline.samples import Problem, load_problem
-from ndrql.experiments.report import SHARE_NOTE, machine, md_table, pct, planning_header, save_figure, share_table
+from ndrql.experiments.report import machine, md_table, pct, planning_header, save_figure, share_section
 from ndrql.experiments.table3 import TABLE3_METHODS
 from ndrql.io import write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE
@@ -133,8 +133,7 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
     shares = {m.name: {g: oracle_share(results, [p.key for p in ps], m.name) for g, ps in groups.items() if ps}
               for m in oracle_rows}
     for m, sh in shares.items():
-        md += ["\n## Share of the oracle's reduction\n", SHARE_NOTE.format(oracle=m + ORACLE_LABEL, row=m) + "\n",
-               share_table(sh, m, m + ORACLE_LABEL, opts.seeds)]
+        md += share_section(sh, m, m + ORACLE_LABEL, opts.seeds)
     converged = {m: [r for p in problems for r in results[(p.key, m)]["runs"] if r["converged"]] for m in names}
     figs = [save_figure(scale_figure(agg, names), out_dir / "scale.png"),
             save_figure(scale_distributions(converged), out_dir / "scale_distributions.png")]

@@ -132,7 +132,7 @@ def _share_section(labels: Sequence[str], problems: Sequence[Problem], results: 
     """Markdown of the share of the oracle's reduction, per map and pooled, and the numbers."""
     shares = {lab: oracle_share(results, [p.key], row) for lab, p in zip(labels, problems)}
     shares["**pooled**"] = oracle_share(results, [p.key for p in problems], row)
-    return share_section(shares, row, row + ORACLE_LABEL, seeds), {k.strip("*"): v for k, v in shares.items()}
+    return share_section(shares, row, row + ORACLE_LABEL, seeds, "map"), {k.strip("*"): v for k, v in shares.items()}
 
 
 def fixed_map_table(target: str, methods: Sequence[Method], n_maps: int, opts: SweepOptions, out_dir: str | Path,

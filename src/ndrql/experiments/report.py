@@ -130,16 +130,18 @@ SHARE_NOTE = ("*{oracle}* is {row} with the **oracle's priors** in place of the 
               "converge counts the steps it ran); steps below are per run, every run.")
 
 
-def share_section(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int) -> list[str]:
+def share_section(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int,
+                  first: str = "group") -> list[str]:
     """The markdown section of a table's share of the oracle's reduction: heading, note and :func:`share_table`."""
     return ["\n## Share of the oracle's reduction\n", SHARE_NOTE.format(oracle=oracle, row=row) + "\n",
-            share_table(shares, row, oracle, seeds)]
+            share_table(shares, row, oracle, seeds, first)]
 
 
-def share_table(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int) -> str:
-    """One line per group (or map) of :func:`~ndrql.experiments.planning_runs.oracle_share` results: steps per
-    run of QL, ``row`` and ``oracle``, their change against QL and the share."""
-    header = ["group", "maps", "QL steps", f"{row} steps", "oracle steps", f"{row} vs QL", "oracle vs QL",
+def share_table(shares: dict[str, dict[str, Any]], row: str, oracle: str, seeds: int, first: str = "group") -> str:
+    """One line per group (or map: ``first`` names the column) of
+    :func:`~ndrql.experiments.planning_runs.oracle_share` results: steps per run of QL, ``row`` and ``oracle``,
+    their change against QL and the share."""
+    header = [first, "maps", "QL steps", f"{row} steps", "oracle steps", f"{row} vs QL", "oracle vs QL",
               "share of oracle"]
     rows = []
     for name, sh in shares.items():

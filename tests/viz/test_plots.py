@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colorbar import Colorbar
+from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 
 import ndrql
@@ -270,3 +271,20 @@ def test_legend_below_and_colour_bar(fig):
     assert legend is ax.get_legend() and _labels(ax) == ["path"] and not legend.get_frame_on()
     bar = style.probability_colorbar(ax, image, "region probability")
     assert isinstance(bar, Colorbar) and bar.ax.get_ylabel() == "region probability" and len(fig.axes) == 2
+
+
+def test_scale_figures_draw_the_oracle_row_hatched_and_dashed_in_its_methods_colour(fig):
+    oracle = "NDR-QL (oracle priors)"
+    agg = {"seen/maze": {"NDR-QL": {"steps": {"median": 300}, "gap": {"mean": 0.1}},
+                         oracle: {"steps": {"median": 200}, "gap": {"mean": 0.05}}}}
+    ax1, _ = viz_reproduce.scale_figure(agg, ["NDR-QL", oracle], fig=fig).axes
+    model_bar, oracle_bar = ax1.patches
+    assert _labels(ax1) == ["NDR-QL", oracle]
+    assert oracle_bar.get_hatch() == "///" and model_bar.get_hatch() is None
+    assert oracle_bar.get_edgecolor() == model_bar.get_facecolor() == to_rgba(style.METHOD_COLORS["NDR-QL"])
+    assert (model_bar.get_height(), oracle_bar.get_height()) == (300, 200)
+    other = Figure()
+    runs = [{"convergence_steps": 300, "length_ratio": 1.1}]
+    steps = viz_reproduce.scale_distributions({"NDR-QL": runs, oracle: runs}, fig=other).axes[0]
+    assert [line.get_linestyle() for line in steps.lines] == ["-", "--"]
+    assert style.oracle_base(oracle) == "NDR-QL" and style.oracle_base("NDR-QL") is None

@@ -22,7 +22,7 @@ from ndrql.io import write_text
 from ndrql.limits import MAX_THREADS, check_int
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.weights import resolve_weights
-from ndrql.synth.oracle import PRIOR_SOURCES
+from ndrql.synth.oracle import ORACLE_NAME, PRIOR_SOURCES
 
 EXAMPLES = """examples:
   ndrql eval --split seen
@@ -139,6 +139,6 @@ def _eval_oracle(args: argparse.Namespace, root) -> int:
     if args.markdown:
         write_text(args.markdown, table)
     if args.json:
-        write_json(args.json, {"split": args.split, "weights": "oracle priors", "prior_from": "oracle",
+        write_json(args.json, {"split": args.split, "weights": ORACLE_NAME, "prior_from": "oracle",
                                "input_mode": "grid", "grid": args.grid, "rows": rows})
     return 0

@@ -38,13 +38,13 @@ from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, build_priors
 from ndrql.planning.preset import preset_to_dict
 from ndrql.planning.runner import run_plan
-from ndrql.synth.oracle import PRIOR_SOURCES
+from ndrql.synth.oracle import ORACLE_NAME, PRIOR_SOURCES
 
 #: Bump when a change in this module changes task results (forces recomputation of stored tasks).
 TASK_VERSION = 1
 
 #: The name of a method's row when it runs with the oracle's priors beside the model's.
-ORACLE_LABEL = " (oracle priors)"
+ORACLE_LABEL = f" ({ORACLE_NAME})"
 #: The end of the task key of a run with the oracle's priors.
 ORACLE_KEY = "+oracle"
 

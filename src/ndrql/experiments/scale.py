@@ -134,8 +134,8 @@ def scale(opts: SweepOptions, out_dir: str | Path, per_category: int = 50, log: 
               for m in oracle_rows}
     for m, sh in shares.items():
         md += share_section(sh, m, m + ORACLE_LABEL, opts.seeds)
-    converged = {m: [r for p in problems for r in results[(p.key, m)]["runs"] if r["converged"]] for m in names}
-    figs = [save_figure(scale_figure(agg, names), out_dir / "scale.png"),
+    converged = {m: [r for p in problems for r in results[(p.key, m)]["runs"] if r["converged"]] for m in rows}
+    figs = [save_figure(scale_figure(agg, rows), out_dir / "scale.png"),
             save_figure(scale_distributions(converged), out_dir / "scale_distributions.png")]
     md.append("\n## Figures\n")
     md += [f"![{f.stem}]({f.name})" for f in figs]

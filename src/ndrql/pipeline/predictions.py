@@ -27,7 +27,7 @@ from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Method, downscale_priors, get_method
 from ndrql.planning.priors import adaptive_threshold
-from ndrql.synth.oracle import oracle_prediction
+from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
 Point = tuple[int, int]
 
@@ -253,7 +253,7 @@ def predict_for(ms: Sequence[Method], predictions: tuple[np.ndarray, np.ndarray 
             view = oracle_view(grid)
         info["model_input"] = view.info
         info["prior_from"] = "oracle"
-        used_weights = "oracle priors"
+        used_weights = ORACLE_NAME
         region_map, guideline_map = view.region, view.guideline
     elif predictions is not None:
         region_map, guideline_map = predictions

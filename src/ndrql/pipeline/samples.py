@@ -29,7 +29,7 @@ from ndrql.model.predict import Predictor
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 from ndrql.pipeline.predictions import cell_means, predict_on_grid, to_map_pixels
 from ndrql.planning.methods import downscale_priors
-from ndrql.synth.oracle import oracle_prediction
+from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
 
 @dataclass(frozen=True)
@@ -170,7 +170,7 @@ class OraclePriors:
     :class:`PredictionCache` would name its weights. Cheap to draw, so nothing is cached."""
 
     prior_from = "oracle"
-    weights = "oracle priors"
+    weights = ORACLE_NAME
     """What the reports print where a model's weights file would be."""
 
     def describe(self) -> dict[str, str]:

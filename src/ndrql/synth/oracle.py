@@ -22,6 +22,9 @@ from ndrql.synth.labels import GUIDE_PX, REGION_PX, dilate_region, draw_guidelin
 #: Where the NDR priors of an experiment can come from: the model, or this oracle (a diagnostic).
 PRIOR_SOURCES = ("model", "oracle")
 
+#: What every output prints where it would name the model's weights, when the priors are the oracle's.
+ORACLE_NAME = "oracle priors"
+
 
 def cell_centres(cells: np.ndarray, px_per_cell: int) -> np.ndarray:
     """Pixel centres ``cell * px + (px - 1) / 2`` of ``(row, col)`` cells, as floats."""

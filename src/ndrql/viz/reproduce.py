@@ -20,7 +20,7 @@ from ndrql.viz.curves import plot_training_curves, plot_validation_curve
 from ndrql.viz.maps import figure_or_new, plot_endpoints
 from ndrql.viz.overlays import plot_method_paths, plot_prediction
 from ndrql.viz.qtable import plot_qtable
-from ndrql.viz.style import METHOD_COLORS
+from ndrql.viz.style import METHOD_COLORS, row_style
 
 
 def curves_figure(p: Any, names: Sequence[str], titles: Sequence[str], first_runs: Sequence[Mapping[str, Any]],
@@ -73,15 +73,17 @@ def maps_figure(problems: Sequence[Any], labels: Sequence[str],
 
 def scale_figure(agg: Mapping[str, Mapping[str, Any]], names: Sequence[str], fig: Any = None) -> Any:
     """Per category (the groups named ``split/category`` of ``agg``): median convergence steps (bars,
-    log scale) and mean optimality gap per method."""
+    log scale) and mean optimality gap per method row; an oracle row (``"NDR-QL (oracle priors)"``) is
+    drawn hatched in its method's colour beside it."""
     cats = [g for g in agg if "/" in g]
     fig = figure_or_new(fig, (12, 7))
     ax1, ax2 = fig.subplots(2, 1)
     w = 0.8 / len(names)
     x = np.arange(len(cats))
     for i, m in enumerate(names):
-        ax1.bar(x + i * w, [agg[c][m]["steps"]["median"] or 0 for c in cats], w, label=m, color=METHOD_COLORS.get(m))
-        ax2.bar(x + i * w, [agg[c][m]["gap"]["mean"] or 0 for c in cats], w, label=m, color=METHOD_COLORS.get(m))
+        style = row_style(m, i)["bar"]
+        ax1.bar(x + i * w, [agg[c][m]["steps"]["median"] or 0 for c in cats], w, label=m, **style)
+        ax2.bar(x + i * w, [agg[c][m]["gap"]["mean"] or 0 for c in cats], w, label=m, **style)
     for ax in (ax1, ax2):
         ax.set_xticks(x + 0.4 - w / 2, [c.replace("/", "\n") for c in cats], fontsize=7)
     ax1.set_yscale("log")
@@ -92,16 +94,17 @@ def scale_figure(agg: Mapping[str, Mapping[str, Any]], names: Sequence[str], fig
 
 
 def scale_distributions(converged: Mapping[str, Sequence[Mapping[str, Any]]], fig: Any = None) -> Any:
-    """Distributions over the converged runs of each method (``converged``: method -> runs):
-    convergence steps (ECDF, log x) and optimality gap (histogram)."""
+    """Distributions over the converged runs of each method row (``converged``: row -> runs):
+    convergence steps (ECDF, log x) and optimality gap (histogram); oracle rows dashed."""
     fig = figure_or_new(fig, (12, 4.5))
     ax1, ax2 = fig.subplots(1, 2)
-    for m, runs in converged.items():
+    for i, (m, runs) in enumerate(converged.items()):
+        style = row_style(m, i)["line"]
         st = np.sort([r["convergence_steps"] for r in runs])
         if st.size:
-            ax1.step(st, np.arange(1, st.size + 1) / st.size, where="post", label=m, color=METHOD_COLORS.get(m))
+            ax1.step(st, np.arange(1, st.size + 1) / st.size, where="post", label=m, **style)
         gaps = [r["length_ratio"] - 1 for r in runs]
-        ax2.hist(gaps, bins=np.linspace(0, 1, 41), histtype="step", label=m, color=METHOD_COLORS.get(m))
+        ax2.hist(gaps, bins=np.linspace(0, 1, 41), histtype="step", label=m, **style)
     ax1.set_xscale("log")
     ax1.set_xlabel("convergence steps")
     ax1.set_ylabel("fraction of converged runs")

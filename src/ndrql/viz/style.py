@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+from ndrql.synth.oracle import ORACLE_NAME
+
 #: Dots per inch of the CLI's figures (``--dpi`` overrides it).
 DEFAULT_DPI = 110
 
@@ -35,9 +37,26 @@ METHOD_COLORS: dict[str, str] = {
 
 
 def method_color(name: str, i: int = 0) -> str:
-    """The colour of a method (a fallback cycle for names not in :data:`METHOD_COLORS`)."""
+    """The colour of a method (a fallback cycle for names not in :data:`METHOD_COLORS`); a row with the
+    oracle's priors (``"NDR-QL (oracle priors)"``) takes its method's colour."""
     cycle = ("tab:green", "tab:pink", "tab:olive", "tab:cyan", "tab:brown")
-    return METHOD_COLORS.get(name, cycle[i % len(cycle)])
+    return METHOD_COLORS.get(oracle_base(name) or name, cycle[i % len(cycle)])
+
+
+def oracle_base(name: str) -> str | None:
+    """The method of a row named ``"<method> (oracle priors)"``, else ``None``."""
+    suffix = f" ({ORACLE_NAME})"
+    return name[: -len(suffix)] if name.endswith(suffix) else None
+
+
+def row_style(name: str, i: int = 0) -> dict[str, Any]:
+    """Colour, and for an oracle row a hatch and a dashed line, of a method row in a bar or line plot.
+
+    ``bar`` keys go to ``Axes.bar``, ``line`` keys to ``Axes.plot``/``step``/``hist``."""
+    color = method_color(name, i)
+    if oracle_base(name) is None:
+        return {"bar": {"color": color}, "line": {"color": color}}
+    return {"bar": {"facecolor": "white", "edgecolor": color, "hatch": "///"}, "line": {"color": color, "linestyle": "--"}}
 
 
 def legend_below(ax: Any, handles: Sequence[Any] | None = None, ncol: int = 3) -> Any:

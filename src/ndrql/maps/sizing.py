@@ -219,7 +219,9 @@ def narrowest_passage(free_check: np.ndarray, start: Sequence[int], goal: Sequen
     levels = np.unique(clear[free])
 
     def connects(t: float) -> bool:
-        labels, _ = ndimage.label((clear >= t) | ends, structure=np.ones((3, 3), dtype=bool))
+        # 4-connected components: moves that never cut a corner (the route below, the safe grid) connect
+        # exactly the sets that are 4-connected; 8-connected labels would pass diagonal pinches they cannot
+        labels, _ = ndimage.label((clear >= t) | ends)
         return bool(labels[tuple(start)] and labels[tuple(start)] == labels[tuple(goal)])
 
     lo, hi = 0, len(levels) - 1  # levels[lo] always connects (every free pixel), find the highest that does

@@ -77,12 +77,14 @@ def train_and_score(name: str, env_id: str, kwargs: dict, policy: str, args: arg
                     eval_seed: int) -> dict:
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.logger import Logger
 
     vec = make_vec_env(env_id, n_envs=args.n_envs, seed=args.seed, env_kwargs=kwargs)
     # gamma 0.95 as in the paper's Q-learning: with D-CRF, r_max / (1 - gamma) = 100 keeps the per-cell
     # rewards from outweighing the goal (at 0.99 agents learn to wander; docs/method.md, Eq. 2)
     model = PPO(policy, vec, n_steps=args.n_steps, batch_size=args.batch_size, gamma=0.95, ent_coef=0.01,
                 learning_rate=3e-4, seed=args.seed, device="cpu", verbose=0)
+    model.set_logger(Logger(folder=None, output_formats=[]))  # SB3's default logger leaves an empty SB3-<time> folder in /tmp
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.timesteps, progress_bar=args.progress)
     seconds = time.perf_counter() - t0

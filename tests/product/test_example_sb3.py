@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -13,10 +14,12 @@ pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: 
 
 
 @pytest.mark.slow
-def test_sb3_ppo_example_quick():
+def test_sb3_ppo_example_quick(tmp_path):
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
     out = subprocess.run([sys.executable, str(REPO_ROOT / "examples" / "sb3_ppo.py"), "--quick", "--eval-episodes", "3"],
-                         capture_output=True, text=True, timeout=600)
+                         capture_output=True, text=True, timeout=600, env=env)
     assert out.returncode == 0, out.stderr[-2000:]
+    assert not list(tmp_path.glob("SB3-*"))  # no logger folders left in the temporary directory
     lines = out.stdout.splitlines()
     assert lines[0].split()[:2] == ["env", "steps"]
     rows = {line.split(" (")[0]: line.split() for line in lines[1:3]}

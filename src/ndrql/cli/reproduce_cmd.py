@@ -87,7 +87,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
                    "separated by commas, each run into its own folder and compared side by side (default: spec,tuned "
-                   "for table2, table3 and scale; spec for dynamic); flags below override a preset's values")
+                   "for table2, table3 and scale; spec for dynamic and transfer); flags below override a preset's values")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
@@ -183,9 +183,12 @@ def run(args: argparse.Namespace) -> int:
 
             if args.per_family is not None:
                 check_int(args.per_family, "--per-family", 1)
-            path = transfer(out, weights=args.weights, set_name=args.eval_set, grids=parse_sizes(args.grids or "50,100"),
-                            seeds=args.seeds, seed0=args.seed, per_family=args.per_family, workers=args.workers,
-                            executor=args.executor, progress=not args.no_progress, command=opts.command, log=log)
+            grids = parse_sizes(args.grids or "50,100")
+            paths = run_presets(target, lambda o, d: transfer(
+                d, weights=args.weights, set_name=args.eval_set, grids=grids, seeds=args.seeds, seed0=args.seed,
+                per_family=args.per_family, workers=args.workers, executor=args.executor, progress=not args.no_progress,
+                command=opts.command, log=log, preset=o.preset), opts, out, _presets(args, target), log=log)
+            path = ", ".join(str(x) for x in paths)
         elif target == "sizing":
             from ndrql.experiments.sizing import sizing  # lazy: loads torch
 

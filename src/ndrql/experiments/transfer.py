@@ -37,6 +37,7 @@ from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.predict import Predictor
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.preset import Preset, method_configs
 from ndrql.planning.runner import run_plan
 from ndrql.synth.generate import SetSpec
 from ndrql.training.metrics import f1_per_image
@@ -61,11 +62,19 @@ def eval_set(spec: SetSpec, progress: bool = True) -> GeneratedSet:
     return GeneratedSet.load(root)
 
 
-def _runs(blocked, s, g, priors: dict, seeds: list[int], ql: QLConfig, pc: PriorConfig) -> dict:
+def row_configs(preset: Preset | None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig()
+                ) -> dict[str, tuple[QLConfig, PriorConfig]]:
+    """The constants of each row: ``ql``/``pc`` for all without a preset; with one, each method's entry
+    (the oracle row takes NDR-QL's: only its priors differ from the model row)."""
+    return {row: method_configs(preset, row.split(" ")[0], ql, pc) for row in ROWS}
+
+
+def _runs(blocked, s, g, priors: dict, seeds: list[int], configs: dict[str, tuple[QLConfig, PriorConfig]]) -> dict:
     out: dict = {}
     for row, pr in priors.items():
         method = row.split(" ")[0]
         region, guide = (np.asarray(pr[0]), np.asarray(pr[1])) if pr is not None else (None, None)
+        ql, pc = configs[row]
         runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide) for seed in seeds]
         out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
                     "converged": [bool(r.converged) for r in runs],
@@ -86,11 +95,13 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
 
 
 def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seeds: list[int], out: Path, *,
-            per_family: int | None = None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig(),
+            per_family: int | None = None, configs: dict[str, tuple[QLConfig, PriorConfig]] | None = None,
             workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True,
             grow: bool = True, panels: list[PredictionPanel] | None = None) -> list[dict]:
     """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case.
-    With ``panels``, the first connected case of each family at the first grid is appended to it for the figure."""
+    With ``panels``, the first connected case of each family at the first grid is appended to it for the figure.
+    ``configs``: the constants of each row (:func:`row_configs`; default the paper's for every row)."""
+    configs = configs or row_configs(None)
     picked: dict[str, list[int]] = {}
     for i in range(len(gs)):
         fam = str(gs.families[i])
@@ -117,10 +128,16 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                           "NDR-QL (oracle)": [a.tolist() for a in oracle]}
                 grid_id = array_digest(np.packbits(case.blocked))
                 prior_id = array_digest(*(np.asarray(a, np.float64) for a in (*model, *oracle)))
-                fp = fingerprint(key, weights_id, mode, seeds, vars(ql), vars(pc), case.n, case.blocked.shape, grid_id, prior_id)
-                tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, ql, pc), fp))
+                fp = fingerprint(key, weights_id, mode, seeds, _configs_id(configs), case.n, case.blocked.shape, grid_id,
+                                 prior_id)
+                tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, configs), fp))
     rep = run_sweep(tasks, out / "tasks", executor=executor, workers=workers, progress=progress, desc="transfer")
     return [{"key": k, **m, **({"runs": rep.results[k]} if not m["skipped"] else {})} for k, m in meta.items()]
+
+
+def _configs_id(configs: dict[str, tuple[QLConfig, PriorConfig]]) -> list:
+    """What of the constants goes into a task's fingerprint: every row's values, in row order."""
+    return [[row, vars(q), vars(p)] for row, (q, p) in configs.items()]
 
 
 def larger_sizes(n: int) -> tuple[int, ...]:
@@ -182,8 +199,12 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
 
 def transfer(out: str | Path, weights: str | None = None, set_name: str = "transfer", grids: tuple[int, ...] = (50, 100),
              seeds: int = 10, seed0: int = 0, per_family: int | None = None, workers: int = 2, executor: str = "process",
-             progress: bool = True, command: str = "", log: Callable[[str], None] = print) -> Path:
-    """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``."""
+             progress: bool = True, command: str = "", log: Callable[[str], None] = print,
+             preset: Preset | None = None) -> Path:
+    """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``.
+
+    ``preset``: the constants of each method (``None``: the paper's for every row); the oracle row
+    takes NDR-QL's."""
     out = Path(out)
     wpath = resolve_weights(weights or None)
     predictor = Predictor.load(wpath, threads=1, backend="torch")
@@ -191,10 +212,13 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     gs = eval_set(eval_spec(set_name), progress)
     seed_list = list(range(seed0, seed0 + seeds))
     panels: list[PredictionPanel] = []
-    records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, workers=workers,
-                      executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels)
+    configs = row_configs(preset)
+    records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, configs=configs,
+                      workers=workers, executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels)
+    constants = "the paper's constants" if preset is None or preset.name == "spec" else \
+        f"constants of preset {preset.name!r} (each method its own; the oracle row NDR-QL's)"
     text = (f"Weights {wpath.name} (input mode {mode}); evaluation set {set_name!r} {gs.spec.to_dict()}; "
-            f"seeds {seed_list[0]}..{seed_list[-1]}.\n\n" + render_tables(records, tuple(grids)))
+            f"seeds {seed_list[0]}..{seed_list[-1]}; {constants}.\n\n" + render_tables(records, tuple(grids)))
     if command:
         text += f"\nCommand: `{command}`\n"
     if panels:
@@ -203,6 +227,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
         text += "\n![predictions](transfer_predictions.png)\n"
     write_text(out / "transfer.md", text)
     write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "set": gs.spec.to_dict(), "seeds": seed_list,
-                                      "grids": list(grids), "records": records}, strict=False)
+                                      "grids": list(grids), "preset": preset.name if preset else "spec",
+                                      "constants": {row: {"ql": vars(q), "priors": vars(p)} for row, (q, p) in configs.items()},
+                                      "records": records}, strict=False)
     log(text)
     return out / "transfer.md"

@@ -36,6 +36,7 @@ from ndrql.io import file_digest, save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.predict import Predictor
 from ndrql.model.weights import resolve_weights, weights_label
+from ndrql.pipeline.predictions import MIN_THRESHOLD
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import Preset, method_configs
 from ndrql.planning.runner import run_plan
@@ -151,12 +152,23 @@ def _pooled(records: list[dict], row: str) -> float:
     return float(sum(sum(r["runs"][row]["steps"]) for r in records))
 
 
+def plan_steps(record: dict) -> list[int]:
+    """The steps ``ndrql plan`` would spend on this case for NDR-QL: the model row's where its Eq. 7
+    threshold is at least :data:`~ndrql.pipeline.predictions.MIN_THRESHOLD`, else IQL's (plan's
+    default fallback for an uninformative prediction; its other test, the guideline's mass on
+    obstacles, is not applied here)."""
+    thd = record["runs"]["NDR-QL (model)"]["threshold"]
+    row = "NDR-QL (model)" if thd is not None and thd >= MIN_THRESHOLD else "IQL"
+    return record["runs"][row]["steps"]
+
+
 def summarize(records: list[dict]) -> dict:
     """Pooled and per-map figures of a group of case records (same seeds in every row)."""
     ok = [r for r in records if not r["skipped"]]
     if not ok:
         return {"maps": 0, "skipped": len(records)}
     ql = _pooled(ok, "QL")
+    plan = float(sum(sum(plan_steps(r)) for r in ok))
     red = {row: 1 - _pooled(ok, row) / ql for row in ROWS}
     ratios = [x for r in ok for x in r["runs"]["NDR-QL (model)"]["ratio"] if x is not None]
     thd = [r["runs"]["NDR-QL (model)"]["threshold"] for r in ok]
@@ -171,6 +183,9 @@ def summarize(records: list[dict]) -> dict:
         "path_ratio": float(np.mean(ratios)) if ratios else float("nan"),
         "threshold_below_half": float(np.mean([t is None or t < 0.5 for t in thd])),
         "not_converged": int(sum(not c for r in ok for c in r["runs"]["NDR-QL (model)"]["converged"])),
+        "plan_vs_ql": plan / ql - 1,
+        "plan_vs_iql": plan / _pooled(ok, "IQL") - 1,
+        "plan_worse_than_iql": float(np.mean([np.mean(plan_steps(r)) > np.mean(r["runs"]["IQL"]["steps"]) for r in ok])),
         "share": share_of_oracle(*([sum(r["runs"][row]["steps"]) for r in ok] for row in (*ROWS[2:], "QL"))),
     }
 
@@ -179,7 +194,7 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
     """Markdown: one table per grid, a row per family and a pooled row."""
     parts = []
     head = ["family", "maps (finer grid; skipped)", "region F1", "guideline F1", "NDR-QL vs QL", "oracle vs QL", "share of oracle",
-            "NDR-QL vs IQL", "beats IQL", "path / A*", "Eq. 7 thd < 0.5"]
+            "NDR-QL vs IQL", "beats IQL", "path / A*", "Eq. 7 thd < 0.5", "plan vs QL", "plan vs IQL", "plan worse than IQL"]
     for n in grids:
         at_n = [r for r in records if r["n"] == n]
         rows = []
@@ -191,9 +206,14 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
             rows.append([f"**{fam}**" if fam == "all" else fam, f"{s['maps']} ({s['grown']}; {s['skipped']})", f"{s['region_f1']:.1f}",
                          f"{s['guideline_f1']:.1f}", f"{100 * s['vs_ql']['NDR-QL (model)']:+.1f}%",
                          f"{100 * s['vs_ql']['NDR-QL (oracle)']:+.1f}%", f"{100 * s['share']:.0f}%", f"{100 * s['vs_iql']:+.1f}%",
-                         f"{100 * s['beats_iql']:.0f}%", f"{s['path_ratio']:.3f}", f"{100 * s['threshold_below_half']:.0f}%"])
+                         f"{100 * s['beats_iql']:.0f}%", f"{s['path_ratio']:.3f}", f"{100 * s['threshold_below_half']:.0f}%",
+                         f"{100 * s['plan_vs_ql']:+.1f}%", f"{100 * s['plan_vs_iql']:+.1f}%",
+                         f"{100 * s['plan_worse_than_iql']:.0f}%"])
         finer = ", ".join(map(str, larger_sizes(n)))
         parts.append(f"**Planning grid {n}** (safe grid; maps that need it on {finer or 'no finer size'})\n\n" + md_table(head, rows))
+    parts.append(f"*plan*: what `ndrql plan` spends for NDR-QL with its default fallback: the model's run where the "
+                 f"Eq. 7 threshold is at least {MIN_THRESHOLD}, IQL's where the prediction does not connect start and "
+                 f"goal at that level; *worse than IQL*: maps where that costs more steps than IQL (mean over seeds).")
     return "\n\n".join(parts) + "\n"
 
 

@@ -1,0 +1,43 @@
+"""The transfer report's pooled figures by hand: shares, and what `ndrql plan` would spend with its fallback."""
+
+from __future__ import annotations
+
+import pytest
+
+from ndrql.experiments.transfer import plan_steps, render_tables, row_configs, summarize
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.preset import load_preset
+
+
+def _record(key: str, thd: float | None, ql: list[int], iql: list[int], ndr: list[int], oracle: list[int]) -> dict:
+    def row(steps: list[int], threshold: float | None = None) -> dict:
+        return {"steps": steps, "converged": [True] * len(steps), "ratio": [1.1] * len(steps), "threshold": threshold}
+
+    return {"key": key, "family": "maze", "n": 50, "size": 50, "skipped": False, "f1": (0.8, 0.5),
+            "runs": {"QL": row(ql), "IQL": row(iql), "NDR-QL (model)": row(ndr, thd), "NDR-QL (oracle)": row(oracle, 0.9)}}
+
+
+def test_plan_falls_back_to_iql_below_the_threshold_and_the_pooled_figures_match_hand_computation():
+    good = _record("a", 0.61, ql=[1000, 1000], iql=[400, 400], ndr=[100, 100], oracle=[80, 80])
+    lost = _record("b", None, ql=[2000, 2000], iql=[500, 700], ndr=[3000, 3000], oracle=[100, 100])
+    low = _record("c", 0.41, ql=[1000, 1000], iql=[300, 300], ndr=[200, 200], oracle=[100, 100])
+    assert plan_steps(good) == [100, 100] and plan_steps(lost) == [500, 700] and plan_steps(low) == [300, 300]
+    s = summarize([good, lost, low, {"key": "d", "family": "maze", "n": 50, "skipped": True}])
+    ql, iql, plan = 8000, 2600, 200 + 1200 + 600
+    assert s["maps"] == 3 and s["skipped"] == 1
+    assert s["plan_vs_ql"] == pytest.approx(plan / ql - 1) and s["plan_vs_iql"] == pytest.approx(plan / iql - 1)
+    assert s["plan_worse_than_iql"] == 0.0  # the fallback ties IQL, the model's run beats it
+    assert s["vs_iql"] == pytest.approx((200 + 6000 + 400) / iql - 1)  # the model's own runs, no fallback
+    assert s["beats_iql"] == pytest.approx(2 / 3)
+    text = render_tables([good, lost, low], (50,))
+    assert "| -75.0% | -23.1% | 0% |" in text and "*plan*" in text
+
+
+def test_row_configs_give_each_row_its_methods_constants():
+    spec = row_configs(None)
+    assert set(spec) == {"QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)"}
+    assert all(c == (QLConfig(), PriorConfig()) for c in spec.values())
+    tuned = load_preset("tuned")
+    rows = row_configs(tuned)
+    assert rows["QL"] == tuned.configs("QL") and rows["IQL"] == tuned.configs("IQL")
+    assert rows["NDR-QL (oracle)"] == rows["NDR-QL (model)"] == tuned.configs("NDR-QL") != rows["QL"]

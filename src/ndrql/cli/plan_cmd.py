@@ -99,7 +99,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--fallback", metavar="NAME|none", default=None,
                    help="when the model's prediction is uninformative (no region threshold >= 0.5 joins start and "
                    "goal, or the guideline lies mostly on obstacles), plan with this method instead of the NDR one "
-                   "(default: IQL for a map file with one method, none for --sample and --compare)")
+                   "(default: IQL for a map file with one method, none for --sample and --compare; with --preset spec the "
+                   "general model does better with none: docs/results.md#transfer)")
     g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
                    "(ROS maps), instead of --start; write --start-world=-1.5,2 when x is negative")
     g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")

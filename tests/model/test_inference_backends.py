@@ -47,6 +47,19 @@ def test_onnx_and_torch_predict_the_same(cache, user_weights):
     assert onnx_cache_path(user_weights).is_file()
 
 
+def test_an_export_removes_the_per_side_exports_of_earlier_versions(cache, user_weights):
+    path = onnx_cache_path(user_weights)
+    path.parent.mkdir(parents=True)
+    digest = path.name.split("-")[0]
+    stale = [path.parent / f"{digest}{end}" for end in (".onnx", ".json", "-320.onnx", "-320.json", "-1024.onnx")]
+    kept = [path.parent / f"{'0' * 16}-320.onnx", path.parent / f"{digest}-notes.txt"]  # other weights, not ours
+    for f in stale + kept:
+        f.write_bytes(b"old")
+    Predictor.load(user_weights, threads=1, backend="onnx")  # exports into the cache
+    assert path.is_file() and path.with_suffix(".json").is_file()
+    assert not [f for f in stale if f.exists()] and all(f.exists() for f in kept)
+
+
 def test_shipped_weights_need_no_export(cache, model_weights):
     p = Predictor.load(model_weights, threads=1)
     assert p.backend_name == "onnx" and p._runner.path.suffix == ".onnx"

@@ -26,7 +26,7 @@ from ndrql.dataset.encodings import encode_input
 from ndrql.errors import NdrqlError, require_torch
 from ndrql.io import atomic_path, file_digest, write_json
 from ndrql.maps.grid import MODEL_SIDE
-from ndrql.model.onnx_backend import CONFIG_KEY, EXPORT_FORMAT, FORMAT_KEY, WEIGHTS_KEY, OnnxRunner, onnx_cache_path
+from ndrql.model.onnx_backend import CONFIG_KEY, EXPORT_FORMAT, FORMAT_KEY, WEIGHTS_KEY, OnnxRunner, onnx_cache_path, remove_stale_exports
 from ndrql.model.shipped import CHECK_SIDES, TOLERANCE, graph_path, record_path
 from ndrql.model.weights import shipped_weights
 
@@ -85,6 +85,7 @@ def cached_export(weights: Path) -> Path | None:
         export_onnx(weights, onnx_path)
         record["onnx_sha256"] = file_digest(onnx_path)
     write_json(onnx_path.with_suffix(".json"), record)
+    remove_stale_exports(onnx_path)
     return onnx_path if exported else None
 
 

@@ -103,6 +103,20 @@ def onnx_cache_path(weights: Path) -> Path:
     return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}-any.onnx"
 
 
+def remove_stale_exports(onnx_path: Path) -> list[Path]:
+    """Delete the exports an earlier ndrql kept for the same checkpoint (one graph per input side:
+    ``<digest>.onnx`` for 201 px, ``<digest>-<side>.onnx``, and their ``.json`` records) beside the
+    current ``<digest>-any.onnx``; returns what it removed. Files of other checkpoints stay."""
+    digest = onnx_path.name.split("-")[0]
+    removed = []
+    for f in onnx_path.parent.glob(f"{digest}*"):
+        rest = f.stem[len(digest):]
+        if f.suffix in (".onnx", ".json") and (rest == "" or (rest[:1] == "-" and rest[1:].isdigit())):
+            f.unlink(missing_ok=True)
+            removed.append(f)
+    return removed
+
+
 def cached_graph(weights: Path) -> tuple[Path | None, bool]:
     """A cache hit for ``weights``, without torch: ``(graph, True)``; ``(None, True)`` when the record says the
     model has no graph (no guideline output); ``(None, False)`` when nothing usable is cached. A damaged

@@ -80,8 +80,9 @@ def solve(
     path drawn like the dataset's labels: a diagnostic of the ceiling, reported as "oracle priors"). ``settings``: grid rule, size, robot radius, smoothing
     (default: the safe grid for a user's map; :meth:`PlanSettings.paper` for the paper's).
     ``workers``: processes for many runs (default: all cores; results do not depend on it).
-    ``preset``: ``"spec"``, ``"tuned"``, a preset file or a :class:`~ndrql.planning.preset.Preset`:
-    each method runs with its own constants from it, and the fields of ``config``/``prior_config``
+    ``preset``: ``"spec"``, ``"tuned"``, ``"general"``, a preset file or a
+    :class:`~ndrql.planning.preset.Preset`: each method runs with its own constants from it (from a
+    per-grid-size preset, those of the size nearest to the planning grid), and the fields of ``config``/``prior_config``
     that differ from their defaults win over the preset's (default ``None``: ``config`` and
     ``prior_config`` for every method, which by default are the paper-reproduction constants).
     """
@@ -90,7 +91,6 @@ def solve(
     seed_list = seeds_given(seeds)
     info = dict(info or {})
     preset_obj = None if preset is None else load_preset(preset)
-    consts = lambda name: method_configs(preset_obj, name, config, prior_config)  # noqa: E731
     if preset_obj is not None:
         info["preset"] = preset_obj.name
 
@@ -105,6 +105,8 @@ def solve(
         if pg.start == pg.goal:
             raise PointError(f"start and goal fall in the same planning cell {pg.start}; nothing to plan "
                              f"(use a finer grid with --size or points further apart)")
+    side = max(pg.blocked.shape)  # a per-grid-size preset takes the entry nearest to this grid
+    consts = lambda name: method_configs(preset_obj, name, config, prior_config, side)  # noqa: E731
     pred = Predicted()
     if any(m.needs_ndr for m in ms):
         pred, ms = predict_for(ms, predictions, weights, grid_map, pg, start, goal, settings, prior_config, clock, info)

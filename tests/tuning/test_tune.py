@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -305,7 +306,11 @@ def test_preset_overrides_and_method_configs():
 
 @pytest.mark.parametrize("data, message", [
     ([], "not an ndrql preset"),
-    ({"format": "ndrql-preset", "version": 2}, "preset version 2"),
+    ({"format": "ndrql-preset", "version": 3}, "preset version 3"),
+    ({"format": "ndrql-preset", "version": 2, "grids": {"big": {}}}, "'big' is not a grid size"),
+    ({"format": "ndrql-preset", "version": 2, "grids": {"50": []}}, "grids.50 must be a mapping"),
+    ({"format": "ndrql-preset", "version": 2, "grids": {"50": {"XQL": {}}}}, "unknown method 'XQL'"),
+    ({"format": "ndrql-preset", "version": 2, "grids": {"50": {"QL": {"ql": {"alpha": 7.0}}}}}, "grids.50.QL.ql: alpha"),
     ({"format": "ndrql-preset", "version": 1, "methods": {"XQL": {}}}, "unknown method 'XQL'"),
     ({"format": "ndrql-preset", "version": 1, "methods": {"QL": {"ql": {"max_episodes": 5}}}}, "cannot be set by a preset"),
     ({"format": "ndrql-preset", "version": 1, "methods": {"QL": {"ql": {"alpha": "x"}}}}, "expected a finite number"),
@@ -330,10 +335,53 @@ def test_load_preset_errors(tmp_path):
 def test_cli_preset_and_tune_errors(ndrql_exe, tmp_path):
     r = run_cli(ndrql_exe, "plan", "src/ndrql/data/sample_map.png", "--start", "25,179", "--goal", "167,5",
                 "--preset", "nope", cwd=REPO_ROOT)
-    assert r.returncode == 2 and r.stderr.strip() == ("ndrql: error: unknown preset 'nope': give spec, tuned or a "
-                                                      "preset JSON file")
+    assert r.returncode == 2 and r.stderr.strip() == ("ndrql: error: unknown preset 'nope': give spec, tuned, general "
+                                                      "or a preset JSON file")
     assert_one_line_error(run_cli(ndrql_exe, "tune"), "give --method NAME")
     assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QQL"), "unknown method 'QQL'")
     assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QL", "--trials", "0"), "--trials must be an integer")
+    assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QL", "--maps", "generated", "--grid", "3"),
+                          "--grid must be an integer")
+    assert_one_line_error(run_cli(ndrql_exe, "tune", "--export-preset", str(tmp_path / "g.json"), "--maps", "generated",
+                                  "--grids", "50,x"), "--grids must be grid sizes")
     r = run_cli(ndrql_exe, "tune", "--help")
     assert r.returncode == 0 and "ndrql tune --method NDR-QL" in r.stdout
+
+
+def test_per_grid_presets_take_the_nearest_size_on_a_log_scale(tmp_path):
+    """Version 2: constants per planning-grid size; a grid takes the nearest entry (log scale), a
+    method an entry lacks the next nearest entry's, then ``methods``, then ``default``."""
+    from ndrql.planning.preset import load_preset, nearest_grid
+
+    assert [nearest_grid([50, 100], n) for n in (20, 50, 70, 71, 100, 128, 400)] == [50, 50, 50, 100, 100, 100, 100]
+    data = {"format": "ndrql-preset", "version": 2, "name": "g",
+            "methods": {"QL": {"ql": {"alpha": 0.7}}},
+            "grids": {"100": {"IQL": {"ql": {"alpha": 0.2}}, "NDR-QL": {"priors": {"r_max": 9.0}}},
+                      "50": {"IQL": {"ql": {"alpha": 0.1}}}}}
+    p = preset_from_dict(data, "g.json")
+    assert p.configs("IQL", grid=50)[0].alpha == 0.1 and p.configs("IQL", grid=64)[0].alpha == 0.1
+    assert p.configs("IQL", grid=80)[0].alpha == 0.2 and p.configs("IQL", grid=200)[0].alpha == 0.2
+    assert p.configs("IQL")[0].alpha == 0.1  # grid unknown: the smallest size's entry
+    assert p.configs("NDR-QL", grid=50)[1].r_max == 9.0  # not at 50: the next nearest size that has it
+    assert p.configs("QL", grid=100)[0].alpha == 0.7  # in no grid entry: methods
+    assert p.configs("O-QL", grid=100) == (QLConfig(), PriorConfig())  # nowhere: default
+    assert method_configs(p, "IQL", QLConfig(epsilon=0.3), grid=100)[0] == QLConfig(alpha=0.2, epsilon=0.3)
+    again = preset_from_dict(preset_to_dict(p), "again")
+    assert again.grids == p.grids and preset_to_dict(p)["version"] == 2
+    assert preset_to_dict(replace(p, grids={}))["version"] == 1  # a preset without grids stays readable by older ndrql
+    assert p.only("IQL").configs("QL", grid=100)[0].alpha == 0.2  # the ablation: IQL's constants for every row, per grid
+    assert p.with_overrides(ql={"gamma": 0.9}).configs("IQL", grid=100)[0] == QLConfig(alpha=0.2, gamma=0.9)
+    write_preset(tmp_path / "g.json", p)
+    assert load_preset(tmp_path / "g.json").configs("IQL", grid=128)[0].alpha == 0.2
+    with pytest.raises(PresetError, match="unknown preset 'nope': give spec, tuned, general or"):
+        load_preset("nope")
+
+
+def test_plan_default_preset_follows_the_weights():
+    """``plan`` without ``--preset`` takes the constants searched for its weights when they won their check."""
+    from ndrql.planning.preset import load_preset, plan_default_preset
+
+    tuned, general = (builtin_path(n).is_file() and load_preset(n).plan_default for n in ("tuned", "general"))
+    assert plan_default_preset("paper") == ("tuned" if tuned else "spec")
+    for w in (None, "general", "my.pt"):
+        assert plan_default_preset(w) == ("general" if general else "tuned" if tuned else "spec")

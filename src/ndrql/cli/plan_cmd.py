@@ -117,9 +117,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
                    "(one panel per method with --compare)")
     add_dpi_argument(p)
-    p.add_argument("--preset", metavar="NAME", help="constants per method: spec (the paper's), tuned (searched on "
-                   "validation maps with ndrql tune) or a preset FILE; the flags below override its values "
-                   "(default: tuned when it won on the validation maps, else spec)")
+    p.add_argument("--preset", metavar="NAME", help="constants per method: spec (the paper's), tuned (searched with "
+                   "ndrql tune for the paper weights on the paper's 50x50 grids), general (searched for the general "
+                   "weights on generated maps, per grid size) or a preset FILE; the flags below override its values "
+                   "(default: the one searched for --weights, general unless --weights paper)")
     add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors, paper Eqs. 2-7 (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
     p.set_defaults(func=run)
@@ -129,7 +130,7 @@ def _preset(args: argparse.Namespace):
     """``--preset`` (default: :func:`ndrql.planning.preset.plan_default_preset`) with explicit flags on top."""
     ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
     pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
-    return load_preset(args.preset or plan_default_preset()).with_overrides(ql, pri)
+    return load_preset(args.preset or plan_default_preset(args.weights)).with_overrides(ql, pri)
 
 
 def _configs(args: argparse.Namespace):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from ndrql.cli.common import add_weights_argument, check_outputs
 from ndrql.cli.options import add_command
@@ -13,20 +14,25 @@ from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.methods import get_method
-from ndrql.planning.preset import write_preset
+from ndrql.planning.preset import Preset, write_preset
 from ndrql.tuning.objective import tuning_problems
 from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
-from ndrql.tuning.study import TuneConfig, best_trial, default_storage, finished, open_storage, run_study, study_name
+from ndrql.tuning.study import TuneConfig, base_score, best_trial, default_storage, finished, open_storage, run_study, study_name
 from ndrql.workers import process_pool
 
 EXAMPLES = """examples:
   ndrql tune --method NDR-QL                          # 200 trials, 100 validation maps x 10 seeds -> results/tune/
+  ndrql tune --method NDR-QL --maps generated --grid 100 --weights general   # held-out generated maps, 100x100 grids
   ndrql tune --method QL --trials 20 --samples 10     # a small search
   ndrql tune --method IQL --storage sqlite:////shared/studies.db   # several processes or machines, one study
   ndrql tune --export-preset tuned.json --methods QL,O-QL,IQL,NDR-QL   # best trials -> a preset file
+  ndrql tune --export-preset general.json --maps generated --grids 50,100 --weights general   # one entry per grid
 
-Only the TRAIN maps the shipped model did not train on (its validation split) are used; TEST is
-never read. A killed search continues where it stopped when run again with the same settings.
+--maps paper (default): only the TRAIN maps the shipped model did not train on (its validation
+split) are used; TEST is never read. --maps generated: the versioned evaluation set 'tune' of
+generated maps of every family (a seed no training set and no reported set uses), on the safe grid
+of --grid cells, problems taken family by family in turn; the objective is then the geometric mean
+of the steps (every map weighs alike) unless --objective says otherwise. A killed search continues where it stopped when run again with the same settings.
 Use the result with --preset FILE on plan, demo and reproduce.
 """
 
@@ -38,6 +44,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the spec "
                    "preset's point included (default: 200)")
     p.add_argument("--samples", type=int, default=100, metavar="K", help="validation maps per evaluation (default: 100)")
+    p.add_argument("--maps", choices=("paper", "generated"), default="paper",
+                   help="paper: the model's validation split of the paper's TRAIN maps on 50x50 grids (default); "
+                   "generated: the held-out generated set 'tune' on the safe grid of --grid cells")
+    p.add_argument("--grid", type=int, default=50, metavar="N", help="--maps generated: planning grid size (default: 50)")
+    p.add_argument("--grids", metavar="LIST", default="50,100",
+                   help="--maps generated with --export-preset: the grid sizes whose studies the preset collects, "
+                   "one entry each (default: 50,100)")
+    p.add_argument("--objective", choices=("pooled", "geomean"),
+                   help="minimise the pooled mean of the steps or their geometric mean (default: pooled with "
+                   "--maps paper, geomean with --maps generated)")
     p.add_argument("--seeds", type=int, default=10, metavar="S", help="Q-learning seeds per map, 0..S-1 (default: 10)")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the TPE sampler (default: 0)")
     p.add_argument("--order-seed", type=int, default=0, metavar="N",
@@ -68,8 +84,45 @@ def _tune_config(args: argparse.Namespace, method: str):
     check_int(args.order_seed, "--order-seed", 0, SEED_LIMIT - 1)
     check_int(args.max_episodes, "--max-episodes", 1, 1_000_000)
     check_int(args.chunk, "--chunk", 1, 12_000)
+    objective = args.objective or ("geomean" if args.maps == "generated" else "pooled")
     return TuneConfig(method, trials=args.trials, samples=args.samples, seeds=args.seeds, seed=args.seed,
-                      order_seed=args.order_seed, chunk=args.chunk, max_episodes=args.max_episodes)
+                      order_seed=args.order_seed, chunk=args.chunk, max_episodes=args.max_episodes, objective=objective)
+
+
+def _grids(args: argparse.Namespace) -> list[int]:
+    """The grid sizes this call works on: ``--grids`` when exporting generated-map studies, else ``--grid``."""
+    if args.maps != "generated":
+        return [50]
+    if not args.export_preset:
+        check_int(args.grid, "--grid", 8, 512)
+        return [args.grid]
+    try:
+        sizes = [int(x) for x in args.grids.split(",") if x.strip()]
+    except ValueError:
+        raise NdrqlError(f"--grids must be grid sizes separated by commas, got {args.grids!r}") from None
+    if not sizes:
+        raise NdrqlError("--grids is empty")
+    for n in sizes:
+        check_int(n, "--grids", 8, 512)
+    return sorted(set(sizes))
+
+
+def _problems(args: argparse.Namespace, n: int, log) -> tuple[list, str]:
+    """The search's problems on grid ``n`` and the weights' digest (``--maps``)."""
+    if args.maps == "generated":
+        from ndrql.experiments.tune_maps import TUNE_SET, generated_problems  # lazy: loads the model stack
+
+        problems, skipped, digest = generated_problems(args.samples, n, args.weights, progress=not args.no_progress)
+        log(f"generated maps: {len(problems)} problems of set {TUNE_SET!r} on the safe grid of {n} cells (or the "
+            f"next ladder size), family by family ({len(skipped)} maps disconnected on every size); "
+            f"seeds 0..{args.seeds - 1}")
+        return problems, digest
+    root = resolve_root(args.data)
+    problems, skipped, digest = tuning_problems(root, args.samples, args.order_seed, args.weights,
+                                                progress=not args.no_progress)
+    log(f"validation maps: {len(problems)} TRAIN samples of the model's validation split "
+        f"({len(skipped)} skipped as disconnected on the planning grid); seeds 0..{args.seeds - 1}")
+    return problems, digest
 
 
 def _need_optuna() -> None:
@@ -88,20 +141,19 @@ def run(args: argparse.Namespace) -> int:
     if not methods:
         raise NdrqlError("--methods is empty")
     cfgs = [_tune_config(args, m) for m in methods]
+    grids = _grids(args)
     if args.export_preset:
         check_outputs(args.export_preset)
     _need_optuna()
-    root = resolve_root(args.data)
-
     storage = args.storage or default_storage(args.out)
-    problems, skipped, digest = tuning_problems(root, args.samples, args.order_seed, args.weights,
-                                                progress=not args.no_progress)
     log = lambda msg: print(msg, file=sys.stderr)  # noqa: E731
-    log(f"validation maps: {len(problems)} TRAIN samples of the model's validation split "
-        f"({len(skipped)} skipped as disconnected on the planning grid); seeds 0..{args.seeds - 1}")
     if args.export_preset:
+        if args.maps == "generated":
+            return _export_grids(args, cfgs, grids, storage, log)
+        problems, digest = _problems(args, 50, log)
         return _export(args, cfgs, problems, storage, digest, log)
 
+    problems, digest = _problems(args, grids[0], log)
     cfg = cfgs[0]
     study = run_study(cfg, problems, storage, digest, workers=args.workers, progress=not args.no_progress,
                       name=args.study_name)
@@ -109,9 +161,10 @@ def run(args: argparse.Namespace) -> int:
     bt = best_trial(study)
     base = study.user_attrs["baseline"]
     print(f"{cfg.method}: study {study.study_name} in {storage}")
-    print(f"spec preset: {base['steps']:,.0f} steps per run, greedy path / A* {base['ratio']:.3f}")
+    what = "steps per run" if cfg.objective == "pooled" else "steps per run (geometric mean)"
+    print(f"spec preset: {base_score(base, cfg):,.0f} {what}, greedy path / A* {base['ratio']:.3f}")
     if bt is not None:
-        print(f"best trial {bt.number}: {bt.value:,.0f} steps ({1 - bt.value / base['steps']:.0%} fewer), "
+        print(f"best trial {bt.number}: {bt.value:,.0f} {what} ({1 - bt.value / base_score(base, cfg):.0%} fewer), "
               f"greedy path / A* {bt.user_attrs.get('ratio', float('nan')):.3f}")
         print("constants: " + ", ".join(f"{k} {v:.4g}" for k, v in bt.params.items()))
     print(f"wrote {folder}/best.json, trials.json, history.png, importance.png")
@@ -119,6 +172,33 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _export(args, cfgs, problems, storage, digest, log) -> int:
+    settings, check, meta = _collect(args, cfgs, problems, storage, digest, log)
+    preset = tuned_preset(settings, check, meta)
+    path = write_preset(args.export_preset, preset)
+    print(f"wrote {path} (plan default: {'tuned' if preset.plan_default else 'spec'})")
+    return 0
+
+
+def _export_grids(args, cfgs, grids, storage, log) -> int:
+    """A preset with one entry per grid size, each from that grid's studies (``--maps generated``)."""
+    entries, metas, wins = {}, {}, []
+    for n in grids:
+        problems, digest = _problems(args, n, log)
+        settings, check, meta = _collect(args, cfgs, problems, storage, digest, log)
+        entry = tuned_preset(settings, check, meta)
+        entries[n], metas[str(n)] = dict(entry.methods), dict(entry.meta)
+        wins.append(entry.plan_default)
+    name = Path(args.export_preset).stem
+    preset = Preset(name=name, grids=entries, plan_default=all(wins),
+                    meta={"maps": "generated", "objective": cfgs[0].objective, "grids": metas})
+    path = write_preset(args.export_preset, preset)
+    print(f"wrote {path} (grids {', '.join(map(str, grids))}; plan default for its weights: "
+          f"{'yes' if preset.plan_default else 'no'})")
+    return 0
+
+
+def _collect(args, cfgs, problems, storage, digest, log):
+    """Each method's best trial on ``problems``, its check against spec on fresh seeds, and the provenance."""
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -140,17 +220,15 @@ def _export(args, cfgs, problems, storage, digest, log) -> int:
 
     kernel.warm_up()
     with process_pool(args.workers, start_method="fork") as pool:
-        check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool)
+        check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool, cfg.objective)
+    key = "geomean" if cfg.objective == "geomean" else "steps"
     for m, c in check.items():
-        log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: spec {c['spec']['steps']:,.0f} steps "
-            f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned']['steps']:,.0f} ({c['tuned']['ratio']:.3f}, "
+        log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: spec {c['spec'][key]:,.0f} steps "
+            f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned'][key]:,.0f} ({c['tuned']['ratio']:.3f}, "
             f"paired difference {c['ratio_difference']['mean']:+.4f} +- {c['ratio_difference']['se']:.4f}); "
             f"{'tuned wins' if c['tuned_wins'] else 'tuned does not win'}")
     meta = {"search": {"samples": len(problems), "seeds": cfg.seed_list, "trials": cfg.trials,
                        "max_episodes": cfg.max_episodes, "sampler_seed": cfg.seed, "order_seed": cfg.order_seed,
-                       "weights_sha256_16": digest, "problems": [p.key for p in problems]},
+                       "weights_sha256_16": digest, "problems": [p.key for p in problems], "objective": cfg.objective},
             "studies": studies, "check_seeds": check_seeds}
-    preset = tuned_preset(settings, check, meta)
-    path = write_preset(args.export_preset, preset)
-    print(f"wrote {path} (plan default: {'tuned' if preset.plan_default else 'spec'})")
-    return 0
+    return settings, check, meta

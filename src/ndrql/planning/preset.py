@@ -8,8 +8,11 @@ values that differ from the frozen configs' defaults (:class:`~ndrql.planning.co
 - ``spec``: the paper-reproduction constants (alpha 0.1, epsilon 0.2, gamma 0.95; r_max 5, G 10,
   omega 0.5, mask -10, threshold from 0.99 in steps of 0.01) for every method; the reproduction
   commands use it by default.
-- ``tuned``: each method's constants from a hyper-parameter search on held-out training maps
-  (``ndrql tune``), with the search's budget and a check on fresh seeds recorded beside them.
+- ``tuned``: each method's constants from a hyper-parameter search on held-out training maps of the
+  paper's dataset and its 50x50 grids, for the ``paper`` weights (``ndrql tune``), with the search's
+  budget and a check on fresh seeds recorded beside them.
+- ``general``: the same search for the ``general`` weights on held-out generated maps of every family,
+  once per planning-grid size (``ndrql tune --maps generated --grid N``): a ``grids`` entry per size.
 
 A preset file looks like (every constant of :data:`PRESET_FIELDS` is written out; a missing one
 takes the config's default)::
@@ -20,7 +23,11 @@ takes the config's default)::
      "fallback": "NDR-QL", "plan_default": true, "meta": {...}}
 
 A method missing from ``methods`` uses the entry named by ``fallback`` (when given), else
-``default``. Only the search's constants may appear (:data:`PRESET_FIELDS`); anything else is a
+``default``. Version 2 adds an optional ``"grids": {"50": {"NDR-QL": {...}, ...}, "100": {...}}``:
+constants per planning-grid size. A problem on a grid of ``n`` cells takes the entry whose size is
+nearest to ``n`` on a log scale (:func:`nearest_grid`: with entries 50 and 100, grids up to 70 take
+50's, larger ones 100's); a method that entry does not list takes the next nearest entry that lists
+it, a run whose grid is unknown the smallest size's; a method no entry lists falls back to ``methods``. Only the search's constants may appear (:data:`PRESET_FIELDS`); anything else is a
 :class:`PresetError`. Explicit flags or arguments override a preset's values.
 
 Layering: depends on :mod:`ndrql.planning.config`, :mod:`ndrql.planning.methods` and
@@ -43,15 +50,20 @@ from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import get_method
 
 FORMAT = "ndrql-preset"
-#: Version of the preset file format this module reads and writes.
-VERSION = 1
+#: Version of the preset file format this module writes (it reads 1 and 2; 2 added ``grids``).
+VERSION = 2
+READS = (1, 2)
 #: Presets shipped with the package, by name.
-BUILTIN = ("spec", "tuned")
+BUILTIN = ("spec", "tuned", "general")
 #: The constants a preset may set, per config: what the search explores and nothing else.
 PRESET_FIELDS: dict[str, tuple[str, ...]] = {
     "ql": ("alpha", "epsilon", "gamma"),
     "priors": ("r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step"),
 }
+
+
+#: Key of a ``grids`` entry that holds one setting for every method (in memory only: :meth:`Preset.only`).
+ANY = "*"
 
 
 class PresetError(NdrqlError):
@@ -90,13 +102,25 @@ class Preset:
     """Provenance: search budget, study, validation check (free-form, JSON)."""
     source: str = ""
     """Where it was read from."""
+    grids: Mapping[int, Mapping[str, MethodSetting]] = field(default_factory=dict)
+    """Constants per planning-grid size (cells per side), then per method (module docstring)."""
 
-    def setting(self, method: str) -> MethodSetting:
-        """The constants of ``method`` (its entry, else the fallback entry, else ``default``)."""
+    def setting(self, method: str, grid: int | None = None) -> MethodSetting:
+        """The constants of ``method`` on a grid of ``grid`` cells per side (``None``: unknown): the entry
+        of :attr:`grids` nearest in size that lists it (unknown grid: the smallest size's), else its entry
+        in :attr:`methods`, else the fallback entry, else ``default``."""
         try:
             name = get_method(method).name
         except NdrqlError:  # a table's own row (e.g. Table 2's D-C+N-C) is not a registry method
             name = method
+        if self.grids:
+            sizes = sorted(self.grids)
+            if grid is not None:
+                sizes.sort(key=lambda n: (abs(math.log(max(grid, 1) / n)), n))
+            for size in sizes:
+                entry = self.grids[size]
+                if name in entry or ANY in entry:  # ANY: an ablation's one setting for every row (:meth:`only`)
+                    return entry.get(name, entry.get(ANY))
         if name in self.methods:
             return self.methods[name]
         if self.fallback is not None:
@@ -104,9 +128,9 @@ class Preset:
         return self.default
 
     def configs(self, method: str, ql: Mapping[str, Any] | None = None,
-                priors: Mapping[str, Any] | None = None) -> tuple[QLConfig, PriorConfig]:
-        """``(QLConfig, PriorConfig)`` of ``method``, with explicit ``ql``/``priors`` values on top."""
-        s = self.setting(method)
+                priors: Mapping[str, Any] | None = None, grid: int | None = None) -> tuple[QLConfig, PriorConfig]:
+        """``(QLConfig, PriorConfig)`` of ``method`` (on a grid of ``grid`` cells), explicit ``ql``/``priors`` on top."""
+        s = self.setting(method, grid)
         try:
             return replace(s.ql, **dict(ql or {})), replace(s.priors, **dict(priors or {}))
         except ValueError as exc:
@@ -120,18 +144,29 @@ class Preset:
             def over(s: MethodSetting) -> MethodSetting:
                 return MethodSetting(replace(s.ql, **dict(ql or {})), replace(s.priors, **dict(priors or {})))
 
-            return replace(self, default=over(self.default), methods={m: over(s) for m, s in self.methods.items()})
+            return replace(self, default=over(self.default), methods={m: over(s) for m, s in self.methods.items()},
+                           grids={n: {m: over(s) for m, s in e.items()} for n, e in self.grids.items()})
         except ValueError as exc:
             raise NdrqlError(f"bad option: {exc}") from None
 
     def only(self, method: str) -> "Preset":
         """This preset with ``method``'s constants for every method (an ablation at fixed constants)."""
-        return replace(self, default=self.setting(method), methods={}, fallback=None)
+        grids = {n: {ANY: e[get_method(method).name]} for n, e in self.grids.items() if get_method(method).name in e}
+        return replace(self, default=self.setting(method), methods={}, fallback=None, grids=grids)
 
     def describe(self) -> str:
         """One line: name, where from, and how many methods it sets."""
-        listed = ", ".join(self.methods) or "every method alike"
-        return f"preset {self.name} ({listed})"
+        listed = ", ".join(dict.fromkeys([*self.methods, *(m for e in self.grids.values() for m in e)])) or \
+            "every method alike"
+        per_grid = f"; per grid size {', '.join(map(str, sorted(self.grids)))}" if self.grids else ""
+        return f"preset {self.name} ({listed}{per_grid})"
+
+
+def nearest_grid(sizes: "list[int] | tuple[int, ...]", n: int) -> int:
+    """The size in ``sizes`` nearest to ``n`` on a log scale (a tie goes to the smaller size)."""
+    if n < 1:
+        raise NdrqlError(f"grid size must be >= 1, got {n}")
+    return min(sorted(sizes), key=lambda s: abs(math.log(n / s)))
 
 
 def _setting(obj: Any, where: str) -> MethodSetting:
@@ -163,8 +198,9 @@ def preset_from_dict(data: Any, source: str = "") -> Preset:
     where = source or "preset"
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise PresetError(f"{where}: not an ndrql preset (expected \"format\": \"{FORMAT}\")")
-    if data.get("version") != VERSION:
-        raise PresetError(f"{where}: preset version {brief(data.get('version'))}; this ndrql reads version {VERSION}")
+    if data.get("version") not in READS:
+        raise PresetError(f"{where}: preset version {brief(data.get('version'))}; this ndrql reads versions "
+                          f"{', '.join(map(str, READS))}")
     name = data.get("name", Path(source).stem if source else "preset")
     if not isinstance(name, str) or not name:
         raise PresetError(f"{where}: 'name' must be a non-empty string")
@@ -172,13 +208,17 @@ def preset_from_dict(data: Any, source: str = "") -> Preset:
     if not isinstance(methods_in, dict):
         raise PresetError(f"{where}: 'methods' must be a mapping of method name to constants")
 
-    methods = {}
-    for key, val in methods_in.items():
-        try:
-            m = get_method(key).name
-        except NdrqlError as exc:
-            raise PresetError(f"{where}: {exc}") from None
-        methods[m] = _setting(val, f"{where}: methods.{m}")
+    methods = _method_settings(methods_in, f"{where}: methods")
+    grids_in = data.get("grids", {}) if data.get("version") >= 2 else {}
+    if not isinstance(grids_in, dict):
+        raise PresetError(f"{where}: 'grids' must be a mapping of grid size to methods")
+    grids = {}
+    for key, val in grids_in.items():
+        if not (isinstance(key, str) and key.isdigit() and int(key) >= 1):
+            raise PresetError(f"{where}: grids: {brief(key)} is not a grid size (cells per side, e.g. \"50\")")
+        if not isinstance(val, dict):
+            raise PresetError(f"{where}: grids.{key} must be a mapping of method name to constants")
+        grids[int(key)] = _method_settings(val, f"{where}: grids.{key}")
     fallback = data.get("fallback")
     if fallback is not None and fallback not in methods:
         raise PresetError(f"{where}: fallback {brief(fallback)} is not one of the preset's methods")
@@ -188,14 +228,27 @@ def preset_from_dict(data: Any, source: str = "") -> Preset:
     meta = data.get("meta", {})
     return Preset(name=name, default=_setting(data.get("default", {}), f"{where}: default"), methods=methods,
                   fallback=fallback, plan_default=plan_default, meta=meta if isinstance(meta, dict) else {},
-                  source=source)
+                  source=source, grids=grids)
+
+
+def _method_settings(obj: dict, where: str) -> dict[str, MethodSetting]:
+    out = {}
+    for key, val in obj.items():
+        try:
+            m = get_method(key).name
+        except NdrqlError as exc:
+            raise PresetError(f"{where}: {exc}") from None
+        out[m] = _setting(val, f"{where}.{m}")
+    return out
 
 
 def preset_to_dict(p: Preset) -> dict[str, Any]:
-    """The JSON form of ``p`` (what :func:`preset_from_dict` reads)."""
-    return {"format": FORMAT, "version": VERSION, "name": p.name, "default": p.default.values(),
-            "methods": {m: s.values() for m, s in p.methods.items()}, "fallback": p.fallback,
-            "plan_default": p.plan_default, "meta": dict(p.meta)}
+    """The JSON form of ``p`` (what :func:`preset_from_dict` reads; version 1 when it has no ``grids``)."""
+    out = {"format": FORMAT, "version": VERSION if p.grids else 1, "name": p.name, "default": p.default.values(),
+           "methods": {m: s.values() for m, s in p.methods.items()}}
+    if p.grids:
+        out["grids"] = {str(n): {m: s.values() for m, s in e.items()} for n, e in sorted(p.grids.items())}
+    return {**out, "fallback": p.fallback, "plan_default": p.plan_default, "meta": dict(p.meta)}
 
 
 def write_preset(path: str | os.PathLike, p: Preset) -> Path:
@@ -204,12 +257,12 @@ def write_preset(path: str | os.PathLike, p: Preset) -> Path:
 
 
 def builtin_path(name: str) -> Path:
-    """File of a shipped preset (``spec`` or ``tuned``)."""
+    """File of a shipped preset (:data:`BUILTIN`)."""
     return Path(str(resources.files("ndrql.planning").joinpath("presets", f"{name}.json")))
 
 
 def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Preset:
-    """``spec``, ``tuned``, a preset file, or a :class:`Preset` as is; ``None`` gives ``spec``.
+    """``spec``, ``tuned``, ``general``, a preset file, or a :class:`Preset` as is; ``None`` gives ``spec``.
 
     A name that is neither a shipped preset nor an existing file raises :class:`PresetError`.
     """
@@ -221,7 +274,7 @@ def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Prese
     else:
         path = Path(key)
         if not path.is_file():
-            raise PresetError(f"unknown preset {brief(key)}: give spec, tuned or a preset JSON file")
+            raise PresetError(f"unknown preset {brief(key)}: give {', '.join(BUILTIN)} or a preset JSON file")
     try:
         text = path.read_text(encoding="utf-8")
         data = json.loads(text)
@@ -232,17 +285,22 @@ def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Prese
     return preset_from_dict(data, source=str(path) if key not in BUILTIN else key)
 
 
-def plan_default_preset() -> str:
-    """The preset ``ndrql plan`` uses without ``--preset``: ``tuned`` if it won on validation maps, else ``spec``."""
-    if not builtin_path("tuned").is_file():
-        return "spec"
-    return "tuned" if load_preset("tuned").plan_default else "spec"
+def plan_default_preset(weights: str | os.PathLike | None = None) -> str:
+    """The preset ``ndrql plan`` uses without ``--preset``: the one searched for its weights (``tuned``
+    for ``paper``; ``general`` for ``general``, the default, or a weights file) when that search's
+    constants won their check on fresh seeds (``plan_default``), else ``tuned`` if its did, else ``spec``."""
+    first = "tuned" if weights is not None and os.fspath(weights) == "paper" else "general"
+    for name in dict.fromkeys((first, "tuned")):
+        if builtin_path(name).is_file() and load_preset(name).plan_default:
+            return name
+    return "spec"
 
 
 def method_configs(preset: Preset | None, method: str, ql: QLConfig = QLConfig(),
-                   priors: PriorConfig = PriorConfig()) -> tuple[QLConfig, PriorConfig]:
+                   priors: PriorConfig = PriorConfig(), grid: int | None = None) -> tuple[QLConfig, PriorConfig]:
     """Constants of ``method``: ``ql``/``priors`` without a preset; with one, its entry for the
-    method, on which the fields of ``ql``/``priors`` that differ from the defaults win (the API's rule)."""
+    method (on a grid of ``grid`` cells per side, :meth:`Preset.setting`), on which the fields of
+    ``ql``/``priors`` that differ from the defaults win (the API's rule)."""
     if preset is None:
         return ql, priors
     from dataclasses import fields
@@ -250,7 +308,7 @@ def method_configs(preset: Preset | None, method: str, ql: QLConfig = QLConfig()
     q_over = {f.name: getattr(ql, f.name) for f in fields(QLConfig) if getattr(ql, f.name) != getattr(QLConfig(), f.name)}
     p_over = {f.name: getattr(priors, f.name) for f in fields(PriorConfig)
               if getattr(priors, f.name) != getattr(PriorConfig(), f.name)}
-    return preset.configs(method, q_over, p_over)
+    return preset.configs(method, q_over, p_over, grid)
 
 
 def spec_preset() -> Preset:
@@ -264,6 +322,6 @@ def configs_dict(ql: QLConfig, priors: PriorConfig) -> dict[str, dict[str, Any]]
             "priors": {k: getattr(priors, k) for k in PRESET_FIELDS["priors"]}}
 
 
-__all__ = ["BUILTIN", "FORMAT", "MethodSetting", "PRESET_FIELDS", "Preset", "PresetError", "VERSION", "builtin_path",
+__all__ = ["ANY", "BUILTIN", "READS", "nearest_grid", "FORMAT", "MethodSetting", "PRESET_FIELDS", "Preset", "PresetError", "VERSION", "builtin_path",
            "configs_dict", "load_preset", "method_configs", "plan_default_preset", "preset_from_dict", "preset_to_dict", "spec_preset",
            "write_preset"]

@@ -25,7 +25,7 @@ from ndrql.planning.preset import MethodSetting, Preset, configs_dict
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
 from ndrql.tuning.objective import Evaluation, evaluate
-from ndrql.tuning.study import TuneConfig, best_trial
+from ndrql.tuning.study import TuneConfig, base_score, best_trial, objective_label
 
 
 def trial_rows(study: Any) -> list[dict[str, Any]]:
@@ -61,7 +61,8 @@ def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Pat
         "best_trial": None if bt is None else {"number": bt.number, "value": bt.value, "params": bt.params,
                                                 "user_attrs": dict(bt.user_attrs)},
         "best_constants": configs_dict(setting.ql, setting.priors),
-        "improvement_over_spec": None if bt is None or not base else 1.0 - bt.value / base["steps"],
+        "objective": cfg.objective,
+        "improvement_over_spec": None if bt is None or not base else 1.0 - bt.value / base_score(base, cfg),
         "trials": {s.name: sum(1 for x in states if x == s) for s in TrialState},
     }, strict=False)
     write_json(folder / "trials.json", trial_rows(study), indent=None, strict=False)
@@ -69,13 +70,13 @@ def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Pat
         warnings.simplefilter("ignore")  # Optuna marks its matplotlib plots "experimental"
         from optuna.visualization.matplotlib import plot_optimization_history, plot_param_importances
 
-        ax = plot_optimization_history(study, target_name="pooled convergence steps")
+        ax = plot_optimization_history(study, target_name=objective_label(cfg))
         ax.set_title("", loc="left")  # Optuna's own title
         ax.set_title(f"{cfg.method}: optimisation history ({len(states)} trials; grey: infeasible)")
         ax.set_yscale("log")
         save_figure(ax.figure, folder / "history.png", dpi=110, bbox_inches="tight")
         if len(S.search_space(cfg.method)) > 1 and sum(1 for s in states if s == TrialState.COMPLETE) > 2:
-            ax = plot_param_importances(study, target_name="pooled convergence steps")
+            ax = plot_param_importances(study, target_name=objective_label(cfg))
             ax.set_title("", loc="left")
             ax.set_title(f"{cfg.method}: parameter importance")
             save_figure(ax.figure, folder / "importance.png", dpi=110, bbox_inches="tight")
@@ -97,10 +98,11 @@ def paired_ratio_difference(spec: Evaluation, tuned: Evaluation) -> tuple[float,
 
 
 def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings: dict[str, MethodSetting],
-                  seeds: Sequence[int], pool: Any = None) -> dict[str, dict[str, Any]]:
+                  seeds: Sequence[int], pool: Any = None, objective: str = "pooled") -> dict[str, dict[str, Any]]:
     """SPEC vs tuned constants per method on ``problems`` x ``seeds`` (full SPEC episode budget).
 
-    The tuned constants win when they take fewer pooled steps, leave no more runs unconverged, and
+    The tuned constants win when they take fewer steps (by the search's ``objective``: pooled, or
+    their geometric mean), leave no more runs unconverged, and
     their greedy path / A* is not significantly worse: the paired mean difference (same map and
     seed) is at most 1.96 standard errors above 0. (Read strictly, "no worse" would reject a set of
     constants for a difference far inside the seed noise and keep a weaker baseline.)
@@ -112,9 +114,10 @@ def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings:
         tuned_ev, _ = evaluate(problems, m, seeds, s.ql, s.priors, pool=pool)
         a, b = spec_ev.summary(), tuned_ev.summary()
         diff, se, pairs = paired_ratio_difference(spec_ev, tuned_ev)
-        wins = (b["steps"] < a["steps"] and b["not_converged"] <= a["not_converged"]
+        key = "geomean" if objective == "geomean" else "steps"
+        wins = (b[key] < a[key] and b["not_converged"] <= a["not_converged"]
                 and (pairs == 0 or diff <= 1.96 * se))
-        out[m] = {"spec": a, "tuned": b, "improvement": 1.0 - b["steps"] / a["steps"],
+        out[m] = {"spec": a, "tuned": b, "improvement": 1.0 - b[key] / a[key], "objective": objective,
                   "ratio_difference": {"mean": diff, "se": se, "pairs": pairs}, "tuned_wins": bool(wins)}
     return out
 

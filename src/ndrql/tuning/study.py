@@ -9,7 +9,8 @@
   URL (Optuna's distributed mode); the trials then depend on timing.
 - **Budget**: ``trials`` finished trials per study (completed or pruned), the SPEC point included
   as trial 0, the same for every method.
-- **Objective**: pooled convergence steps (:mod:`ndrql.tuning.objective`), minimised, under two
+- **Objective**: pooled convergence steps, or their geometric mean (``objective``; for maps of many
+  sizes and families, :mod:`ndrql.tuning.objective`), minimised, under two
   constraints (Optuna's constrained TPE): the mean greedy path / A* is no worse than with the SPEC
   constants, and no more runs fail to converge than with them. During a search a run may take at
   most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not converge within
@@ -41,6 +42,10 @@ from ndrql.pipeline.samples import Problem
 from ndrql.planning.methods import get_method
 from ndrql.tuning.objective import Evaluation, evaluate
 from ndrql.workers import process_pool
+
+
+#: What a search may minimise (:meth:`ndrql.tuning.objective.Evaluation.score`).
+OBJECTIVES = ("pooled", "geomean")
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,8 @@ class TuneConfig:
     """Seconds between a running trial's heartbeats (SQL storages)."""
     grace: int = 120
     """A running trial without a heartbeat for this long is failed and retried."""
+    objective: str = "pooled"
+    """What is minimised: ``pooled`` steps (the paper's measure) or their ``geomean`` (every map alike)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "method", get_method(self.method).name)
@@ -85,6 +92,8 @@ class TuneConfig:
                 raise NdrqlError(f"{name.replace('_', '-')} must be an integer >= {low}, got {v!r}")
         if not (self.prune_factor >= 1.0 and self.ratio_margin >= 0.0):
             raise NdrqlError("prune_factor must be >= 1 and ratio_margin >= 0")
+        if self.objective not in OBJECTIVES:
+            raise NdrqlError(f"objective must be one of {', '.join(OBJECTIVES)}, got {self.objective!r}")
         if self.grace <= self.heartbeat:
             raise NdrqlError("the grace period must be longer than the heartbeat interval")
 
@@ -99,8 +108,11 @@ class TuneConfig:
 
 def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str | None) -> str:
     """``<method>-<digest>``: the digest covers everything that defines the objective."""
-    blob = json.dumps([S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
-                       cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest], sort_keys=True)
+    parts = [S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
+             cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest]
+    if cfg.objective != "pooled":  # names of the studies searched before the objective could change stay valid
+        parts.append(cfg.objective)
+    blob = json.dumps(parts, sort_keys=True)
     return f"{cfg.method}-{data_digest(blob)[:10]}"
 
 
@@ -216,7 +228,7 @@ def _add_spec_trial(study: Any, cfg: TuneConfig, ev: Evaluation, running: list[f
     ql, pc = cfg.base_configs()
     params = S.params_of(cfg.method, ql, pc)
     attrs = {"spec": True, **{k: v for k, v in ev.summary().items()}, "c_ratio": 0.0, "c_not_converged": 0.0}
-    kw: dict[str, Any] = {"params": params, "distributions": S.distributions(cfg.method), "value": ev.steps,
+    kw: dict[str, Any] = {"params": params, "distributions": S.distributions(cfg.method), "value": ev.score(cfg.objective),
                           "user_attrs": attrs, "intermediate_values": dict(enumerate(running))}
     if _has_set_constraint():
         kw["constraints"] = {"c_ratio": 0.0, "c_not_converged": 0.0}
@@ -235,7 +247,7 @@ def baseline(study: Any, cfg: TuneConfig, problems: Sequence[Problem], pool: Any
     ratios: list[float] = []
 
     def record(_i: int, ev: Evaluation) -> bool:
-        steps.append(ev.steps)
+        steps.append(ev.score(cfg.objective))
         ratios.append(ev.ratio)
         return False
 
@@ -263,10 +275,10 @@ def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str,
         base_ratio = base.get("running_ratio", [])
 
         def after_chunk(i: int, ev: Evaluation) -> bool:
-            trial.report(ev.steps, i)
+            trial.report(ev.score(cfg.objective), i)
             if i + 1 < cfg.prune_warmup:
                 return False
-            if i in ref and ev.steps > cfg.prune_factor * ref[i]:
+            if i in ref and ev.score(cfg.objective) > cfg.prune_factor * ref[i]:
                 reason.append(f"steps over {cfg.prune_factor} x the best feasible trial's ({best.number}) after "
                               f"{i + 1} chunks")
                 return True
@@ -289,9 +301,19 @@ def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str,
         if stopped:
             trial.set_user_attr("pruned_because", reason[0])
             raise optuna.TrialPruned(reason[0])
-        return ev.steps
+        return ev.score(cfg.objective)
 
     return objective
+
+
+def base_score(base: dict[str, Any], cfg: TuneConfig) -> float:
+    """The SPEC point's value of the search's objective (an old baseline without a geomean: its pooled steps)."""
+    return float(base.get("geomean", base["steps"]) if cfg.objective == "geomean" else base["steps"])
+
+
+def objective_label(cfg: TuneConfig) -> str:
+    """The objective in words, for plots and reports."""
+    return "geometric mean of convergence steps" if cfg.objective == "geomean" else "pooled convergence steps"
 
 
 def best_trial(study: Any) -> Any:
@@ -331,7 +353,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
             bt = best_trial(st)
             bar.n = min(finished(st), cfg.trials)
             if bt is not None:
-                bar.set_postfix_str(f"best {bt.value:,.0f} steps (trial {bt.number}; spec {base['steps']:,.0f})",
+                bar.set_postfix_str(f"best {bt.value:,.0f} steps (trial {bt.number}; spec {base_score(base, cfg):,.0f})",
                                     refresh=False)
             bar.refresh()
 

@@ -5,7 +5,7 @@
 # on fresh seeds.
 #
 #   tools/tune_general.sh                    # QL, O-QL, IQL, NDR-QL at grids 50 and 100; then presets/general.json
-#   GRIDS=50 METHODS="IQL NDR-QL" tools/tune_general.sh
+#   GRIDS=50 METHODS="IQL NDR-QL" SKIP_EXPORT=1 tools/tune_general.sh   # some studies, no preset yet
 #
 # Resumable: run it again after any interruption and each study continues where it stopped.
 # Studies live in results/tune/studies.db (outside git).
@@ -29,6 +29,7 @@ for n in $GRIDS; do
     nice -n 5 "$NDRQL" tune --method "$m" --grid "$n" "${budget[@]}" --no-progress
   done
 done
+[ -n "${SKIP_EXPORT:-}" ] && exit 0
 list=$(echo "${EXPORT_METHODS:-$METHODS}" | tr ' ' ',')
 grids=$(echo "$GRIDS" | tr ' ' ',')
 nice -n 5 "$NDRQL" tune --export-preset "$PRESET" --methods "$list" --grids "$grids" "${budget[@]}" --no-progress

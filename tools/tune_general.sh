@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The searches behind the shipped `general` preset (docs/results.md#tuning-per-grid-size): the
 # general weights on the held-out generated set 'tune', one Optuna study per method and planning-grid
-# size, the same budget for every study, then the preset with one entry per grid size and its check
-# on fresh seeds.
+# size, the same budget for every study, each starting from the method's `tuned` constants (trial 1;
+# trial 0 is the spec point), then the preset with one entry per grid size and its check on fresh seeds.
 #
 #   tools/tune_general.sh                    # QL, O-QL, IQL, NDR-QL at grids 50 and 100; then presets/general.json
 #   GRIDS=50 METHODS="IQL NDR-QL" SKIP_EXPORT=1 tools/tune_general.sh   # some studies, no preset yet
@@ -13,15 +13,16 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
 METHODS=${METHODS:-NDR-QL IQL QL O-QL}
+START_FROM=${START_FROM:-tuned}
 GRIDS=${GRIDS:-50 100}
-TRIALS=${TRIALS:-200}
-SAMPLES=${SAMPLES:-96}
+TRIALS=${TRIALS:-250}
+SAMPLES=${SAMPLES:-120}
 SEEDS=${SEEDS:-5}
 WORKERS=${WORKERS:-2}
 MAX_EPISODES=${MAX_EPISODES:-6000}
 PRESET=${PRESET:-src/ndrql/planning/presets/general.json}
 budget=(--maps generated --weights general --trials "$TRIALS" --samples "$SAMPLES" --seeds "$SEEDS"
-        --max-episodes "$MAX_EPISODES" --workers "$WORKERS" --out results/tune)
+        --max-episodes "$MAX_EPISODES" --workers "$WORKERS" --start-from "$START_FROM" --out results/tune)
 
 for n in $GRIDS; do
   for m in $METHODS; do

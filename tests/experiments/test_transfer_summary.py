@@ -41,3 +41,15 @@ def test_row_configs_give_each_row_its_methods_constants():
     rows = row_configs(tuned)
     assert rows["QL"] == tuned.configs("QL") and rows["IQL"] == tuned.configs("IQL")
     assert rows["NDR-QL (oracle)"] == rows["NDR-QL (model)"] == tuned.configs("NDR-QL") != rows["QL"]
+
+
+def test_row_configs_take_a_per_grid_presets_nearest_entry():
+    """With a preset of constants per grid size, each case runs with the entry nearest to its own grid."""
+    from ndrql.planning.preset import preset_from_dict
+
+    p = preset_from_dict({"format": "ndrql-preset", "version": 2, "grids": {
+        "50": {"IQL": {"ql": {"alpha": 0.11}}, "NDR-QL": {"ql": {"alpha": 0.12}}},
+        "100": {"IQL": {"ql": {"alpha": 0.21}}, "NDR-QL": {"ql": {"alpha": 0.22}}}}}, "g.json")
+    at = {n: {row: c[0].alpha for row, c in row_configs(p, grid=n).items()} for n in (50, 64, 80, 128)}
+    assert at[50] == at[64] == {"QL": 0.1, "IQL": 0.11, "NDR-QL (model)": 0.12, "NDR-QL (oracle)": 0.12}
+    assert at[80] == at[128] == {"QL": 0.1, "IQL": 0.21, "NDR-QL (model)": 0.22, "NDR-QL (oracle)": 0.22}

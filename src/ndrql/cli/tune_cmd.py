@@ -14,7 +14,7 @@ from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.methods import get_method
-from ndrql.planning.preset import Preset, write_preset
+from ndrql.planning.preset import Preset, load_preset, write_preset
 from ndrql.tuning.objective import tuning_problems
 from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
 from ndrql.tuning.study import TuneConfig, base_score, best_trial, default_storage, finished, open_storage, run_study, study_name
@@ -51,6 +51,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grids", metavar="LIST", default="50,100",
                    help="--maps generated with --export-preset: the grid sizes whose studies the preset collects, "
                    "one entry each (default: 50,100)")
+    p.add_argument("--start-from", metavar="PRESET", default="",
+                   help="make trial 1 this preset's constants for the method (spec, tuned, general or a FILE), so the "
+                   "search starts from the best point known (default: none)")
     p.add_argument("--objective", choices=("pooled", "geomean"),
                    help="minimise the pooled mean of the steps or their geometric mean (default: pooled with "
                    "--maps paper, geomean with --maps generated)")
@@ -86,7 +89,8 @@ def _tune_config(args: argparse.Namespace, method: str):
     check_int(args.chunk, "--chunk", 1, 12_000)
     objective = args.objective or ("geomean" if args.maps == "generated" else "pooled")
     return TuneConfig(method, trials=args.trials, samples=args.samples, seeds=args.seeds, seed=args.seed,
-                      order_seed=args.order_seed, chunk=args.chunk, max_episodes=args.max_episodes, objective=objective)
+                      order_seed=args.order_seed, chunk=args.chunk, max_episodes=args.max_episodes, objective=objective,
+                      start_from=args.start_from)
 
 
 def _grids(args: argparse.Namespace) -> list[int]:
@@ -141,6 +145,8 @@ def run(args: argparse.Namespace) -> int:
     if not methods:
         raise NdrqlError("--methods is empty")
     cfgs = [_tune_config(args, m) for m in methods]
+    if args.start_from:
+        load_preset(args.start_from)  # an unknown preset is one line now, not after the maps are built
     grids = _grids(args)
     if args.export_preset:
         check_outputs(args.export_preset)

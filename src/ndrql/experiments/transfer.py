@@ -63,11 +63,16 @@ def eval_set(spec: SetSpec, progress: bool = True) -> GeneratedSet:
     return GeneratedSet.load(root)
 
 
-def row_configs(preset: Preset | None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig()
-                ) -> dict[str, tuple[QLConfig, PriorConfig]]:
-    """The constants of each row: ``ql``/``pc`` for all without a preset; with one, each method's entry
-    (the oracle row takes NDR-QL's: only its priors differ from the model row)."""
-    return {row: method_configs(preset, row.split(" ")[0], ql, pc) for row in ROWS}
+def row_configs(preset: Preset | None, ql: QLConfig = QLConfig(), pc: PriorConfig = PriorConfig(),
+                grid: int | None = None) -> dict[str, tuple[QLConfig, PriorConfig]]:
+    """The constants of each row on a grid of ``grid`` cells: ``ql``/``pc`` for all without a preset; with
+    one, each method's entry (of the nearest grid size in a per-grid preset; the oracle row takes
+    NDR-QL's: only its priors differ from the model row)."""
+    return {row: method_configs(preset, row.split(" ")[0], ql, pc, grid) for row in ROWS}
+
+
+#: The constants of each row on a grid of ``n`` cells (:func:`row_configs` of a preset).
+RowConfigs = Callable[[int], dict[str, tuple[QLConfig, PriorConfig]]]
 
 
 def _runs(blocked, s, g, priors: dict, seeds: list[int], configs: dict[str, tuple[QLConfig, PriorConfig]]) -> dict:
@@ -96,13 +101,14 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
 
 
 def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seeds: list[int], out: Path, *,
-            per_family: int | None = None, configs: dict[str, tuple[QLConfig, PriorConfig]] | None = None,
+            per_family: int | None = None, configs: RowConfigs | None = None,
             workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True,
             grow: bool = True, panels: list[PredictionPanel] | None = None) -> list[dict]:
     """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case.
     With ``panels``, the first connected case of each family at the first grid is appended to it for the figure.
-    ``configs``: the constants of each row (:func:`row_configs`; default the paper's for every row)."""
-    configs = configs or row_configs(None)
+    ``configs``: the constants of each row on a grid of ``n`` cells, called with the size the case is
+    planned on (``lambda n: row_configs(preset, grid=n)``; default the paper's for every row)."""
+    configs = configs or (lambda n: row_configs(None))
     picked: dict[str, list[int]] = {}
     for i in range(len(gs)):
         fam = str(gs.families[i])
@@ -129,9 +135,10 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                           "NDR-QL (oracle)": [a.tolist() for a in oracle]}
                 grid_id = array_digest(np.packbits(case.blocked))
                 prior_id = array_digest(*(np.asarray(a, np.float64) for a in (*model, *oracle)))
-                fp = fingerprint(key, weights_id, mode, seeds, _configs_id(configs), case.n, case.blocked.shape, grid_id,
+                at_n = configs(case.n)
+                fp = fingerprint(key, weights_id, mode, seeds, _configs_id(at_n), case.n, case.blocked.shape, grid_id,
                                  prior_id)
-                tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, configs), fp))
+                tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, at_n), fp))
     rep = run_sweep(tasks, out / "tasks", executor=executor, workers=workers, progress=progress, desc="transfer")
     return [{"key": k, **m, **({"runs": rep.results[k]} if not m["skipped"] else {})} for k, m in meta.items()]
 
@@ -223,8 +230,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
              preset: Preset | None = None) -> Path:
     """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``.
 
-    ``preset``: the constants of each method (``None``: the paper's for every row); the oracle row
-    takes NDR-QL's."""
+    ``preset``: the constants of each method (``None``: the paper's for every row; a per-grid preset's
+    entry nearest to the grid a case is planned on); the oracle row takes NDR-QL's."""
     out = Path(out)
     wpath = resolve_weights(weights or None)
     predictor = Predictor.load(wpath, threads=1, backend="torch")
@@ -232,7 +239,7 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     gs = eval_set(eval_spec(set_name), progress)
     seed_list = list(range(seed0, seed0 + seeds))
     panels: list[PredictionPanel] = []
-    configs = row_configs(preset)
+    configs = lambda n: row_configs(preset, grid=n)  # noqa: E731
     records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, configs=configs,
                       workers=workers, executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels)
     constants = "the paper's constants" if preset is None or preset.name == "spec" else \
@@ -248,7 +255,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     write_text(out / "transfer.md", text)
     write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "set": gs.spec.to_dict(), "seeds": seed_list,
                                       "grids": list(grids), "preset": preset.name if preset else "spec",
-                                      "constants": {row: {"ql": vars(q), "priors": vars(p)} for row, (q, p) in configs.items()},
+                                      "constants": {str(n): {row: {"ql": vars(q), "priors": vars(p)}
+                                                             for row, (q, p) in configs(n).items()} for n in grids},
                                       "records": records}, strict=False)
     log(text)
     return out / "transfer.md"

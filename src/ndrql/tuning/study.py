@@ -8,7 +8,8 @@
   same constants. Several processes or machines may share one study through a common ``--storage``
   URL (Optuna's distributed mode); the trials then depend on timing.
 - **Budget**: ``trials`` finished trials per study (completed or pruned), the SPEC point included
-  as trial 0, the same for every method.
+  as trial 0, the same for every method. With ``start_from``, trial 1 is that preset's constants for
+  the method (e.g. a search on other maps), so the search starts from the best point known.
 - **Objective**: pooled convergence steps, or their geometric mean (``objective``; for maps of many
   sizes and families, :mod:`ndrql.tuning.objective`), minimised, under two
   constraints (Optuna's constrained TPE): the mean greedy path / A* is no worse than with the SPEC
@@ -37,6 +38,7 @@ from typing import Any, Callable, Sequence
 from ndrql.errors import NdrqlError
 from ndrql.io import data_digest, make_folder
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.preset import load_preset
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
 from ndrql.planning.methods import get_method
@@ -82,6 +84,8 @@ class TuneConfig:
     """A running trial without a heartbeat for this long is failed and retried."""
     objective: str = "pooled"
     """What is minimised: ``pooled`` steps (the paper's measure) or their ``geomean`` (every map alike)."""
+    start_from: str = ""
+    """A preset (name or file) whose constants for the method are trial 1 (after the SPEC point); ``""``: none."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "method", get_method(self.method).name)
@@ -110,8 +114,8 @@ def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str
     """``<method>-<digest>``: the digest covers everything that defines the objective."""
     parts = [S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
              cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest]
-    if cfg.objective != "pooled":  # names of the studies searched before the objective could change stay valid
-        parts.append(cfg.objective)
+    if cfg.objective != "pooled" or cfg.start_from:  # names of the studies searched before these existed stay valid
+        parts += [cfg.objective, cfg.start_from]
     blob = json.dumps(parts, sort_keys=True)
     return f"{cfg.method}-{data_digest(blob)[:10]}"
 
@@ -306,6 +310,14 @@ def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str,
     return objective
 
 
+def start_params(cfg: TuneConfig) -> dict[str, float]:
+    """The searched constants of ``cfg.method`` in preset ``cfg.start_from``, clipped into the search space."""
+    ql, pc = load_preset(cfg.start_from).configs(cfg.method)
+    params = S.params_of(cfg.method, ql, pc)
+    bounds = {p.name: (p.low, p.high) for p in S.search_space(cfg.method)}
+    return {k: min(max(v, bounds[k][0]), bounds[k][1]) for k, v in params.items()}
+
+
 def base_score(base: dict[str, Any], cfg: TuneConfig) -> float:
     """The SPEC point's value of the search's objective (an old baseline without a geomean: its pooled steps)."""
     return float(base.get("geomean", base["steps"]) if cfg.objective == "geomean" else base["steps"])
@@ -344,6 +356,8 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     pool = process_pool(workers, start_method="fork") if workers > 1 else None
     try:
         base = baseline(study, cfg, problems, pool)
+        if cfg.start_from and len(study.trials) == 1:
+            study.enqueue_trial(start_params(cfg), skip_if_exists=True)
         objective = make_objective(cfg, problems, base, pool, study)
         done = finished(study)
         bar = tqdm(total=cfg.trials, initial=min(done, cfg.trials), desc=f"tune {cfg.method}", unit="trial",

@@ -47,6 +47,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--maps", choices=("paper", "generated"), default="paper",
                    help="paper: the model's validation split of the paper's TRAIN maps on 50x50 grids (default); "
                    "generated: the held-out generated set 'tune' on the safe grid of --grid cells")
+    p.add_argument("--eval-set", metavar="NAME", default="tune", help="--maps generated: the versioned set of generated "
+                   "maps to search on (default: tune; the reported 'transfer' and the 'select' sets are refused)")
     p.add_argument("--grid", type=int, default=50, metavar="N", help="--maps generated: planning grid size (default: 50)")
     p.add_argument("--grids", metavar="LIST", default="50,100",
                    help="--maps generated with --export-preset: the grid sizes whose studies the preset collects, "
@@ -114,10 +116,11 @@ def _grids(args: argparse.Namespace) -> list[int]:
 def _problems(args: argparse.Namespace, n: int, log) -> tuple[list, str]:
     """The search's problems on grid ``n`` and the weights' digest (``--maps``)."""
     if args.maps == "generated":
-        from ndrql.experiments.tune_maps import TUNE_SET, generated_problems  # lazy: loads the model stack
+        from ndrql.experiments.tune_maps import generated_problems  # lazy: loads the model stack
 
-        problems, skipped, digest = generated_problems(args.samples, n, args.weights, progress=not args.no_progress)
-        log(f"generated maps: {len(problems)} problems of set {TUNE_SET!r} on the safe grid of {n} cells (or the "
+        problems, skipped, digest = generated_problems(args.samples, n, args.weights, args.eval_set,
+                                                       progress=not args.no_progress)
+        log(f"generated maps: {len(problems)} problems of set {args.eval_set!r} on the safe grid of {n} cells (or the "
             f"next ladder size), family by family ({len(skipped)} maps disconnected on every size); "
             f"seeds 0..{args.seeds - 1}")
         return problems, digest

@@ -29,8 +29,9 @@ def test_plan_falls_back_to_iql_below_the_threshold_and_the_pooled_figures_match
     assert s["plan_worse_than_iql"] == 0.0  # the fallback ties IQL, the model's run beats it
     assert s["vs_iql"] == pytest.approx((200 + 6000 + 400) / iql - 1)  # the model's own runs, no fallback
     assert s["beats_iql"] == pytest.approx(2 / 3)
+    assert s["oracle_beats_iql"] == 1.0  # 80 < 400, 100 < 600, 100 < 300
     text = render_tables([good, lost, low], (50,))
-    assert "| -75.0% | -23.1% | 0% |" in text and "*plan*" in text
+    assert "| -75.0% | -23.1% | 0% |" in text and "*plan*" in text and "| 67% | 100% |" in text
 
 
 def test_row_configs_give_each_row_its_methods_constants():
@@ -53,3 +54,16 @@ def test_row_configs_take_a_per_grid_presets_nearest_entry():
     at = {n: {row: c[0].alpha for row, c in row_configs(p, grid=n).items()} for n in (50, 64, 80, 128)}
     assert at[50] == at[64] == {"QL": 0.1, "IQL": 0.11, "NDR-QL (model)": 0.12, "NDR-QL (oracle)": 0.12}
     assert at[80] == at[128] == {"QL": 0.1, "IQL": 0.21, "NDR-QL (model)": 0.22, "NDR-QL (oracle)": 0.22}
+
+
+def test_plan_steps_judge_the_prediction_by_the_papers_threshold_schedule():
+    """plan judges a prediction with the paper's schedule (0.99, 0.98, ...) whatever threshold schedule the
+    preset's NDR-QL runs use: a run that stepped from 0.52 to 0.48 is still informative when the fine
+    schedule finds 0.50."""
+    from ndrql.experiments.transfer import judged_threshold
+
+    rec = {"runs": {"NDR-QL (model)": {"steps": [100], "threshold": 0.48}, "IQL": {"steps": [300]}}}
+    assert judged_threshold(rec) == 0.48 and plan_steps(rec) == [300]  # an old record: the run's own threshold
+    rec["judged_threshold"] = 0.50
+    assert judged_threshold(rec) == 0.50 and plan_steps(rec) == [100]
+    assert plan_steps(rec, cut=0.6) == [300] and plan_steps({**rec, "judged_threshold": None}) == [300]

@@ -34,7 +34,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import NdrqlError, PointError  # noqa: F401 (NdrqlError: what bad input raises, for callers)
-from ndrql.pipeline.predictions import Predicted, predict_for
+from ndrql.pipeline.predictions import GivenPredictions, Predicted, predict_for
 from ndrql.pipeline.problem import build_grid, check_map_size, check_points, place_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
 from ndrql.pipeline.runs import check_workers, learn, method_priors, methods_named, seeds_given
@@ -51,7 +51,7 @@ def solve(
     seeds: Sequence[int] | int = (0,),
     *,
     weights: str | os.PathLike | None = None,
-    predictions: tuple[np.ndarray, np.ndarray | None] | str | None = None,
+    predictions: GivenPredictions | tuple[np.ndarray, np.ndarray | None] | str | None = None,
     config: QLConfig = QLConfig(),
     prior_config: PriorConfig = PriorConfig(),
     preset: Any = None,
@@ -76,7 +76,8 @@ def solve(
     the first and last pose), or taken from MovingAI scenario ``scen_index`` of ``scen``.
     ``seeds``: a list, or an int ``N`` for seeds ``0..N-1``. ``weights``: model file (default:
     ``$NDRQL_WEIGHTS`` or the shipped weights); ``predictions``: ``(region, guideline)`` at the map's
-    resolution instead of the model, or ``"oracle"`` for the oracle's (the planning grid's own shortest
+    resolution instead of the model, a :class:`~ndrql.pipeline.predictions.GivenPredictions` (a file of
+    ``ndrql predict``, :func:`~ndrql.pipeline.predictions.load_predictions`), or ``"oracle"`` for the oracle's (the planning grid's own shortest
     path drawn like the dataset's labels: a diagnostic of the ceiling, reported as "oracle priors"). ``settings``: grid rule, size, robot radius, smoothing
     (default: the safe grid for a user's map; :meth:`PlanSettings.paper` for the paper's).
     ``workers``: processes for many runs (default: all cores; results do not depend on it).

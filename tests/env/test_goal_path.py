@@ -146,6 +146,24 @@ def test_ndr_prior_from_the_shipped_model(model_weights):
     assert prior.shape == (2, 12, 12) and 0 <= prior.min() and prior.max() <= 1 and prior[0].max() > 0.5
 
 
+def test_ndr_prior_of_a_grid_mode_model_is_predicted_on_the_envs_own_grid(model_weights):
+    """The default (general, grid-mode) model sees the env's planning grid at 4 px per cell, as in ndrql plan:
+    the prior channels are the 4x4 means of its prediction for exactly that grid, start and goal."""
+    from ndrql.dataset.render import cell_means
+    from ndrql.model.predict import load_predictor
+
+    predictor = load_predictor(model_weights)
+    if predictor.input_mode != "grid":
+        pytest.skip(f"{model_weights} holds a map-mode model")
+    env = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights)
+    obs, info = env.reset(seed=3)
+    blocked = obs["image"][0, :20, :20].astype(bool)
+    r, g = predictor.predict_grid(blocked, tuple(info["start"]), tuple(info["goal"]))
+    h, w = blocked.shape
+    assert np.allclose(obs["image"][4, :h, :w], cell_means(r, blocked.shape), atol=1e-6)
+    assert np.allclose(obs["image"][5, :h, :w], cell_means(g, blocked.shape), atol=1e-6)
+
+
 def test_dataset_source(tiny_dataset):
     from ndrql.dataset.cache import load_split
     from ndrql.maps.grid import point_to_cell

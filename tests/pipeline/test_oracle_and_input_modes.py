@@ -119,3 +119,52 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     assert abs(s["share"] - red("NDR-QL (model)") / red("NDR-QL (oracle)")) < 1e-12
     bad = run_cli(ndrql_exe, "reproduce", "transfer", "--eval-set", "nope", "--out", str(tmp_path / "x"), env=env)
     assert_one_line_error(bad, "valid: transfer")
+
+
+def test_a_grid_mode_model_predicts_on_the_safe_grid_plan_builds(model_weights):
+    """Predictor.predict with a grid-mode model: the safe grid of the size plan's --size auto picks (or the
+    given size), start and goal placed as plan places them; each map pixel holds its cell's mean, and
+    the per-cell arrays are the 4x4 means of the model's output on exactly that grid."""
+    from ndrql.dataset.render import cell_means
+    from ndrql.maps.safe import conservative_grid
+    from ndrql.model.predict import load_predictor
+
+    predictor = load_predictor(model_weights)
+    if predictor.input_mode != "grid":
+        pytest.skip(f"{model_weights} holds a map-mode model")
+    m = _walls()
+    report = ndrql.solve(m, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1)
+    auto = predictor.predict(m, (10, 10), (110, 150))
+    assert auto.grid.size == report.setup.size and np.array_equal(auto.grid.blocked, report.grid.blocked)
+    assert (auto.grid.start, auto.grid.goal) == (report.grid.start, report.grid.goal)
+    assert np.array_equal(auto.region, report.region) and np.array_equal(auto.guideline, report.guideline)
+    pred = predictor.predict(m, (10, 10), (110, 150), size=40)
+    g = pred.grid
+    assert g.size == 40 and np.array_equal(g.blocked, conservative_grid(m, 40))
+    r, gl = predictor.predict_grid(g.blocked, g.start, g.goal)
+    assert np.array_equal(g.region, cell_means(r, g.blocked.shape)) and np.array_equal(g.guideline, cell_means(gl, g.blocked.shape))
+    cell = 160 / 40  # 4 px cells on this 120x160 map
+    for (i, j) in ((0, 0), (57, 101), (119, 159)):
+        assert pred.region[i, j] == g.region[int((i + 0.5) / cell), int((j + 0.5) / cell)]
+        assert pred.guideline[i, j] == g.guideline[int((i + 0.5) / cell), int((j + 0.5) / cell)]
+
+
+def test_prediction_files_with_broken_grid_arrays_are_one_line_errors(ndrql_exe, tmp_path):
+    """A prediction file with some grid arrays but not all, or grid arrays of mismatched shapes: one line, exit 2."""
+    m = _walls()
+    np.save(tmp_path / "m.npy", m)
+    region = np.full(m.shape, 0.5)
+    grid = {"grid_size": np.array(40), "grid_blocked": np.zeros((30, 40), bool), "grid_start": np.array([2, 2]),
+            "grid_goal": np.array([27, 37]), "grid_region": np.zeros((30, 40)), "grid_guideline": np.zeros((30, 40))}
+    cases = {"partial": ({k: v for k, v in grid.items() if k != "grid_guideline"}, "not grid_guideline"),
+             "shapes": ({**grid, "grid_region": np.zeros((3, 4))}, "one 2-D shape"),
+             "range": ({**grid, "grid_region": np.full((30, 40), 2.0)}, "probabilities in [0, 1]")}
+    for name, (extra, needle) in cases.items():
+        np.savez(tmp_path / f"{name}.npz", region=region, guideline=region, **extra)
+        r = run_cli(ndrql_exe, "plan", tmp_path / "m.npy", "--start", "10,10", "--goal", "110,150", "--seeds", "1",
+                    "--prior-from", tmp_path / f"{name}.npz")
+        assert_one_line_error(r, needle)
+    r = run_cli(ndrql_exe, "predict", tmp_path / "m.npy", "--start", "10,10", "--goal", "110,150", "--size", "1",
+                "--out", tmp_path / "p")
+    assert_one_line_error(r, "--size must be an integer in 2..512")
+    assert not (tmp_path / "p").exists()

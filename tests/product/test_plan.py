@@ -158,25 +158,71 @@ def test_compare_table_and_figure(ndrql_exe, model_weights, tmp_path):
         assert im.size[0] > 2.5 * im.size[1]  # one panel per method plus the convergence panel
 
 
-def test_weights_option_and_prior_file_agree(ndrql_exe, model_weights, tmp_path):
-    """--weights FILE gives the same runs as the default weights, and as --prior-from the same predictions."""
+def _plan_runs(ndrql_exe, args: list, out) -> list[dict]:
+    """``ndrql plan *args --json out``: the runs, without their wall times."""
+    r = run_cli(ndrql_exe, "plan", *args, "--json", out)
+    assert r.returncode == 0, r.stderr
+    runs = json.loads(out.read_text())["runs"]
+    for x in runs:
+        x.pop("wall_time")
+    return runs
+
+
+def test_weights_option_and_prior_file_agree(ndrql_exe, tmp_path):
+    """A map-mode model (the paper's): --weights gives the same runs as --prior-from the arrays
+    predict_priors returns for it (both average the map-resolution arrays onto the grid)."""
     from ndrql.pipeline.predictions import predict_priors
 
     m = rooms(100, 140)
     np.save(tmp_path / "m.npy", m)
-    region, guideline = predict_priors(m, (10, 10), (90, 130), weights=model_weights)
+    region, guideline = predict_priors(m, (10, 10), (90, 130), weights="paper")
     np.savez(tmp_path / "pred.npz", region=region, guideline=guideline)
-    common = [tmp_path / "m.npy", "--start", "10,10", "--goal", "90,130", "--seeds", "2", "--workers", "1"]
-    outs = []
-    for extra in (["--weights", model_weights], ["--prior-from", tmp_path / "pred.npz"]):
-        out = tmp_path / f"{len(outs)}.json"
-        r = run_cli(ndrql_exe, "plan", *common, *extra, "--json", out)
+    common = [tmp_path / "m.npy", "--start", "10,10", "--goal", "90,130", "--seeds", "2", "--workers", "1",
+              "--preset", "tuned"]
+    outs = [_plan_runs(ndrql_exe, [*common, *extra], tmp_path / f"{i}.json")
+            for i, extra in enumerate((["--weights", "paper"], ["--prior-from", tmp_path / "pred.npz"]))]
+    assert outs[0] == outs[1] and outs[0][0]["converged"]
+
+
+def test_predict_then_plan_with_its_file_plans_as_plan_does(ndrql_exe, model_weights, tmp_path):
+    """The grid-mode model (the default general weights): ``ndrql predict`` predicts on the very safe grid
+    plan builds (same auto size), writes its per-cell arrays, and ``plan --prior-from`` that file gives
+    the same runs as ``plan`` with the model; predict_priors gives the same map-resolution arrays."""
+    from ndrql.pipeline.predictions import load_predictions, predict_priors
+
+    m = rooms(100, 140)
+    np.save(tmp_path / "m.npy", m)
+    pts = ["--start", "10,10", "--goal", "90,130"]
+    r = run_cli(ndrql_exe, "predict", tmp_path / "m.npy", *pts, "--out", tmp_path / "p", "--weights", model_weights)
+    assert r.returncode == 0, r.stderr
+    assert "grid-mode model: saw the safe" in r.stdout
+    common = [tmp_path / "m.npy", *pts, "--seeds", "2", "--workers", "1"]
+    with_model = _plan_runs(ndrql_exe, [*common, "--weights", model_weights], tmp_path / "a.json")
+    from_file = _plan_runs(ndrql_exe, [*common, "--prior-from", tmp_path / "p" / "prediction.npz"], tmp_path / "b.json")
+    assert with_model == from_file and with_model[0]["converged"]
+    given = load_predictions(tmp_path / "p" / "prediction.npz")
+    region, guideline = predict_priors(m, (10, 10), (90, 130), weights=model_weights)
+    assert np.allclose(given.region, region, atol=1e-6) and np.allclose(given.guideline, guideline, atol=1e-6)
+    # each map pixel holds its cell's value
+    g = given.grid
+    cell = 140 / g.size
+    assert region[10, 10] == pytest.approx(g.region[int(10.5 / cell), int(10.5 / cell)])
+
+
+def test_a_prior_file_from_another_grid_is_averaged_onto_plans_grid(ndrql_exe, model_weights, tmp_path):
+    """Grid arrays made on another grid (``predict --size 64``, plan on 50) are not used as they are: plan
+    averages the map-resolution arrays onto its own grid and says so in its JSON."""
+    m = rooms(100, 140)
+    np.save(tmp_path / "m.npy", m)
+    pts = ["--start", "10,10", "--goal", "90,130"]
+    r = run_cli(ndrql_exe, "predict", tmp_path / "m.npy", *pts, "--out", tmp_path / "p", "--size", "64")
+    assert r.returncode == 0, r.stderr
+    for size, expect in (("64", "as given"), ("50", "averaged from the map's pixels")):
+        out = tmp_path / f"{size}.json"
+        r = run_cli(ndrql_exe, "plan", tmp_path / "m.npy", *pts, "--size", size, "--seeds", "1",
+                    "--prior-from", tmp_path / "p" / "prediction.npz", "--json", out)
         assert r.returncode == 0, r.stderr
-        runs = json.loads(out.read_text())["runs"]
-        for x in runs:
-            x.pop("wall_time")
-        outs.append(runs)
-    assert outs[0] == outs[1]
+        assert json.loads(out.read_text())["prior_grid"] == expect
 
 
 def test_point_in_a_blocked_cell_moves_with_a_warning(ndrql_exe, tmp_path):

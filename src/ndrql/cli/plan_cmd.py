@@ -16,9 +16,10 @@ from ndrql.io import save_figure, write_json as io_write_json, write_text
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
+from ndrql.pipeline.predictions import load_predictions
 from ndrql.pipeline.settings import GRID_RULES
 from ndrql.planning.config import PriorConfig, QLConfig, field_docs
-from ndrql.planning.methods import get_method, load_prior_file
+from ndrql.planning.methods import get_method
 from ndrql.planning.preset import load_preset, plan_default_preset
 from ndrql.viz.plan import compare_figure, plan_figure
 
@@ -77,7 +78,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_seed_options(p, seeds=1, seeds_help="number of runs (seeds S..S+N-1; default: 1)", workers=None)
     add_weights_argument(p)
     p.add_argument("--prior-from", metavar="FILE.npz|oracle",
-                   help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1]; "
+                   help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1] "
+                   "(averaged onto the planning grid), as ndrql predict writes them (its grid arrays are used as they are "
+                   "when they were made on the same grid: then the runs equal plan's with the model); "
                    "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")
 
     settings = PlanSettings()
@@ -248,7 +251,7 @@ def run(args: argparse.Namespace) -> int:
     if args.prior_from == "oracle":
         predictions = "oracle"
     elif args.prior_from and any(get_method(m).needs_ndr for m in methods):
-        predictions = load_prior_file(args.prior_from)
+        predictions = load_predictions(args.prior_from)
         info["prior_from"] = args.prior_from
     with warnings_to_stderr():
         report = solve(grid_map, start, goal, methods, list(seeds),

@@ -8,8 +8,10 @@ from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_pro
                               check_dpi, resolve_problem, save_figure)
 from ndrql.cli.options import add_command
 from ndrql.io import make_folder, save_npz
+from ndrql.maps.safe import DEFAULT_MAX_SIZE
 from ndrql.limits import MAX_THREADS, check_int
 from ndrql.model.predict import BACKENDS, Predictor
+from ndrql.pipeline.predictions import prediction_arrays
 from ndrql.viz.prediction import plot_probability_overlay
 
 EXAMPLES = """examples:
@@ -21,7 +23,9 @@ EXAMPLES = """examples:
 def register(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "predict", help="predict the path region and guideline with the NDR model",
                     description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
-                    "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size).",
+                    "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size and, from "
+                    "a grid-mode model, on the planning grid it saw: ndrql plan --prior-from prediction.npz then plans "
+                    "on that grid exactly as with the model).",
                     examples=EXAMPLES)
     add_problem_arguments(p)
     add_max_pixels_argument(p)
@@ -30,6 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="threads for the forward pass (default: 1)")
+    p.add_argument("--size", type=int, default=None, metavar="N",
+                   help="grid-mode models (the default general weights): the safe planning grid they see, cells on the "
+                   "map's longer side (default: what ndrql plan --size auto picks); map-mode models ignore it")
     add_dpi_argument(p)
     p.set_defaults(func=run)
 
@@ -40,6 +47,8 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     check_int(args.threads, "--threads", 1, MAX_THREADS)
+    if args.size is not None:
+        check_int(args.size, "--size", 2, DEFAULT_MAX_SIZE)
     dpi = check_dpi(args)
     problem = resolve_problem(args)
     out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
@@ -47,13 +56,11 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend)
     t1 = time.perf_counter()
-    pred = predictor.predict(obstacles, problem.start, problem.goal)
+    pred = predictor.predict(obstacles, problem.start, problem.goal, args.size)
     t2 = time.perf_counter()
     npz = out / "prediction.npz"
-    arrays = {"region": pred.region.astype(np.float32), "start": np.array(problem.start), "goal": np.array(problem.goal),
+    arrays = {**prediction_arrays(pred), "start": np.array(problem.start), "goal": np.array(problem.goal),
               "obstacles": obstacles}
-    if pred.guideline is not None:
-        arrays["guideline"] = pred.guideline.astype(np.float32)
     save_npz(npz, arrays)
     written = [npz]
     h, w = obstacles.shape
@@ -64,6 +71,12 @@ def run(args: argparse.Namespace) -> int:
         written.append(save_figure(lambda ax, prob=prob, name=name: plot_probability_overlay(
             ax, obstacles, prob, kind=name, start=problem.start, goal=problem.goal, title=f"NDR {name}"),
             out / f"{name}.png", figsize=size, dpi=dpi))
+    if pred.grid is not None:
+        g = pred.grid
+        print(f"grid-mode model: saw the safe {g.blocked.shape[0]}x{g.blocked.shape[1]} planning grid "
+              f"(size {g.size}{'' if args.size else ', as plan --size auto picks it'}), start cell {g.start}, goal cell {g.goal}")
+    elif args.size is not None:
+        print(f"--size {args.size} ignored: {args.weights or 'the weights'} hold a map-mode model (it sees the map at 201 px)")
     print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "
           f"region > 0.5: {int((pred.region >= 0.5).sum())} px" +
           (f", guideline > 0.5: {int((pred.guideline >= 0.5).sum())} px" if pred.guideline is not None else ""))

@@ -27,7 +27,7 @@ import numpy as np
 
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import whole_pixel_majority
-from ndrql.maps.grid import MODEL_SIDE, bfs_distances, nearest_free_euclidean
+from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances, nearest_free_euclidean
 from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import conservative_grid
 from ndrql.synth.labels import dilate_region, draw_guideline
@@ -100,6 +100,21 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Ren
     r[:region.shape[0], :region.shape[1]] = region > 0.5
     gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
     return Rendered(img, s_px, g_px, gl, r)
+
+
+def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Probabilities drawn at 4 px per cell (possibly padded) -> the planning grid of ``shape``: exact 4x4 means."""
+    h, w = shape
+    return area_downscale(np.asarray(prob, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
+
+
+def cells_to_map(cells: np.ndarray, shape: tuple[int, int], cell_px: tuple[float, float]) -> np.ndarray:
+    """Values per planning cell -> the map's ``shape``: each pixel takes the value of the cell holding its
+    centre (cells of ``cell_px`` map pixels, rows and columns)."""
+    cells = np.asarray(cells, np.float64)
+    r = np.minimum(((np.arange(shape[0]) + 0.5) / cell_px[0]).astype(int), cells.shape[0] - 1)
+    c = np.minimum(((np.arange(shape[1]) + 0.5) / cell_px[1]).astype(int), cells.shape[1] - 1)
+    return cells[r[:, None], c[None, :]]
 
 
 def point_on_grid(p: Point, scale: float, side: int) -> Point:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ndrql.dataset.render import cell_means
 from ndrql.env.sources import EnvProblem
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import area_downscale
@@ -99,9 +100,16 @@ def _grid_area(values: np.ndarray, shape: tuple[int, int], rule: str, size: int)
 
 
 def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int) -> np.ndarray:
-    """``(2, h, w)`` region and guideline of the NDR model on the source map, averaged onto the grid."""
+    """``(2, h, w)`` region and guideline of the NDR model on the planning grid: a grid-mode model (the
+    default ``general``) predicts on the grid itself (4x4 means per cell); a map-mode model (the paper's)
+    on the source map, averaged onto the grid."""
+    if getattr(predictor, "input_mode", "map") == "grid":  # sees the planning grid itself, as ndrql plan's model does
+        r, gl = predictor.predict_grid(problem.blocked, problem.start, problem.goal)
+        shape = problem.blocked.shape
+        return np.stack([cell_means(r, shape), cell_means(r if gl is None else gl, shape)]).astype(np.float32)
     if problem.source is None:
-        raise NdrqlError("the NDR prior needs the map in pixels; this problem came as a planning grid (use prior='oracle')")
+        raise NdrqlError("the paper's NDR model needs the map in pixels; this problem came as a planning grid "
+                         "(use a grid-mode model such as the default general weights, or prior='oracle')")
     pred = predictor.predict(problem.source.obstacles, problem.source.start, problem.source.goal)
     guideline = pred.guideline if pred.guideline is not None else pred.region
     shape = problem.blocked.shape

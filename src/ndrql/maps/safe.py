@@ -32,6 +32,9 @@ import numpy as np
 from ndrql.errors import NdrqlError, PointError
 from ndrql.maps.grid import Cell
 
+#: Largest safe grid ``--size auto`` goes to by default (cells on the map's longer side).
+DEFAULT_MAX_SIZE = 512
+
 __all__ = [
     "cell_centre",
     "cell_size_px",

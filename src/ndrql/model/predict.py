@@ -1,7 +1,10 @@
 """Prediction API: region and guideline probabilities for any map, with the shipped model by default.
 
-Maps that are not 201x201 are brought to the model's scale first and the probabilities mapped back
-to the map's own size (:func:`ndrql.dataset.render.to_model_input`, :func:`~ndrql.dataset.render.from_model_output`).
+What the model sees follows its input mode. ``map`` models (the paper's): maps that are not 201x201
+are brought to the model's scale first and the probabilities mapped back to the map's own size
+(:func:`ndrql.dataset.render.to_model_input`, :func:`~ndrql.dataset.render.from_model_output`).
+``grid`` models (the shipped default, ``general``): the safe planning grid at 4 px per cell, as
+``ndrql plan`` builds it (:meth:`Predictor.predict`).
 """
 
 from __future__ import annotations
@@ -16,8 +19,9 @@ from typing import Iterator
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import from_model_output, to_model_input
+from ndrql.dataset.render import cell_means, cells_to_map, from_model_output, grid_input, to_model_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
+from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
 from ndrql.model.weights import resolve_weights
@@ -31,6 +35,26 @@ class Prediction:
 
     region: np.ndarray
     guideline: np.ndarray | None
+    grid: GridPrediction | None = None
+    """What a grid-mode model predicted on the safe planning grid it saw; ``None`` for map-mode models."""
+
+
+@dataclass(frozen=True)
+class GridPrediction:
+    """A grid-mode model's prediction on the safe planning grid it saw (:meth:`Predictor.predict`)."""
+
+    size: int
+    """Cells on the map's longer side (``ndrql plan --size``)."""
+    blocked: np.ndarray
+    """The safe grid, bool ``(h, w)`` (:func:`~ndrql.maps.safe.conservative_grid` of the map)."""
+    start: Point
+    """Start cell, placed as ``ndrql plan`` places it (:func:`~ndrql.maps.sizing.place_point`)."""
+    goal: Point
+    """Goal cell."""
+    region: np.ndarray
+    """Region per cell, float64 ``(h, w)``: the mean of the cell's 4x4 pixels of the model's output."""
+    guideline: np.ndarray | None
+    """Guideline per cell, as ``region``."""
 
 
 def default_weights_path() -> Path:
@@ -164,17 +188,48 @@ class Predictor:
         """Probabilities for an encoded batch (B, C, H, W) -> (B, H, W) arrays."""
         return self._runner(x)
 
-    def predict(self, obstacles: np.ndarray, start: Point, goal: Point) -> Prediction:
-        """Region and guideline probabilities for one map, at the map's own resolution."""
+    def predict_grid(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None]:
+        """Region and guideline of a grid-mode model for the planning grid ``blocked``, drawn at 4 px per cell
+        (padded with obstacles to a square of ``4 max(h, w)`` px, :func:`~ndrql.dataset.render.grid_input`)."""
+        img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
+        r, gl = self.predict_batch(encode_input(img, s, g, self.encoding)[None])
+        return r[0], None if gl is None else gl[0]
+
+    def predict(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None = None) -> Prediction:
+        """Region and guideline probabilities for one map, at the map's own resolution.
+
+        A ``map``-mode model (the paper's) sees the map resized to 201 px. A ``grid``-mode model sees
+        what ``ndrql plan`` plans on: the safe grid of ``size`` cells on the longer side (default: the
+        size ``--size auto`` picks, without robot inflation), start and goal placed as ``plan`` places
+        them; each map pixel then takes its cell's mean (``Prediction.grid`` holds the per-cell arrays).
+        ``size`` is ignored for map-mode models.
+        """
         obstacles = np.asarray(obstacles, bool)
         for name, p in (("start", start), ("goal", goal)):
             if not (0 <= p[0] < obstacles.shape[0] and 0 <= p[1] < obstacles.shape[1]):
                 raise PointError(f"{name} {tuple(p)} is outside the {obstacles.shape[0]}x{obstacles.shape[1]} map")
+        if self.input_mode == "grid":
+            return self._predict_safe_grid(obstacles, tuple(start), tuple(goal), size)
         grid, s, g, scale = to_model_input(obstacles, start, goal)
         r, gl = self.predict_batch(encode_input(grid, s, g, self.encoding)[None])
         region = from_model_output(r[0], obstacles.shape, scale)
         guide = from_model_output(gl[0], obstacles.shape, scale) if gl is not None else None
         return Prediction(region=region, guideline=guide)
+
+    def _predict_safe_grid(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None) -> Prediction:
+        from ndrql.maps.sizing import choose_size, full_route, place_point  # lazy: loads numba
+
+        if size is None:
+            size = choose_size(obstacles, start, goal, full_route(obstacles, start, goal).cost, DEFAULT_MAX_SIZE).size
+        blocked = conservative_grid(obstacles, int(size))
+        s, _ = place_point(obstacles, blocked, start, int(size))
+        g, _ = place_point(obstacles, blocked, goal, int(size))
+        r, gl = self.predict_grid(blocked, s, g)
+        cells = [None if a is None else cell_means(a, blocked.shape) for a in (r, gl)]
+        cell_px = (cell_size_px(obstacles.shape, int(size)),) * 2
+        on_map = [None if a is None else cells_to_map(a, obstacles.shape, cell_px) for a in cells]
+        return Prediction(region=on_map[0], guideline=on_map[1],
+                          grid=GridPrediction(int(size), blocked, s, g, cells[0], cells[1]))
 
 
 def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto") -> Predictor:
@@ -201,6 +256,6 @@ def _cached_predictor(key: tuple[str, int, int], threads: int, backend: str) -> 
 
 
 def predict(obstacles: np.ndarray, start: Point, goal: Point, weights: str | Path | None = None,
-            backend: str = "auto") -> Prediction:
-    """One-shot prediction with the shipped (or given) weights."""
-    return Predictor.load(weights, backend=backend).predict(obstacles, start, goal)
+            backend: str = "auto", size: int | None = None) -> Prediction:
+    """One-shot prediction with the shipped (or given) weights (``size``: see :meth:`Predictor.predict`)."""
+    return Predictor.load(weights, backend=backend).predict(obstacles, start, goal, size)

@@ -15,17 +15,16 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import PX_PER_CELL, grid_input, point_on_grid, to_model_input
-from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid, area_downscale
+from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on_grid, to_model_input
+from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
 from ndrql.maps.safe import grid_shape
-from ndrql.model.predict import load_predictor
+from ndrql.model.predict import GridPrediction, load_predictor
 from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.report import StageClock
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig
-from ndrql.planning.methods import Method, downscale_priors, get_method
+from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
 from ndrql.planning.priors import adaptive_threshold
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
@@ -69,26 +68,17 @@ def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict
             "moved": {"start": moved[0], "goal": moved[1]}}
 
 
-def _grid_to_map(prob: np.ndarray, grid: PlanningGrid) -> np.ndarray:
-    """Probabilities at 4 px per planning cell -> the map's pixels (nearest sample; for figures and JSON)."""
-    h, w = grid.source_shape
-    ch, cw = grid.cell_size
-    rows = np.minimum(((np.arange(h) + 0.5) / ch * PX_PER_CELL).astype(int), prob.shape[0] - 1)
-    cols = np.minimum(((np.arange(w) + 0.5) / cw * PX_PER_CELL).astype(int), prob.shape[1] - 1)
-    return np.asarray(prob, np.float64)[rows[:, None], cols[None, :]]
-
-
-def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """Probabilities drawn at 4 px per cell (possibly padded) -> the planning grid of ``shape``: exact 4x4 means."""
-    h, w = shape
-    return area_downscale(np.asarray(prob, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL], (h, w))
+def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
+    """Values per planning cell -> the map's pixels, each pixel its cell's value (for figures, JSON and the
+    guideline's mass on obstacles; the same rule as :meth:`ndrql.model.predict.Predictor.predict`)."""
+    return cells_to_map(cells, grid.source_shape, grid.cell_size)
 
 
 def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
     """Probabilities at 4 px per cell of a grid of ``n`` cells -> the map's pixels: each pixel takes the
     mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as :func:`ndrql.maps.safe.conservative_grid`)."""
     rows, cols = grid_shape(shape, n)
-    cells = area_downscale(np.asarray(prob, np.float64)[:rows * PX_PER_CELL, :cols * PX_PER_CELL], (rows, cols))
+    cells = cell_means(prob, (rows, cols))
     longest = max(shape)
     r = np.minimum(((np.arange(shape[0]) + 0.5) * n / longest).astype(int), rows - 1)
     c = np.minimum(((np.arange(shape[1]) + 0.5) * n / longest).astype(int), cols - 1)
@@ -99,20 +89,19 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,
                     goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any]]:
     """A grid-mode model's region and guideline at 4 px per cell of the planning grid ``blocked`` (padded to
     a square of ``4 max(h, w)`` px), and what it saw."""
-    img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
-    r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
-    info = {"mode": "grid", "side": int(img.shape[0]), "start": list(s), "goal": list(g)}
-    return r[0], None if gl is None else gl[0], info
+    r, gl = predictor.predict_grid(blocked, start_cell, goal_cell)
+    s, g = point_on_grid(start_cell, PX_PER_CELL, r.shape[0]), point_on_grid(goal_cell, PX_PER_CELL, r.shape[0])
+    info = {"mode": "grid", "side": int(r.shape[0]), "start": list(s), "goal": list(g)}
+    return r, gl, info
 
 
 def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any]) -> ModelView:
-    """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid."""
-    h, w = grid.shape
-    crop = lambda a: np.asarray(a, np.float64)[:h * PX_PER_CELL, :w * PX_PER_CELL]  # noqa: E731
-    return ModelView(region=_grid_to_map(crop(region_px), grid),
-                     guideline=None if guide_px is None else _grid_to_map(crop(guide_px), grid),
-                     info=info, region_grid=cell_means(region_px, grid.shape),
-                     guideline_grid=None if guide_px is None else cell_means(guide_px, grid.shape))
+    """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid,
+    each map pixel its cell's mean."""
+    region = cell_means(region_px, grid.shape)
+    guide = None if guide_px is None else cell_means(guide_px, grid.shape)
+    return ModelView(region=_grid_to_map(region, grid), guideline=None if guide is None else _grid_to_map(guide, grid),
+                     info=info, region_grid=region, guideline_grid=guide)
 
 
 def oracle_view(grid: PlanningGrid) -> ModelView:
@@ -148,20 +137,88 @@ def predict_priors(
     weights: str | os.PathLike | None = None,
     threads: int = 1,
     backend: str = "auto",
+    size: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """NDR region and guideline probabilities at the map's resolution, from the trained model.
 
-    ``start``/``goal`` are ``(row, col)`` map pixels; maps of any size are resized for the model and
-    the outputs mapped back (:func:`ndrql.dataset.render.to_model_input`). The model is loaded once
-    per process (:func:`ndrql.model.predict.load_predictor`). ``threads``: threads for the forward
-    pass (default 1: one 201x201 map gains little from more, and a busy machine makes more threads
+    ``start``/``goal`` are ``(row, col)`` map pixels. What the model sees follows its input mode
+    (:meth:`ndrql.model.predict.Predictor.predict`): the paper's model sees the map resized to 201 px;
+    a grid-mode model (the default ``general``) sees the safe planning grid of ``size`` cells (default:
+    the size ``ndrql plan --size auto`` picks) and each map pixel takes its cell's mean. The model is
+    loaded once per process (:func:`ndrql.model.predict.load_predictor`). ``threads``: threads for the
+    forward pass (default 1: one map gains little from more, and a busy machine makes more threads
     much slower); ``backend``: see :func:`~ndrql.model.predict.load_predictor`. The guideline is
     ``None`` for a model without the guideline decoder.
     """
     predictor = load_predictor(weights, threads, backend)
-    pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal))
+    pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal), size)
     guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
     return np.asarray(pred.region, dtype=np.float64), guideline
+
+
+@dataclass(frozen=True)
+class GivenPredictions:
+    """Predictions read from a file (``plan --prior-from FILE.npz``): at the map's resolution, and, from
+    a grid-mode model (``ndrql predict``), on the planning grid it saw."""
+
+    region: np.ndarray
+    """Region at the map's resolution."""
+    guideline: np.ndarray | None
+    """Guideline at the map's resolution."""
+    grid: GridPrediction | None = None
+    """The per-cell arrays and the grid they were made on, or ``None``."""
+
+    def on(self, grid: PlanningGrid) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """The per-cell region and guideline when they were made on exactly this planning grid (same cells
+        blocked, same start and goal cells), else ``None`` (the map-resolution arrays are averaged onto it)."""
+        g = self.grid
+        if g is None or g.blocked.shape != grid.shape or not np.array_equal(g.blocked, grid.blocked):
+            return None
+        if tuple(g.start) != tuple(grid.start) or tuple(g.goal) != tuple(grid.goal):
+            return None
+        return g.region, g.guideline
+
+
+#: Arrays of a prediction file that describe the planning grid a grid-mode model saw (``ndrql predict``).
+GRID_KEYS = ("grid_size", "grid_blocked", "grid_start", "grid_goal", "grid_region", "grid_guideline")
+
+
+def prediction_arrays(pred: Any) -> dict[str, np.ndarray]:
+    """A :class:`~ndrql.model.predict.Prediction` as the arrays of a prediction file, read back by
+    :func:`load_predictions`: the map-resolution arrays as float32, a grid-mode model's per-cell arrays as
+    float64 (so that ``plan --prior-from`` on the same grid plans exactly as ``plan`` with the model)."""
+    out = {"region": np.asarray(pred.region, np.float32)}
+    if pred.guideline is not None:
+        out["guideline"] = np.asarray(pred.guideline, np.float32)
+    g = pred.grid
+    if g is not None and g.guideline is not None:
+        out.update(grid_size=np.array(g.size), grid_blocked=np.asarray(g.blocked, bool), grid_start=np.array(g.start),
+                   grid_goal=np.array(g.goal), grid_region=np.asarray(g.region, np.float64),
+                   grid_guideline=np.asarray(g.guideline, np.float64))
+    return out
+
+
+def load_predictions(path: str | os.PathLike) -> GivenPredictions:
+    """Read a prediction file: ``region`` and ``guideline`` at the map's resolution (required) and the
+    grid arrays of :data:`GRID_KEYS` (optional, all or none; checked against each other)."""
+    region, guideline = load_prior_file(os.fspath(path))
+    with np.load(path, allow_pickle=False) as data:
+        present = [k for k in GRID_KEYS if k in data.files]
+        if not present:
+            return GivenPredictions(region, guideline)
+        if len(present) != len(GRID_KEYS):
+            missing = ", ".join(k for k in GRID_KEYS if k not in present)
+            raise NdrqlError(f"{path}: has grid arrays but not {missing}; write it with ndrql predict or drop the grid_* arrays")
+        blocked = np.asarray(data["grid_blocked"], bool)
+        cells = [tuple(int(v) for v in np.asarray(data[k]).reshape(-1)) for k in ("grid_start", "grid_goal")]
+        arrays = [np.asarray(data[k], np.float64) for k in ("grid_region", "grid_guideline")]
+        size = int(np.asarray(data["grid_size"]).reshape(-1)[0]) if np.asarray(data["grid_size"]).size else 0
+    if blocked.ndim != 2 or any(a.shape != blocked.shape for a in arrays) or any(len(c) != 2 for c in cells):
+        raise NdrqlError(f"{path}: grid_region, grid_guideline and grid_blocked must have one 2-D shape, "
+                         f"grid_start and grid_goal two numbers each")
+    if any(not np.all(np.isfinite(a)) or a.min() < 0 or a.max() > 1 for a in arrays):
+        raise NdrqlError(f"{path}: grid_region and grid_guideline must hold probabilities in [0, 1]")
+    return GivenPredictions(region, guideline, GridPrediction(size, blocked, cells[0], cells[1], arrays[0], arrays[1]))
 
 
 #: The region threshold (Eq. 7) below which the prediction is called uninformative: the model is not
@@ -234,14 +291,15 @@ class Predicted:
     """What made them: the weights file, ``"oracle priors"``, or ``None`` for given arrays."""
 
 
-def predict_for(ms: Sequence[Method], predictions: tuple[np.ndarray, np.ndarray | None] | str | None,
+def predict_for(ms: Sequence[Method], predictions: GivenPredictions | tuple[np.ndarray, np.ndarray | None] | str | None,
                 weights: str | os.PathLike | None, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point,
                 settings: PlanSettings, prior_config: PriorConfig, clock: StageClock,
                 info: dict[str, Any]) -> tuple[Predicted, list[Method]]:
     """The predictions the NDR methods in ``ms`` need, and the methods to run after :func:`fall_back`.
 
     ``predictions``: ``None`` (the model in ``weights``, loaded once per process), ``"oracle"``
-    (:func:`oracle_view`) or ``(region, guideline)`` at the map's resolution. Times the ``load`` and
+    (:func:`oracle_view`), ``(region, guideline)`` at the map's resolution, or :class:`GivenPredictions`
+    (used on the planning grid as they are when made on this very grid). Times the ``load`` and
     ``predict`` stages on ``clock``; records what the model saw in ``info``.
     """
     view = None
@@ -256,7 +314,12 @@ def predict_for(ms: Sequence[Method], predictions: tuple[np.ndarray, np.ndarray 
         used_weights = ORACLE_NAME
         region_map, guideline_map = view.region, view.guideline
     elif predictions is not None:
-        region_map, guideline_map = predictions
+        given = predictions if isinstance(predictions, GivenPredictions) else GivenPredictions(*predictions)
+        region_map, guideline_map = given.region, given.guideline
+        on_grid = given.on(grid)
+        if on_grid is not None:  # made by a grid-mode model on this very grid: used as they are
+            view = ModelView(region_map, guideline_map, {"mode": "grid", "from_file": True}, *on_grid)
+        info["prior_grid"] = "as given" if on_grid is not None else "averaged from the map's pixels"
         for name, arr in (("region", region_map), ("guideline", guideline_map)):
             if arr is not None and np.shape(arr) != grid_map.shape:
                 raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
+from ndrql.maps.safe import DEFAULT_MAX_SIZE
 from ndrql.model.predict import BACKENDS
 from ndrql.planning.methods import get_method
 
@@ -39,7 +40,7 @@ class PlanSettings:
     """size auto: how much longer than the map's own shortest route the grid's route may be."""
     max_map_pixels: int = 4096 * 4096
     """Largest map accepted, in pixels; larger maps are refused (crop or downscale them first)."""
-    max_size: int = 512
+    max_size: int = DEFAULT_MAX_SIZE
     """Largest planning grid (cells on the longer side); Q-learning's episode cap is 4 x cells, so big grids take long."""
     threads: int = 1
     """Threads for the model's forward pass (1: about as fast as 2 for one map, and much faster on a busy machine)."""

@@ -168,3 +168,10 @@ def test_prediction_files_with_broken_grid_arrays_are_one_line_errors(ndrql_exe,
                 "--out", tmp_path / "p")
     assert_one_line_error(r, "--size must be an integer in 2..512")
     assert not (tmp_path / "p").exists()
+    cut = np.zeros((100, 100), bool)
+    cut[50, :] = True  # no grid joins the two halves: the grid-mode model has nothing to predict on
+    np.save(tmp_path / "cut.npy", cut)
+    r = run_cli(ndrql_exe, "predict", tmp_path / "cut.npy", "--start", "10,10", "--goal", "90,90", "--out", tmp_path / "q",
+                "--weights", "general")
+    assert_one_line_error(r, "not connected")
+    assert not (tmp_path / "q").exists()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_weights_argument,
                               check_dpi, resolve_problem, save_figure)
@@ -51,12 +52,18 @@ def run(args: argparse.Namespace) -> int:
         check_int(args.size, "--size", 2, DEFAULT_MAX_SIZE)
     dpi = check_dpi(args)
     problem = resolve_problem(args)
+    existed = Path(args.out).exists()
     out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
     obstacles = problem.grid_map.obstacles
     t0 = time.perf_counter()
     predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend)
     t1 = time.perf_counter()
-    pred = predictor.predict(obstacles, problem.start, problem.goal, args.size)
+    try:  # a grid-mode model needs a planning grid that joins start and goal
+        pred = predictor.predict(obstacles, problem.start, problem.goal, args.size)
+    except Exception:
+        if not existed:
+            out.rmdir()  # made above and still empty: leave nothing behind
+        raise
     t2 = time.perf_counter()
     npz = out / "prediction.npz"
     arrays = {**prediction_arrays(pred), "start": np.array(problem.start), "goal": np.array(problem.goal),

@@ -1,9 +1,13 @@
 """The one place that asks the NDR model about a planning problem.
 
 :func:`predict_region` decides what the model sees and returns region and guideline probabilities
-at the map's resolution; everything downstream (priors, figures, JSON) takes them from here. Today
-the model sees the map as drawn (not inflated), resized so its longer side is 201 px and padded with
-obstacles (:func:`ndrql.dataset.render.to_model_input`), with start and goal scaled along.
+on the planning grid and at the map's resolution; everything downstream (priors, figures, JSON)
+takes them from here. A ``grid``-mode model (the default ``general``) sees the planning grid itself
+at 4 px per cell (:func:`ndrql.dataset.render.grid_input`); a ``map``-mode model (the paper's) sees
+the map as drawn (not inflated), resized so its longer side is 201 px and padded with obstacles
+(:func:`ndrql.dataset.render.to_model_input`), with start and goal scaled along. Predictions given
+instead of the model (``plan --prior-from``) arrive as :class:`GivenPredictions`
+(:func:`load_predictions`); the oracle's as :func:`oracle_view`.
 """
 
 from __future__ import annotations

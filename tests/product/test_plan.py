@@ -223,6 +223,7 @@ def test_a_prior_file_from_another_grid_is_averaged_onto_plans_grid(ndrql_exe, m
                     "--prior-from", tmp_path / "p" / "prediction.npz", "--json", out)
         assert r.returncode == 0, r.stderr
         assert json.loads(out.read_text())["prior_grid"] == expect
+        assert f"predictions: {tmp_path / 'p' / 'prediction.npz'}" in r.stdout and expect.split()[0] in r.stdout
 
 
 def test_point_in_a_blocked_cell_moves_with_a_warning(ndrql_exe, tmp_path):

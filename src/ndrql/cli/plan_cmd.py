@@ -268,6 +268,10 @@ def run(args: argparse.Namespace) -> int:
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.weights:
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')})")
+    elif "prior_grid" in report.info:
+        how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
+               else "averaged from the map's pixels onto this grid")
+        echo(f"predictions: {_short(str(args.prior_from))} ({how})")
     echo("\n".join(_summary(report)))
     if args.json:
         written = write_json(args.json, report.to_dict(include_records=args.records))

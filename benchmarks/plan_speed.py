@@ -118,7 +118,9 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"machine: {cpu}, {os.cpu_count()} logical cores, load average {os.getloadavg()[0]:.1f}; "
           f"Python {platform.python_version()}, torch {torch.__version__}, numba {numba.__version__}")
-    print(f"weights: {os.environ.get('NDRQL_WEIGHTS') or 'shipped (ndrql/data/ndr_default.pt)'}; median of {args.repeat} runs\n")
+    from ndrql.model.predict import default_weights_path
+
+    print(f"weights: {default_weights_path()}; median of {args.repeat} runs\n")
 
     helps = [timed([EXE, "--help"]) for _ in range(args.repeat)]
     print(f"start-up, `ndrql --help`: wall {med([h[0] for h in helps]):.3f} s, CPU {med([h[1] for h in helps]):.3f} s")

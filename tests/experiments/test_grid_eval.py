@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from ndrql.pipeline.predictions import to_map_pixels
+from ndrql.dataset.render import to_map_pixels
 
 from helpers.cli import assert_one_line_error, run_cli
 

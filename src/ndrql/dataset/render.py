@@ -29,7 +29,7 @@ from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import whole_pixel_majority
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances, nearest_free_euclidean
 from ndrql.maps.problem import MapProblem
-from ndrql.maps.safe import conservative_grid
+from ndrql.maps.safe import conservative_grid, grid_shape
 from ndrql.synth.labels import dilate_region, draw_guideline
 from ndrql.synth.oracle import oracle_prediction
 
@@ -114,6 +114,20 @@ def cells_to_map(cells: np.ndarray, shape: tuple[int, int], cell_px: tuple[float
     cells = np.asarray(cells, np.float64)
     r = np.minimum(((np.arange(shape[0]) + 0.5) / cell_px[0]).astype(int), cells.shape[0] - 1)
     c = np.minimum(((np.arange(shape[1]) + 0.5) / cell_px[1]).astype(int), cells.shape[1] - 1)
+    return cells[r[:, None], c[None, :]]
+
+
+def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
+    """Probabilities at 4 px per cell of a safe grid of ``n`` cells -> the map's pixels: each pixel takes the
+    mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as
+    :func:`ndrql.maps.safe.conservative_grid`). The cell is found in exact arithmetic, ``(i + 0.5) n / max(H, W)``;
+    :func:`cells_to_map` divides by the cell size in pixels instead, which can differ for a pixel centre
+    exactly on a cell border (the evaluation scores keep this rule)."""
+    rows, cols = grid_shape(shape, n)
+    cells = cell_means(prob, (rows, cols))
+    longest = max(shape)
+    r = np.minimum(((np.arange(shape[0]) + 0.5) * n / longest).astype(int), rows - 1)
+    c = np.minimum(((np.arange(shape[1]) + 0.5) * n / longest).astype(int), cols - 1)
     return cells[r[:, None], c[None, :]]
 
 

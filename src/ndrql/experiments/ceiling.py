@@ -20,7 +20,8 @@ from ndrql.experiments.stats import share_of_oracle
 from ndrql.maps.grid import MODEL_SIDE, area_downscale
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.pipeline.predictions import cell_means, predict_on_grid
+from ndrql.dataset.render import cell_means
+from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.planning.runner import run_plan
 from ndrql.synth.oracle import oracle_prediction
 

@@ -31,7 +31,7 @@ from ndrql.dataset.cache import SplitArrays
 from ndrql.dataset.mixture import stack
 from ndrql.dataset.render import Rendered, render_grid
 from ndrql.experiments.transfer import larger_sizes
-from ndrql.pipeline.predictions import to_map_pixels
+from ndrql.dataset.render import to_map_pixels
 from ndrql.training.evaluate import EvalResult, predict_batch
 from ndrql.training.metrics import f1_per_image
 

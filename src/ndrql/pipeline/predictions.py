@@ -22,7 +22,6 @@ import numpy as np
 from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on_grid, to_model_input
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
-from ndrql.maps.safe import grid_shape
 from ndrql.model.predict import GridPrediction, load_predictor
 from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.report import StageClock
@@ -76,17 +75,6 @@ def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     """Values per planning cell -> the map's pixels, each pixel its cell's value (for figures, JSON and the
     guideline's mass on obstacles; the same rule as :meth:`ndrql.model.predict.Predictor.predict`)."""
     return cells_to_map(cells, grid.source_shape, grid.cell_size)
-
-
-def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
-    """Probabilities at 4 px per cell of a grid of ``n`` cells -> the map's pixels: each pixel takes the
-    mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as :func:`ndrql.maps.safe.conservative_grid`)."""
-    rows, cols = grid_shape(shape, n)
-    cells = cell_means(prob, (rows, cols))
-    longest = max(shape)
-    r = np.minimum(((np.arange(shape[0]) + 0.5) * n / longest).astype(int), rows - 1)
-    c = np.minimum(((np.arange(shape[1]) + 0.5) * n / longest).astype(int), cols - 1)
-    return cells[r[:, None], c[None, :]]
 
 
 def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,

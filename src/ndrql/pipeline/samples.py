@@ -27,7 +27,8 @@ from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
 from ndrql.model.predict import Predictor
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
-from ndrql.pipeline.predictions import cell_means, predict_on_grid, to_map_pixels
+from ndrql.dataset.render import cell_means, to_map_pixels
+from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.planning.methods import downscale_priors
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 

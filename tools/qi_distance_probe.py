@@ -7,6 +7,7 @@ through all free cells plus 100), everything else unchanged (rewards, mask, thre
 preset), and reports how often NDR-QL then beats IQL. A diagnostic, never a method: the geodesic
 distance is a breadth-first search of the grid, a planner inside the planner, and IQL would deserve the
 same; a large gain says that the straight-line tie-breaker, not the region, is what loses the maps.
+Weights with a distance head add a row with their own predicted distance in Eq. 6 (a method: no search).
 
     python tools/qi_distance_probe.py --grid 50          # the 'select' set, 20 maps per family, 10 seeds
 """
@@ -18,6 +19,7 @@ import math
 
 import numpy as np
 
+from ndrql.dataset.render import cell_means
 from ndrql.experiments.transfer import row_configs
 from ndrql.maps.grid import bfs_distances
 from ndrql.model.predict import Predictor
@@ -59,12 +61,18 @@ def main() -> None:
     seeds = list(range(args.seeds))
     cases = cases_of(args.set, args.grid, args.per_family, predictor)
     ref = reference_runs(cases, preset, seeds)
-    rows: dict[str, list[tuple[float, float]]] = {"Eq. 6 (straight line)": [], "Eq. 6 (geodesic in the region)": []}
+    learned = predictor.predict_grid_all(np.zeros((2, 2), bool), (0, 0), (1, 1))[2] is not None
+    names = ["Eq. 6 (straight line)"] + (["Eq. 6 (the model's distance)"] if learned else []) + ["Eq. 6 (geodesic in the region)"]
+    rows: dict[str, list[tuple[float, float]]] = {name: [] for name in names}
     for (fam, case, (region, guide)), iql in zip(cases, ref):
         ql, pc = row_configs(preset, grid=case.n)["NDR-QL (model)"]
         paper = build_priors("NDR-QL", case.blocked, case.start_cell, case.goal_cell, region, guide, pc)
         geo = Priors(paper.r_c, geodesic_q0(case.blocked, case.goal_cell, region, paper.threshold, pc), paper.threshold)
-        for name, pri in zip(rows, (paper, geo)):
+        variants = [paper, geo]
+        if learned:
+            d = cell_means(predictor.predict_grid_all(case.blocked, case.start_cell, case.goal_cell)[2], case.blocked.shape)
+            variants.insert(1, build_priors("NDR-QL", case.blocked, case.start_cell, case.goal_cell, region, guide, pc, distance=d))
+        for name, pri in zip(rows, variants):
             rs = [run_plan(case.blocked, case.start_cell, case.goal_cell, "NDR-QL", s, ql, pc, priors=pri) for s in seeds]
             steps = np.mean([r.convergence_steps if r.converged else r.total_steps for r in rs])
             ratio = np.mean([r.length_ratio for r in rs if r.converged and r.length_ratio is not None] or [math.nan])

@@ -112,7 +112,7 @@ def solve(
     if any(m.needs_ndr for m in ms):
         pred, ms = predict_for(ms, predictions, weights, grid_map, pg, start, goal, settings, prior_config, clock, info)
     with clock.stage("priors"):
-        priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts)
+        priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts, pred.distance)
     with clock.stage("startup"):
         from ndrql.planning import kernel  # lazy: loads numba
 

@@ -101,6 +101,28 @@ def test_ndr_qi_mask_term_alone_eq6():
     assert not P.ndr_qi_mask_term(FREE, REGION, None).any()  # no threshold: MASK 0 everywhere
 
 
+def test_ndr_qi_eq6_with_a_given_goal_distance():
+    """Beyond the paper: a predicted distance replaces the straight line in Eq. 6's distance term only."""
+    start, goal = (0, 0), (0, 2)
+    dist = np.array([[2.0, 5.0, 0.0], [1.5, 9.0, 0.5], [-3.0, 7.0, 1.0]])  # any field; negatives clip to 0
+    q0, thd = P.ndr_qi(FREE, start, goal, REGION, distance=dist)
+    assert thd == pytest.approx(0.79)  # the threshold does not depend on the distance
+    assert q0[idx(0, 0), RIGHT] == pytest.approx(0.5 * -10 + 0.5 * math.exp(-5.0))
+    assert q0[idx(0, 0), DOWN] == pytest.approx(0.5 * math.exp(-1.5))
+    assert q0[idx(1, 0), DOWN] == pytest.approx(-5 + 0.5 * math.exp(-0.0))  # (2, 0): -3 clipped to 0
+    assert q0[idx(0, 0), UP] == pytest.approx(0.5 * math.exp(-2.0))  # blocked move: s' = s
+    hyp = np.hypot(*np.indices((3, 3)) - np.array(goal)[:, None, None])
+    assert np.allclose(P.ndr_qi(FREE, start, goal, REGION, distance=hyp)[0], P.ndr_qi(FREE, start, goal, REGION)[0])
+    with pytest.raises(ValueError, match="distance has shape"):
+        P.ndr_qi(FREE, start, goal, REGION, distance=np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="finite"):
+        P.ndr_qi(FREE, start, goal, REGION, distance=np.full((3, 3), np.nan))
+    pri = build_priors("NDR-QL", FREE, start, goal, REGION, REGION, distance=dist)
+    assert np.array_equal(pri.q0, q0)
+    iql = build_priors("IQL", FREE, start, goal, distance=dist)  # D-QI keeps the straight line
+    assert np.array_equal(iql.q0, build_priors("IQL", FREE, start, goal).q0)
+
+
 def test_prior_shape_mismatch_says_what_to_do():
     with pytest.raises(ValueError, match="downscale"):
         P.adaptive_threshold(np.zeros((5, 5)), FREE, (0, 0), (2, 2))

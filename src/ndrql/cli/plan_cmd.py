@@ -115,6 +115,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"{docs['threads']} (default: {settings.threads})")
     p.add_argument("--backend", choices=BACKENDS, default=settings.backend,
                    help=f"{docs['backend']} (default: {settings.backend})")
+    p.add_argument("--learned-distance", action=argparse.BooleanOptionalAction, default=settings.learned_distance,
+                   help=f"{docs['learned_distance']} (default: on)")
     p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
@@ -297,7 +299,7 @@ def _settings(args: argparse.Namespace, sample: bool) -> Any:
         fallback = None
     return PlanSettings(grid=rule, size=args.size, robot_radius=args.robot_radius, smooth=smooth, fallback=fallback,
                         max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads,
-                        backend=args.backend)
+                        backend=args.backend, learned_distance=args.learned_distance)
 
 
 def _xyyaw(point: Any) -> Any:

@@ -24,7 +24,7 @@ from ndrql.dataset.batches import transform_array, transform_point
 from ndrql.dataset.cache import SplitArrays, unpack
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.generated import GeneratedSet
-from ndrql.dataset.render import Rendered, input_side, render
+from ndrql.dataset.render import DISTANCE_UNIT, Rendered, input_side, render
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.families import family_names
@@ -145,7 +145,8 @@ def augment(r: Rendered, k: int) -> Rendered:
         return r
     shape = r.obstacles.shape
     return Rendered(transform_array(r.obstacles, k), transform_point(r.start, k, shape), transform_point(r.goal, k, shape),
-                    transform_array(r.guideline, k), transform_array(r.region, k))
+                    transform_array(r.guideline, k), transform_array(r.region, k),
+                    None if r.distance is None else transform_array(r.distance, k))
 
 
 def batch_size_for(side: int, batch_size: int) -> int:
@@ -153,23 +154,32 @@ def batch_size_for(side: int, batch_size: int) -> int:
     return max(2, int(round(batch_size * (MODEL_SIDE / side) ** 2)))
 
 
-def stack(items: list[Rendered], encoding: str):
-    """(x, region, guideline) float tensors (B, C, H, W)."""
+def stack(items: list[Rendered], encoding: str, distance: bool = False):
+    """(x, region, guideline) float tensors (B, C, H, W); with ``distance`` also the goal-distance label in
+    units of ``DISTANCE_UNIT`` cells (-1 where unknown, everywhere for a ``map``-mode item)."""
     import torch
 
     x = np.stack([encode_input(r.obstacles, r.start, r.goal, encoding) for r in items])
     region = np.stack([r.region for r in items])[:, None].astype(np.float32)
     guide = np.stack([r.guideline for r in items])[:, None].astype(np.float32)
-    return torch.from_numpy(x), torch.from_numpy(region), torch.from_numpy(guide)
+    out = (torch.from_numpy(x), torch.from_numpy(region), torch.from_numpy(guide))
+    if not distance:
+        return out
+    d = np.stack([np.full(r.region.shape, -1.0, np.float32) if r.distance is None
+                  else np.where(r.distance >= 0, r.distance / DISTANCE_UNIT, -1.0).astype(np.float32) for r in items])
+    return out + (torch.from_numpy(d[:, None]),)
 
 
 class Mixture:
     """Weighted sources, input mode and grid sizes: deterministic batches and a fixed validation list."""
 
-    def __init__(self, sources: list[Source], mode: str, sizes: tuple[int, ...], encoding: str = "point"):
+    def __init__(self, sources: list[Source], mode: str, sizes: tuple[int, ...], encoding: str = "point",
+                 distance: bool = False):
         if not sources:
             raise NdrqlError("no training source")
         self.sources, self.mode, self.sizes, self.encoding = sources, mode, tuple(sizes), encoding
+        self.distance = distance
+        """Batches carry the goal-distance label as a fourth tensor (:func:`stack`)."""
         w = np.array([s.spec.weight for s in sources], np.float64)
         self.p = w / w.sum()
         input_side(mode, sizes[0])  # validates the mode
@@ -190,7 +200,7 @@ class Mixture:
                     break
             else:
                 raise NdrqlError(f"no usable sample in {MAX_TRIES} draws at grid {n} ({self.mode} mode)")
-        return stack(items, self.encoding)
+        return stack(items, self.encoding, self.distance)
 
     def batches(self, seed: int, epoch: int, steps: int, batch_size: int, start_step: int = 0,
                 augment_on: bool = True) -> Iterator[tuple[int, tuple]]:

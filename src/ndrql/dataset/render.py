@@ -39,6 +39,8 @@ Point = tuple[int, int]
 INPUT_MODES = ("map", "grid")
 #: Pixels per planning cell in the model's input.
 PX_PER_CELL = 4
+#: Planning cells per unit of the model's goal-distance output (targets stay near 1-20 on ``plan``'s grids).
+DISTANCE_UNIT = 16.0
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,9 @@ class Rendered(MapProblem):
     """bool, the path drawn 2 px wide."""
     region: np.ndarray
     """bool, the guideline's 30x30 dilation."""
+    distance: np.ndarray | None = None
+    """float32, each pixel's cell's distance to the goal cell in 4-connected moves (the planner's
+    actions), -1 where blocked or unreachable (``grid`` mode; ``None`` in ``map`` mode)."""
 
 
 def input_side(mode: str, n: int) -> int:
@@ -99,7 +104,17 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Ren
     gl = np.zeros((side, side), bool)
     r[:region.shape[0], :region.shape[1]] = region > 0.5
     gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
-    return Rendered(img, s_px, g_px, gl, r)
+    return Rendered(img, s_px, g_px, gl, r, goal_distance_pixels(blocked, g, side))
+
+
+def goal_distance_pixels(blocked: np.ndarray, goal_cell: Point, side: int) -> np.ndarray:
+    """The ``distance`` label: 4-connected moves from every cell to ``goal_cell`` drawn at 4 px per cell,
+    padded with -1 (unknown) to ``side`` square."""
+    cells = bfs_distances(blocked, goal_cell).astype(np.float32)
+    out = np.full((side, side), -1.0, np.float32)
+    up = np.kron(cells, np.ones((PX_PER_CELL, PX_PER_CELL), np.float32))
+    out[:up.shape[0], :up.shape[1]] = up
+    return out
 
 
 def cell_means(prob: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -17,7 +17,7 @@ import numpy as np
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, from_model_output, input_side, place_cells, to_model_input
 from ndrql.experiments.stats import share_of_oracle
-from ndrql.maps.grid import MODEL_SIDE, area_downscale
+from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances
 from ndrql.maps.safe import cell_size_px, conservative_grid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.dataset.render import cell_means
@@ -58,21 +58,29 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
     return None
 
 
-def oracle_priors(case: GridCase) -> tuple[np.ndarray, np.ndarray]:
-    """Region and guideline of the oracle on the grid."""
+def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, ...]:
+    """Region and guideline of the oracle on the grid; with ``distance`` also the exact goal distance per
+    cell (4-connected moves; cells that cannot reach the goal get the largest distance plus one), the
+    perfect version of a distance head's output."""
     region, guide = oracle_prediction(case.blocked, case.start_cell, case.goal_cell, PX_PER_CELL)
-    return cell_means(region, case.blocked.shape), cell_means(guide, case.blocked.shape)
+    out = (cell_means(region, case.blocked.shape), cell_means(guide, case.blocked.shape))
+    if not distance:
+        return out
+    d = bfs_distances(case.blocked, case.goal_cell).astype(np.float64)
+    return out + (np.where(d >= 0, d, d.max() + 1.0),)
 
 
-def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, np.ndarray]:
-    """Region and guideline of the model on the grid, for a model trained on input ``mode``.
+def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, ...]:
+    """Region and guideline of the model on the grid, for a model trained on input ``mode``, and its goal
+    distance per cell (cells) when it has a distance head.
 
     ``grid``: the safe grid at 4 px per cell; ``map``: the map at ``4n + 1`` px; ``map201``: the map at
     201 px whatever the grid (the input of the paper's model before multi-scale training).
     """
     if mode == "grid":
-        r, gl, _ = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
-        return cell_means(r, case.blocked.shape), cell_means(gl, case.blocked.shape)
+        r, gl, _, d = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
+        out = (cell_means(r, case.blocked.shape), cell_means(gl, case.blocked.shape))
+        return out if d is None else out + (cell_means(d, case.blocked.shape),)
     side = MODEL_SIDE if mode == "map201" else input_side("map", case.n)
     img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)
     r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])
@@ -102,14 +110,16 @@ class CaseResult:
     threshold: dict[str, float | None] = field(default_factory=dict)
 
 
-def run_case(case: GridCase, priors: dict[str, tuple[np.ndarray, np.ndarray] | None], seeds: list[int],
+def run_case(case: GridCase, priors: dict[str, tuple[np.ndarray, ...] | None], seeds: list[int],
              config: QLConfig = QLConfig(), prior_config: PriorConfig = PriorConfig()) -> CaseResult:
-    """Run each row in ``priors`` (row name -> region/guideline on the grid, ``None`` for QL/IQL)."""
+    """Run each row in ``priors`` (row name -> region, guideline and optionally the goal distance on the
+    grid, ``None`` for QL/IQL)."""
     out = CaseResult(case.name, case.group, case.n)
     for row, pr in priors.items():
         method = row.split(" ")[0]
-        region, guide = pr if pr is not None else (None, None)
-        runs = [run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, config, prior_config, region, guide) for s in seeds]
+        region, guide, dist = (tuple(pr) + (None,))[:3] if pr is not None else (None, None, None)
+        runs = [run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, config, prior_config, region, guide,
+                         distance=dist) for s in seeds]
         out.steps[row] = [int(r.convergence_steps if r.converged else r.total_steps) for r in runs]
         out.ratio[row] = [float(r.length_ratio) for r in runs if r.converged and r.length_ratio is not None]
         out.threshold[row] = runs[0].threshold if hasattr(runs[0], "threshold") else None

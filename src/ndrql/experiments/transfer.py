@@ -81,8 +81,9 @@ def _runs(blocked, s, g, priors: dict, seeds: list[int], configs: dict[str, tupl
     for row, pr in priors.items():
         method = row.split(" ")[0]
         region, guide = (np.asarray(pr[0]), np.asarray(pr[1])) if pr is not None else (None, None)
+        dist = np.asarray(pr[2]) if pr is not None and len(pr) > 2 else None
         ql, pc = configs[row]
-        runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide) for seed in seeds]
+        runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide, distance=dist) for seed in seeds]
         out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
                     "converged": [bool(r.converged) for r in runs],
                     "ratio": [float(r.length_ratio) if r.converged and r.length_ratio is not None else None for r in runs],
@@ -126,7 +127,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                     meta[key] = {"family": fam, "n": n, "skipped": True}
                     continue
                 model = model_priors(predictor, "map201" if mode == "map" else mode, case)  # what plan shows the model
-                oracle = oracle_priors(case)
+                oracle = oracle_priors(case, distance=len(model) > 2)  # a perfect version of what the model predicts
                 if panels is not None and n == grids[0] and fam not in {p.family for p in panels}:
                     panels.append(PredictionPanel(fam, case.blocked, case.start_cell, case.goal_cell, model, oracle,
                                                   f"({case.n}x{case.n})"))

@@ -62,8 +62,9 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
     out = []
     for fam, i in tqdm(interleave(by_family, k), desc="predictions", unit="map", disable=not progress):
         c = cases[i]
-        region, guide = model_priors(predictor, mode, c)
+        region, guide, *dist = model_priors(predictor, mode, c)
         opt = int(astar4(c.blocked, c.start_cell, c.goal_cell).moves)
         out.append(Problem(f"{set_name}-g{n}", i, fam, c.obstacles, tuple(c.start), tuple(c.goal), c.blocked,
-                           tuple(c.start_cell), tuple(c.goal_cell), opt, region, guide))  # type: ignore[arg-type]
+                           tuple(c.start_cell), tuple(c.goal_cell), opt, region, guide,  # type: ignore[arg-type]
+                           dist[0] if dist else None))
     return out, skipped, file_digest(wpath)[:16]

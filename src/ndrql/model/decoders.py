@@ -1,4 +1,4 @@
-"""Output heads: the region head and the 4-level UNet guideline decoder."""
+"""Output heads: the region head, the 4-level UNet guideline decoder and the goal-distance head."""
 
 from __future__ import annotations
 
@@ -64,3 +64,28 @@ class UNetDecoder(nn.Module):
             x = block(torch.cat([x, skip], dim=1))
         x = F.interpolate(x, size=inp.shape[-2:], mode="bilinear", align_corners=False)
         return self.cls(self.refine(torch.cat([x, inp], dim=1)))
+
+
+class DistanceHead(nn.Module):
+    """Each pixel's distance to the goal through free space.
+
+    A coarse field at the fused features' stride 8 (where the pyramid pooling's global context is),
+    from those features and the input channels max-pooled to that stride, through a stack of dilated
+    convolutions (receptive field about 60 cells at 4 px per cell), is upsampled and corrected at full
+    resolution by a light convolution that also sees the input channels (the walls).
+    """
+
+    def __init__(self, cin: int, cmid: int, in_channels: int, dilations: tuple[int, ...] = (2, 4, 8, 16), refine: int = 8):
+        super().__init__()
+        layers: list[nn.Module] = [ConvBNReLU(cin + in_channels, cmid)]
+        for d in dilations:
+            layers += [nn.Conv2d(cmid, cmid, 3, padding=d, dilation=d, bias=False), nn.BatchNorm2d(cmid), nn.ReLU(inplace=True)]
+        self.coarse = nn.Sequential(*layers, nn.Conv2d(cmid, 1, 1))
+        self.refine = nn.Sequential(ConvBNReLU(in_channels + 1, refine), ConvBNReLU(refine, refine), nn.Conv2d(refine, 1, 1))
+
+    def forward(self, features: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
+        """``features`` at stride 8 of ``x`` (whose sides are multiples of 8)."""
+        pooled = F.max_pool2d(x, x.shape[-1] // features.shape[-1])
+        coarse = self.coarse(torch.cat([features, pooled], dim=1))
+        coarse = F.interpolate(coarse, size=x.shape[-2:], mode="bilinear", align_corners=False)
+        return coarse + self.refine(torch.cat([coarse, x], dim=1))

@@ -1,7 +1,8 @@
 """ONNX export of a checkpoint: the form ONNX Runtime runs without torch (``ndrql export-onnx``,
 the shipped graphs of :mod:`ndrql.model.shipped`).
 
-The graph takes ``x`` (B, C, H, W) and returns the ``region`` and ``guideline`` logits (B, 1, H, W).
+The graph takes ``x`` (B, C, H, W) and returns the ``region`` and ``guideline`` logits (B, 1, H, W)
+(and the raw ``distance`` output of a model with a distance head).
 By default batch, height and width are all dynamic: one graph serves every input side (the pyramid
 pooling and the padding take their size-generic form while traced, :func:`ndrql.model.layers.exporting`).
 Weights that fp16 holds exactly (the shipped checkpoints are stored in fp16) are stored as fp16 and
@@ -53,7 +54,7 @@ def export_onnx(weights: str | Path, out: str | Path, size: int | None = None) -
     model = model_from_checkpoint(data).eval()
     side = TRACE_SIDE if size is None else int(size)
     dummy = torch.zeros(1, int(config.get("in_channels", 3)), side, side)
-    outputs = ["region", "guideline"]
+    outputs = ["region", "guideline"] + (["distance"] if config.get("distance_head") else [])
     axes = {0: "batch"} if size is not None else {0: "batch", 2: "height", 3: "width"}
     out = Path(out)
     with atomic_path(out) as tmp, warnings.catch_warnings():
@@ -132,7 +133,7 @@ def sample_inputs(side: int, channels: int, encoding: str, count: int, seed: int
 def max_differences(weights: Path, graph: Path, sides: tuple[int, ...] = CHECK_SIDES, count: int = 2,
                     seed: int = 0) -> dict[int, dict[str, float]]:
     """Largest |probability difference| between torch and ONNX Runtime per input side, for region and
-    guideline, on :func:`sample_inputs` (needs torch)."""
+    guideline (and the relative difference of the distance output), on :func:`sample_inputs` (needs torch)."""
     import torch  # lazy: torch is optional
 
     from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint  # lazy: torch is optional
@@ -144,10 +145,13 @@ def max_differences(weights: Path, graph: Path, sides: tuple[int, ...] = CHECK_S
     for side in sides:
         x = sample_inputs(side, channels, runner.config.get("encoding", "point"), count, seed + side)
         with torch.inference_mode():
-            region, guide = model(torch.from_numpy(x))
+            region, guide, *dist = model(torch.from_numpy(x))
         tr, tg = torch.sigmoid(region)[:, 0].numpy(), torch.sigmoid(guide)[:, 0].numpy()
-        orr, og = runner(x)
+        orr, og, od = runner(x)
         out[side] = {"region": float(np.abs(tr - orr).max()), "guideline": float(np.abs(tg - og).max())}
+        if dist:  # raw output in DISTANCE_UNIT cells: compared relative to its size
+            td = dist[0][:, 0].numpy()
+            out[side]["distance"] = float((np.abs(td - od) / (1.0 + np.abs(td))).max())
     return out
 
 

@@ -2,21 +2,26 @@
 
 STDC backbone -> simplified pyramid pooling on stage 5 -> two attention fusion modules (with stage 4,
 then stage 3) -> region head; the region probability concatenated with the input channels feeds a
-4-level UNet that predicts the guideline. Inputs of any size are padded to a multiple of 32 inside
+4-level UNet that predicts the guideline. Optionally (``distance_head``, beyond the paper) a third
+head predicts each pixel's distance to the goal through free space, in units of
+:data:`DISTANCE_UNIT` planning cells: the ordering toward the goal that Eq. 6's distance term takes
+from the model instead of the straight line. Inputs of any size are padded to a multiple of 32 inside
 and outputs come back at the input size, as logits (apply ``torch.sigmoid`` for probabilities).
 """
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import asdict, dataclass, fields
 
 import torch
 import torch.nn.functional as F
 from torch import nn
 
+from ndrql.dataset.render import DISTANCE_UNIT  # noqa: F401  (re-exported: the unit of the distance output)
 from ndrql.model.backbone import STDC_DEPTHS, STDCBackbone
 from ndrql.model.context import SimplePyramidPooling
-from ndrql.model.decoders import RegionHead, UNetDecoder
+from ndrql.model.decoders import DistanceHead, RegionHead, UNetDecoder
 from ndrql.model.fusion import AttentionFusion
 from ndrql.model.layers import exporting
 
@@ -45,6 +50,8 @@ class NDRConfig:
     """Input encoding of start and goal the model was trained with (see ndrql.dataset.encodings)."""
     input_mode: str = "map"
     """What the model was trained to see: map (the map resized, the paper's input) or grid (the planning grid at 4 px per cell)."""
+    distance_head: bool = False
+    """Also predict the distance to the goal through free space (grid mode; units of DISTANCE_UNIT cells)."""
 
     @classmethod
     def from_dict(cls, data: dict) -> "NDRConfig":
@@ -76,8 +83,16 @@ def pad_to_multiple(x: torch.Tensor, multiple: int = 32) -> tuple[torch.Tensor, 
     return x, (h, w)
 
 
+def _full_precision(x: torch.Tensor):
+    """Autocast off inside the block (the distance output needs fp32's resolution: 1/16 apart at 20)."""
+    if exporting() or not torch.is_autocast_enabled(x.device.type):
+        return contextlib.nullcontext()
+    return torch.autocast(device_type=x.device.type, enabled=False)
+
+
 class NDRNet(nn.Module):
-    """NDR network: ``forward(x: (B, C, H, W)) -> (region_logits, guideline_logits)``, each (B, 1, H, W).
+    """NDR network: ``forward(x: (B, C, H, W)) -> (region_logits, guideline_logits)``, each (B, 1, H, W),
+    plus the goal distance (B, 1, H, W) as a third output when ``distance_head``.
 
     With ``guideline_decoder=False`` the guideline output is ``None``.
     """
@@ -95,8 +110,9 @@ class NDRNet(nn.Module):
         self.fuse3 = AttentionFusion(c3, f4, f3)
         self.region_head = RegionHead(f3, f3)
         self.guideline = UNetDecoder(config.in_channels + 1, config.unet_base) if config.guideline_decoder else None
+        self.distance = DistanceHead(f3, f3, config.in_channels) if config.distance_head else None
 
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
         if x.ndim != 4 or x.shape[1] != self.config.in_channels:
             raise ValueError(
                 f"expected input (B, {self.config.in_channels}, H, W), got {tuple(x.shape)}; "
@@ -109,4 +125,8 @@ class NDRNet(nn.Module):
         guide = None
         if self.guideline is not None:
             guide = self.guideline(torch.cat([torch.sigmoid(region), xp], dim=1))[..., :h, :w]
-        return region[..., :h, :w], guide
+        if self.distance is None:
+            return region[..., :h, :w], guide
+        with _full_precision(x):
+            dist = self.distance(y.float(), xp.float())[..., :h, :w]
+        return region[..., :h, :w], guide, dist

@@ -90,9 +90,11 @@ class OnnxRunner:
         self.session = open_session(self.path, threads)
         self.config = graph_config(self.session, self.path)
 
-    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        region, guide = self.session.run(None, {"x": np.ascontiguousarray(x, np.float32)})
-        return _sigmoid(region)[:, 0], _sigmoid(guide)[:, 0]
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Region and guideline probabilities (B, H, W), and the raw goal-distance output (B, H, W) of a graph
+        that has one (``None`` otherwise)."""
+        region, guide, *dist = self.session.run(None, {"x": np.ascontiguousarray(x, np.float32)})
+        return _sigmoid(region)[:, 0], _sigmoid(guide)[:, 0], (dist[0][:, 0] if dist else None)
 
 
 def onnx_cache_path(weights: Path) -> Path:

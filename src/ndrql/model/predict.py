@@ -19,7 +19,7 @@ from typing import Iterator
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import cell_means, cells_to_map, from_model_output, grid_input, to_model_input
+from ndrql.dataset.render import DISTANCE_UNIT, cell_means, cells_to_map, from_model_output, grid_input, to_model_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
@@ -55,6 +55,9 @@ class GridPrediction:
     """Region per cell, float64 ``(h, w)``: the mean of the cell's 4x4 pixels of the model's output."""
     guideline: np.ndarray | None
     """Guideline per cell, as ``region``."""
+    distance: np.ndarray | None = None
+    """Predicted distance to the goal through free space per cell, in cells (the mean of the cell's
+    pixels); ``None`` for a model without a distance head."""
 
 
 def default_weights_path() -> Path:
@@ -94,15 +97,15 @@ class _TorchRunner:
         self.model = model.eval().to(memory_format=torch.channels_last)
         self.threads = threads
 
-    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         import torch  # lazy: torch is optional
 
         with torch_threads(self.threads), torch.inference_mode():
             t = torch.from_numpy(np.ascontiguousarray(x, np.float32)).contiguous(memory_format=torch.channels_last)
-            region, guide = self.model(t)
+            region, guide, *dist = self.model(t)
         r = torch.sigmoid(region)[:, 0].numpy()
         g = torch.sigmoid(guide)[:, 0].numpy() if guide is not None else None
-        return r, g
+        return r, g, (dist[0][:, 0].float().numpy() if dist else None)
 
 
 class Predictor:
@@ -186,14 +189,20 @@ class Predictor:
 
     def predict_batch(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Probabilities for an encoded batch (B, C, H, W) -> (B, H, W) arrays."""
-        return self._runner(x)
+        return self._runner(x)[:2]
 
     def predict_grid(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None]:
         """Region and guideline of a grid-mode model for the planning grid ``blocked``, drawn at 4 px per cell
         (padded with obstacles to a square of ``4 max(h, w)`` px, :func:`~ndrql.dataset.render.grid_input`)."""
+        return self.predict_grid_all(blocked, start_cell, goal_cell)[:2]
+
+    def predict_grid_all(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point
+                         ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """:meth:`predict_grid` plus the goal distance per pixel, in planning cells (``None`` for a model
+        without a distance head)."""
         img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
-        r, gl = self.predict_batch(encode_input(img, s, g, self.encoding)[None])
-        return r[0], None if gl is None else gl[0]
+        r, gl, d = self._runner(encode_input(img, s, g, self.encoding)[None])
+        return r[0], None if gl is None else gl[0], None if d is None else DISTANCE_UNIT * d[0]
 
     def predict(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None = None) -> Prediction:
         """Region and guideline probabilities for one map, at the map's own resolution.
@@ -224,12 +233,12 @@ class Predictor:
         blocked = conservative_grid(obstacles, int(size))
         s, _ = place_point(obstacles, blocked, start, int(size))
         g, _ = place_point(obstacles, blocked, goal, int(size))
-        r, gl = self.predict_grid(blocked, s, g)
-        cells = [None if a is None else cell_means(a, blocked.shape) for a in (r, gl)]
+        r, gl, d = self.predict_grid_all(blocked, s, g)
+        cells = [None if a is None else cell_means(a, blocked.shape) for a in (r, gl, d)]
         cell_px = (cell_size_px(obstacles.shape, int(size)),) * 2
-        on_map = [None if a is None else cells_to_map(a, obstacles.shape, cell_px) for a in cells]
+        on_map = [None if a is None else cells_to_map(a, obstacles.shape, cell_px) for a in cells[:2]]
         return Prediction(region=on_map[0], guideline=on_map[1],
-                          grid=GridPrediction(int(size), blocked, s, g, cells[0], cells[1]))
+                          grid=GridPrediction(int(size), blocked, s, g, cells[0], cells[1], cells[2]))
 
 
 def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto") -> Predictor:

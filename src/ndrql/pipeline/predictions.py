@@ -48,6 +48,8 @@ class ModelView:
     """Region on the planning grid when the prediction was made there (grid-mode models, the oracle), else ``None``."""
     guideline_grid: np.ndarray | None = None
     """Guideline on the planning grid, as :attr:`region_grid`."""
+    distance_grid: np.ndarray | None = None
+    """Predicted distance to the goal per planning cell, in cells (models with a distance head), else ``None``."""
 
 
 def model_input_points(obstacles: np.ndarray, start: Point, goal: Point) -> dict[str, Any]:
@@ -77,23 +79,26 @@ def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     return cells_to_map(cells, grid.source_shape, grid.cell_size)
 
 
-def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point,
-                    goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any]]:
+def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point
+                    ) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any], np.ndarray | None]:
     """A grid-mode model's region and guideline at 4 px per cell of the planning grid ``blocked`` (padded to
-    a square of ``4 max(h, w)`` px), and what it saw."""
-    r, gl = predictor.predict_grid(blocked, start_cell, goal_cell)
+    a square of ``4 max(h, w)`` px), what it saw, and its goal distance per pixel in cells (``None`` for a
+    model without a distance head)."""
+    r, gl, d = predictor.predict_grid_all(blocked, start_cell, goal_cell)
     s, g = point_on_grid(start_cell, PX_PER_CELL, r.shape[0]), point_on_grid(goal_cell, PX_PER_CELL, r.shape[0])
     info = {"mode": "grid", "side": int(r.shape[0]), "start": list(s), "goal": list(g)}
-    return r, gl, info
+    return r, gl, info, d
 
 
-def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any]) -> ModelView:
+def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],
+             distance_px: np.ndarray | None = None) -> ModelView:
     """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid,
     each map pixel its cell's mean."""
     region = cell_means(region_px, grid.shape)
     guide = None if guide_px is None else cell_means(guide_px, grid.shape)
+    distance = None if distance_px is None else cell_means(distance_px, grid.shape)
     return ModelView(region=_grid_to_map(region, grid), guideline=None if guide is None else _grid_to_map(guide, grid),
-                     info=info, region_grid=region, guideline_grid=guide)
+                     info=info, region_grid=region, guideline_grid=guide, distance_grid=distance)
 
 
 def oracle_view(grid: PlanningGrid) -> ModelView:
@@ -113,8 +118,8 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
     ``map`` models (the paper's) see the map resized to 201 px.
     """
     if getattr(predictor, "input_mode", "map") == "grid":
-        region_px, guide_px, info = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
-        return _on_grid(region_px, guide_px, grid, info)
+        region_px, guide_px, info, distance_px = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
+        return _on_grid(region_px, guide_px, grid, info, distance_px)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)
     region = np.asarray(pred.region, dtype=np.float64)
@@ -160,19 +165,22 @@ class GivenPredictions:
     grid: GridPrediction | None = None
     """The per-cell arrays and the grid they were made on, or ``None``."""
 
-    def on(self, grid: PlanningGrid) -> tuple[np.ndarray, np.ndarray | None] | None:
-        """The per-cell region and guideline when they were made on exactly this planning grid (same cells
-        blocked, same start and goal cells), else ``None`` (the map-resolution arrays are averaged onto it)."""
+    def on(self, grid: PlanningGrid) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None] | None:
+        """The per-cell region, guideline and goal distance (``None`` without one) when they were made on
+        exactly this planning grid (same cells blocked, same start and goal cells), else ``None`` (the
+        map-resolution arrays are averaged onto it)."""
         g = self.grid
         if g is None or g.blocked.shape != grid.shape or not np.array_equal(g.blocked, grid.blocked):
             return None
         if tuple(g.start) != tuple(grid.start) or tuple(g.goal) != tuple(grid.goal):
             return None
-        return g.region, g.guideline
+        return g.region, g.guideline, g.distance
 
 
 #: Arrays of a prediction file that describe the planning grid a grid-mode model saw (``ndrql predict``).
 GRID_KEYS = ("grid_size", "grid_blocked", "grid_start", "grid_goal", "grid_region", "grid_guideline")
+#: Optional with them: the goal distance per cell of a model with a distance head.
+GRID_DISTANCE_KEY = "grid_distance"
 
 
 def prediction_arrays(pred: Any) -> dict[str, np.ndarray]:
@@ -187,6 +195,8 @@ def prediction_arrays(pred: Any) -> dict[str, np.ndarray]:
         out.update(grid_size=np.array(g.size), grid_blocked=np.asarray(g.blocked, bool), grid_start=np.array(g.start),
                    grid_goal=np.array(g.goal), grid_region=np.asarray(g.region, np.float64),
                    grid_guideline=np.asarray(g.guideline, np.float64))
+        if g.distance is not None:
+            out[GRID_DISTANCE_KEY] = np.asarray(g.distance, np.float64)
     return out
 
 
@@ -205,12 +215,16 @@ def load_predictions(path: str | os.PathLike) -> GivenPredictions:
         cells = [tuple(int(v) for v in np.asarray(data[k]).reshape(-1)) for k in ("grid_start", "grid_goal")]
         arrays = [np.asarray(data[k], np.float64) for k in ("grid_region", "grid_guideline")]
         size = int(np.asarray(data["grid_size"]).reshape(-1)[0]) if np.asarray(data["grid_size"]).size else 0
+        distance = np.asarray(data[GRID_DISTANCE_KEY], np.float64) if GRID_DISTANCE_KEY in data.files else None
     if blocked.ndim != 2 or any(a.shape != blocked.shape for a in arrays) or any(len(c) != 2 for c in cells):
         raise NdrqlError(f"{path}: grid_region, grid_guideline and grid_blocked must have one 2-D shape, "
                          f"grid_start and grid_goal two numbers each")
     if any(not np.all(np.isfinite(a)) or a.min() < 0 or a.max() > 1 for a in arrays):
         raise NdrqlError(f"{path}: grid_region and grid_guideline must hold probabilities in [0, 1]")
-    return GivenPredictions(region, guideline, GridPrediction(size, blocked, cells[0], cells[1], arrays[0], arrays[1]))
+    if distance is not None and (distance.shape != blocked.shape or not np.all(np.isfinite(distance))):
+        raise NdrqlError(f"{path}: grid_distance must be finite and have grid_blocked's shape")
+    return GivenPredictions(region, guideline,
+                            GridPrediction(size, blocked, cells[0], cells[1], arrays[0], arrays[1], distance))
 
 
 #: The region threshold (Eq. 7) below which the prediction is called uninformative: the model is not
@@ -281,6 +295,8 @@ class Predicted:
     """Guideline on the planning grid."""
     weights: str | None = None
     """What made them: the weights file, ``"oracle priors"``, or ``None`` for given arrays."""
+    distance: np.ndarray | None = None
+    """The model's goal distance on the planning grid (cells), for Eq. 6; ``None``: the straight line."""
 
 
 def predict_for(ms: Sequence[Method], predictions: GivenPredictions | tuple[np.ndarray, np.ndarray | None] | str | None,
@@ -329,11 +345,15 @@ def predict_for(ms: Sequence[Method], predictions: GivenPredictions | tuple[np.n
     if guideline_map is None and needs_guide:
         raise NdrqlError(f"{', '.join(needs_guide)} need the guideline prediction, which "
                          f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
+    distance = None
     with clock.stage("predict"):
         if view is not None and view.region_grid is not None:  # predicted on the planning grid itself
             region, guideline = view.region_grid, view.guideline_grid
+            distance = view.distance_grid if settings.learned_distance else None
         else:
             region, guideline = downscale_priors(region_map, guideline_map, grid.shape)
         # the prediction's quality is judged with the given prior_config, whatever the preset
         ms = fall_back(ms, region, guideline_map, grid_map, grid, prior_config, settings.fallback, info)
-    return Predicted(region_map, guideline_map, region, guideline, used_weights), list(ms)
+    if any(m.n_qi for m in ms):
+        info["qi_distance"] = "model" if distance is not None else "straight line"
+    return Predicted(region_map, guideline_map, region, guideline, used_weights, distance), list(ms)

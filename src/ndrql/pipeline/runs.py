@@ -38,12 +38,14 @@ def seeds_given(seeds: Sequence[int] | int) -> list[int]:
 
 
 def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray | None, guideline: np.ndarray | None,
-                  consts: Constants) -> tuple[dict[str, Priors], dict[str, float | None]]:
-    """Each method's priors (Eqs. 2-7) and the NDR-QI threshold (Eq. 7) of those that use it."""
+                  consts: Constants, distance: np.ndarray | None = None) -> tuple[dict[str, Priors], dict[str, float | None]]:
+    """Each method's priors (Eqs. 2-7) and the NDR-QI threshold (Eq. 7) of those that use it; ``distance``:
+    the model's goal distance for Eq. 6 (``None``: the straight line)."""
     priors: dict[str, Priors] = {}
     thresholds: dict[str, float | None] = {}
     for m in ms:
-        priors[m.name] = build_priors(m, grid.blocked, grid.start, grid.goal, region, guideline, consts(m.name)[1])
+        priors[m.name] = build_priors(m, grid.blocked, grid.start, grid.goal, region, guideline, consts(m.name)[1],
+                                      distance)
         if m.n_qi:
             thresholds[m.name] = priors[m.name].threshold
     return priors, thresholds

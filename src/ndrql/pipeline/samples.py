@@ -54,6 +54,8 @@ class Problem:
     region: np.ndarray | None = None
     """NDR region at planning-grid shape (``None`` until predictions are attached)."""
     guideline: np.ndarray | None = None
+    distance: np.ndarray | None = None
+    """The model's goal distance per planning cell (models with a distance head), for Eq. 6."""
 
     @property
     def key(self) -> str:
@@ -130,7 +132,7 @@ class PredictionCache:
             self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
         mode = getattr(self._predictor, "input_mode", "map")
         if mode == "grid":
-            region, guideline, _ = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
+            region, guideline, _, _ = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
         else:
             pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
             region, guideline = pred.region, pred.guideline

@@ -46,6 +46,8 @@ class PlanSettings:
     """Threads for the model's forward pass (1: about as fast as 2 for one map, and much faster on a busy machine)."""
     backend: str = "auto"
     """Model inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch."""
+    learned_distance: bool = True
+    """Eq. 6's distance term from the model's predicted distance to the goal when the model has one (False: the paper's straight line)."""
 
     def __post_init__(self) -> None:
         if self.grid not in GRID_RULES:

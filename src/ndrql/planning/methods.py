@@ -131,11 +131,14 @@ def build_priors(
     region: np.ndarray | None = None,
     guideline: np.ndarray | None = None,
     cfg: PriorConfig = PriorConfig(),
+    distance: np.ndarray | None = None,
 ) -> Priors:
     """Rewards and initial Q-table of ``method`` on a planning grid (module docstring for the rules).
 
     ``region``/``guideline`` are NDR probabilities at the planning grid's shape; they are required
-    only by methods that use them.
+    only by methods that use them. ``distance`` (cells, the grid's shape): the model's predicted
+    distance to the goal, which then replaces the straight line in Eq. 6 (NDR-QI only; D-QI and the
+    rewards keep the straight line).
     """
     m = get_method(method)
     blocked = np.asarray(blocked, dtype=bool)
@@ -159,7 +162,8 @@ def build_priors(
         r_c = np.full(shape, cfg.r0, dtype=np.float64)
     thd = None
     if m.n_qi:
-        q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only)  # type: ignore[arg-type]
+        q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only,  # type: ignore[arg-type]
+                           distance=distance)
     elif m.d_qi:
         q0 = P.d_qi(blocked, goal)
     else:

@@ -6,7 +6,8 @@ Two kinds, freely composed by :mod:`ndrql.planning.methods`:
   D-CRF (Eq. 2), NDR-CRF (Eq. 3) and their mix (Eq. 4);
 - Q-table initialisations (a ``(H * W, 4)`` array): D-QI (Eq. 5) and NDR-QI (Eq. 6, or its mask
   term alone for Table 2's ablation) whose mask (Eq. 7) uses the adaptive threshold of
-  :func:`adaptive_threshold`.
+  :func:`adaptive_threshold`; Eq. 6's distance term is the straight line (the paper) or, given, a
+  predicted distance to the goal through free space.
 
 Coordinates: the paper's ``x`` is the row and ``y`` the column (the dataset's convention), so
 ``G_x`` is :attr:`PriorConfig.g_row`. Region and guideline arrays must already be at the planning
@@ -140,12 +141,15 @@ def ndr_qi(
     cfg: PriorConfig = PriorConfig(),
     thd: float | None = ...,  # type: ignore[assignment]
     mask_only: bool = False,
+    distance: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float | None]:
     """Eq. 6, NDR-QI: ``Q(s, a) = omega * MASK(N_r(s')) + (1 - omega) * exp(-dist(s', goal))``.
 
     ``thd`` defaults to :func:`adaptive_threshold`; when none connects, MASK is 0 everywhere and a
     :class:`ThresholdWarning` is emitted. ``mask_only``: the mask term alone
-    (:func:`ndr_qi_mask_term`). Returns ``(q0, thd)``.
+    (:func:`ndr_qi_mask_term`). ``distance``: ``dist(s', goal)`` per cell, in cells (the model's
+    predicted distance to the goal through free space, beyond the paper); default the straight line,
+    as in the paper. Returns ``(q0, thd)``.
     """
     blocked = np.asarray(blocked, dtype=bool)
     region = _check_field("region", region, blocked.shape)
@@ -162,5 +166,17 @@ def ndr_qi(
     if mask_only:
         return masked, thd
     r2, c2 = _next_cells(blocked)
-    q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
+    if distance is None:
+        dist = np.hypot(r2 - goal[0], c2 - goal[1])
+    else:
+        dist = _check_distance(distance, blocked.shape)[r2, c2]
+    q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-dist)
     return q0, thd
+
+
+def _check_distance(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """A goal-distance field (cells, finite, >= 0 after clipping) of the grid's shape, as float64."""
+    d = _check_field("distance", values, shape)
+    if not np.all(np.isfinite(d)):
+        raise ValueError("distance must be finite everywhere")
+    return np.maximum(d, 0.0)

@@ -63,6 +63,7 @@ def run_plan(
     keep_records: bool = False,
     keep_q: bool = False,
     astar: int | None = None,
+    distance: np.ndarray | None = None,
 ) -> PlanResult:
     """One Q-learning run of ``method`` with ``seed`` on a planning grid (docs/method.md).
 
@@ -70,13 +71,14 @@ def run_plan(
     when they are not 4-connected. ``priors`` (from :func:`build_priors`) skips rebuilding them; a
     ``Priors`` whose ``q0`` is a previous run's final Q-table (``keep_q=True``) warm-starts the run.
     ``astar``: the A* length when the caller knows it already (many runs on one grid skip the search).
+    ``distance``: the model's predicted goal distance per cell for Eq. 6 (:func:`build_priors`).
     """
     t0 = time.perf_counter()
     m = get_method(method)
     blocked, start, goal = _check_problem(blocked, start, goal)
     opt = int(astar) if astar is not None else astar_length(blocked, start, goal)
     if priors is None:
-        priors = build_priors(m, blocked, start, goal, region, guideline, prior_config)
+        priors = build_priors(m, blocked, start, goal, region, guideline, prior_config, distance)
     h, w = blocked.shape
     cells = h * w
     if priors.r_c.shape != (h, w) or priors.q0.shape != (cells, 4):

@@ -35,6 +35,8 @@ def check_train_config(cfg: "TrainConfig") -> None:
         raise bad("val_fraction", "between 0 and 1 (exclusive)", cfg.val_fraction)
     if not isinstance(cfg.model_overrides, dict):
         raise bad("model_overrides", "a JSON object", cfg.model_overrides)
+    if cfg.distance_head and cfg.input_mode != "grid":
+        raise ValueError("--distance-head needs --input-mode grid (its labels are the planning grid's goal distances)")
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,10 @@ class TrainConfig:
     """Families of generated sources left out of training and validation, e.g. maze,office (leave-families-out runs)."""
     init_weights: str = ""
     """Warm start: weights (checkpoint file) to start from instead of random initialisation."""
+    distance_head: bool = False
+    """Also train the goal-distance output (grid mode; a warm start without one initialises it anew)."""
+    train_only: str = ""
+    """Train only these parts of the model (comma-separated top-level modules, e.g. distance); the rest keeps its weights and BatchNorm statistics."""
 
     def __post_init__(self) -> None:
         check_train_config(self)
@@ -110,4 +116,6 @@ class TrainConfig:
             overrides["encoding"] = self.encoding
         if self.input_mode != "map":
             overrides["input_mode"] = self.input_mode
+        if self.distance_head:
+            overrides["distance_head"] = True
         return preset(self.model, **overrides)

@@ -34,11 +34,32 @@ class EvalResult:
 
 def predict_batch(model: torch.nn.Module, x: torch.Tensor, bf16: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
     """Region and guideline probabilities (numpy, (B, H, W)) for an input batch."""
+    return predict_all(model, x, bf16)[:2]
+
+
+def predict_all(model: torch.nn.Module, x: torch.Tensor, bf16: bool = False) -> tuple[np.ndarray | None, ...]:
+    """:func:`predict_batch` plus the goal-distance output (numpy (B, H, W), or ``None`` without that head)."""
     with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
-        region, guide = model(x.contiguous(memory_format=torch.channels_last))
+        region, guide, *dist = model(x.contiguous(memory_format=torch.channels_last))
     r = torch.sigmoid(region.float())[:, 0].numpy()
     g = torch.sigmoid(guide.float())[:, 0].numpy() if guide is not None else None
-    return r, g
+    return r, g, (dist[0].float()[:, 0].numpy() if dist else None)
+
+
+def order_accuracy(pred: np.ndarray, target: np.ndarray, step: int = 4) -> tuple[int, int]:
+    """Pairs of known pixels one cell (``step`` px) apart along rows and columns whose predicted distances
+    are ordered as their targets (targets of 4-connected neighbours always differ): (right, total)."""
+    right = total = 0
+    for axis in (-2, -1):
+        n = pred.shape[axis] - step
+        if n <= 0:
+            continue
+        a = [np.take(v, np.arange(n), axis=axis) for v in (pred, target)]
+        b = [np.take(v, np.arange(step, step + n), axis=axis) for v in (pred, target)]
+        both = (a[1] >= 0) & (b[1] >= 0) & (a[1] != b[1])
+        right += int((np.sign(b[0] - a[0]) == np.sign(b[1] - a[1]))[both].sum())
+        total += int(both.sum())
+    return right, total
 
 
 def evaluate(model: torch.nn.Module, data: SplitArrays, indices: np.ndarray | None = None, batch_size: int = 32, encoding: str = "point", bf16: bool = False, progress: bool = False) -> EvalResult:
@@ -114,7 +135,8 @@ def markdown_table(rows: list[dict], split: str, original_labels: bool) -> str:
 def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "point", bf16: bool = False,
                       batch_size: int = 16) -> dict[str, float]:
     """Mean region and guideline F1 (percent) on rendered inputs (``(group, Rendered)`` pairs, any sides),
-    overall and per group (``region_f1/<group>``)."""
+    overall and per group (``region_f1/<group>``); for a model with a distance head also the percentage of
+    neighbouring cells whose goal distances it orders right (``distance_order/all``, :func:`order_accuracy`)."""
     from ndrql.dataset.mixture import stack  # lazy: loads scipy
 
     model.eval()
@@ -125,12 +147,15 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     for j, (_, r) in enumerate(items):
         by_side.setdefault(r.obstacles.shape[0], []).append(j)
     order: list[int] = []
+    ordered = [0, 0]
     for side in sorted(by_side):
         idx = by_side[side]
         for s in range(0, len(idx), batch_size):
             sel = idx[s:s + batch_size]
-            x, region, guide = stack([items[j][1] for j in sel], encoding)
-            r, g = predict_batch(model, x, bf16)
+            x, region, guide, dist_t = stack([items[j][1] for j in sel], encoding, distance=True)
+            r, g, d = predict_all(model, x, bf16)
+            if d is not None:
+                ordered = [u + v for u, v in zip(ordered, order_accuracy(d, dist_t[:, 0].numpy()))]
             rf.extend(f1_per_image(r >= 0.5, region[:, 0].numpy() > 0.5).tolist())
             gf.extend((f1_per_image(g >= 0.5, guide[:, 0].numpy() > 0.5) if g is not None else np.full(len(sel), np.nan)).tolist())
             order.extend(sel)
@@ -138,6 +163,8 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     rf_a, gf_a = np.array(rf), np.array(gf)
     out = {"region_f1": float(100 * rf_a.mean()) if len(rf_a) else float("nan"),
            "guideline_f1": float(100 * np.nanmean(gf_a)) if np.isfinite(gf_a).any() else float("nan")}
+    if ordered[1]:
+        out["distance_order/all"] = 100.0 * ordered[0] / ordered[1]
     for name in sorted(set(groups)):
         sel = np.array([g == name for g in groups])
         out[f"region_f1/{name}"] = float(100 * rf_a[sel].mean())

@@ -71,12 +71,12 @@ def write_metrics_row(path: Path, row: dict) -> None:
 def train_step(net: nn.Module, opt: torch.optim.Optimizer, batch: tuple[torch.Tensor, torch.Tensor, torch.Tensor], lr: float,
                precision: D.Precision, scaler: torch.amp.GradScaler | None = None) -> torch.Tensor:
     """One optimisation step on one batch (``net`` may be DDP-wrapped: its backward all-reduces the gradients)."""
-    x, region, guide = batch
+    x, region, guide, *dist_target = batch
     for group in opt.param_groups:
         group["lr"] = lr
     with precision.autocast():
-        r_logit, g_logit = net(x.contiguous(memory_format=torch.channels_last))
-    loss = ndr_loss(r_logit, g_logit, region, guide)
+        r_logit, g_logit, *dist = net(x.contiguous(memory_format=torch.channels_last))
+    loss = ndr_loss(r_logit, g_logit, region, guide, dist[0] if dist else None, dist_target[0] if dist_target else None)
     opt.zero_grad(set_to_none=True)
     if scaler is not None:
         scaler.scale(loss).backward()
@@ -98,8 +98,8 @@ class _OnDevice(nn.Module):
 
     def forward(self, x: torch.Tensor):
         with self.precision.autocast():
-            r, g = self.model(x.to(self.device, non_blocking=True))
-        return r.float().cpu(), (g.float().cpu() if g is not None else None)
+            r, g, *rest = self.model(x.to(self.device, non_blocking=True))
+        return (r.float().cpu(), (g.float().cpu() if g is not None else None)) + tuple(t.float().cpu() for t in rest)
 
 
 def validate(model: nn.Module, data, val_idx: np.ndarray, encoding: str, cfg: TrainConfig, device: torch.device,
@@ -163,19 +163,39 @@ def build_mixture(cfg: TrainConfig, progress: bool):
         else:
             sources.append(generated_source(spec, exclude=parse_families(cfg.exclude_families)))
     encoding = cfg.model_config().get("encoding") or "point"
-    mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding)
+    mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding, distance=cfg.distance_head)
     tr_ids = np.concatenate([s.train_ids for s in sources])
     va_ids = np.concatenate([s.val_ids for s in sources])
     return mixture, tr_ids, va_ids, paper
 
 
 def warm_start(model: nn.Module, path: str, model_cfg: dict) -> None:
-    """Load the weights of checkpoint ``path`` into ``model`` (same architecture; the input mode may differ)."""
+    """Load the weights of checkpoint ``path`` into ``model`` (same architecture; the input mode may differ,
+    and a model with a distance head may start from one without: that head keeps its initialisation)."""
     ck = load_checkpoint(path)
-    strip = lambda d: {k: v for k, v in dict(d).items() if k != "input_mode"}  # noqa: E731
-    if strip(ck["config"]) != strip(model_cfg):
+    strip = lambda d: {k: v for k, v in dict(d).items() if k not in ("input_mode", "distance_head")}  # noqa: E731
+    if strip(ck["config"]) != strip(model_cfg) or (ck["config"].get("distance_head") and not model_cfg.get("distance_head")):
         raise CheckpointError(f"--init-weights {path} holds model {ck['config']}, this run builds {model_cfg}")
-    model.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in ck["model"].items()})
+    weights = {k: v.float() if v.is_floating_point() else v for k, v in ck["model"].items()}
+    fresh = {k: v for k, v in model.state_dict().items() if k.startswith("distance.") and k not in weights}
+    model.load_state_dict({**weights, **fresh})
+
+
+def freeze_except(model: nn.Module, train_only: str) -> list[nn.Module]:
+    """Fix every top-level module of ``model`` not named in ``train_only`` (comma-separated; empty: train
+    all); returns the fixed modules (the loop keeps them in eval mode). Unknown names are a one-line error."""
+    names = [n.strip() for n in train_only.split(",") if n.strip()]
+    if not names:
+        return []
+    children = dict(model.named_children())
+    unknown = [n for n in names if children.get(n) is None]
+    if unknown:
+        valid = ", ".join(n for n, m in children.items() if m is not None)
+        raise CheckpointError(f"--train-only: this model has no part {', '.join(unknown)}; valid: {valid}")
+    frozen = [m for n, m in children.items() if n not in names and m is not None]
+    for m in frozen:
+        m.requires_grad_(False)
+    return frozen
 
 
 @dataclass
@@ -252,7 +272,8 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
         warm_start(model, cfg.init_weights, model_cfg)
         log(f"warm start from {cfg.init_weights}")
     model = model.to(device, memory_format=torch.channels_last)
-    opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    frozen = freeze_except(model, cfg.train_only)
+    opt = torch.optim.AdamW([p for p in model.parameters() if p.requires_grad], lr=cfg.lr, weight_decay=cfg.weight_decay)
     if cfg.sync_bn and device.type != "cuda":
         raise D.DeviceError("--sync-bn needs CUDA (torch's SyncBatchNorm has no CPU/MPS kernel); drop it on this device")
     precision = D.precision_for(device, cfg.bf16, cfg.amp_dtype)
@@ -328,6 +349,8 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
     while state["epoch"] < cfg.epochs:
         epoch = state["epoch"]
         model.train()
+        for m in frozen:
+            m.eval()  # fixed parts keep their BatchNorm statistics
         bar = tqdm(total=steps_per_epoch, initial=state["step"], desc=f"epoch {epoch + 1}/{cfg.epochs}", disable=not progress, unit="step")
         loss_sum, loss_n = 0.0, 0
         epoch_t0 = time.perf_counter()

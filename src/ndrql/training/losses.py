@@ -1,9 +1,12 @@
-"""Training loss: BCE + Dice on each output (docs/method.md)."""
+"""Training loss: BCE + Dice on the region and guideline outputs (docs/method.md), and for a model with
+a distance head the goal-distance loss (:func:`distance_loss`)."""
 
 from __future__ import annotations
 
 import torch
 import torch.nn.functional as F
+
+from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL
 
 
 def dice_loss(logits: torch.Tensor, target: torch.Tensor, eps: float = 1.0) -> torch.Tensor:
@@ -19,9 +22,43 @@ def bce_dice(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     return F.binary_cross_entropy_with_logits(logits.float(), target) + dice_loss(logits, target)
 
 
-def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, region: torch.Tensor, guide: torch.Tensor) -> torch.Tensor:
-    """Sum of BCE + Dice on the region and (when present) the guideline output."""
+def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, region: torch.Tensor, guide: torch.Tensor,
+             distance: torch.Tensor | None = None, distance_target: torch.Tensor | None = None) -> torch.Tensor:
+    """Sum of BCE + Dice on the region and (when present) the guideline output, plus
+    :func:`distance_loss` when the model predicts a distance and the batch has its label."""
     loss = bce_dice(region_logits, region)
     if guide_logits is not None:
         loss = loss + bce_dice(guide_logits, guide)
+    if distance is not None and distance_target is not None:
+        loss = loss + distance_loss(distance, distance_target)
+    return loss
+
+
+#: Weight of the cell-to-cell difference term in :func:`distance_loss`.
+ORDER_WEIGHT = 0.5
+
+
+def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL) -> torch.Tensor:
+    """Goal-distance loss on the pixels whose target is known (``>= 0``), both in units of ``unit`` cells.
+
+    Relative L1 ``|p - t| / (1 + t)`` (far pixels may err more in absolute terms) plus
+    :data:`ORDER_WEIGHT` times the L1 error, in cells, of the differences between pixels one cell apart
+    (``px_per_cell``) along rows and columns: what Eq. 6 compares is neighbouring cells, so their order
+    matters more than the absolute value. 0 (with a gradient) when no target is known.
+    """
+    pred = pred.float()
+    known = target >= 0
+    if not bool(known.any()):
+        return pred.sum() * 0.0
+    loss = ((pred - target).abs() / (1.0 + target.clamp(min=0)))[known].mean()
+    k = int(px_per_cell)
+    for dim in (-2, -1):
+        n = pred.shape[dim] - k
+        if n <= 0:
+            continue
+        a, b = (lambda t: t.narrow(dim, 0, n)), (lambda t: t.narrow(dim, k, n))
+        both = a(known) & b(known)
+        if bool(both.any()):
+            err = ((b(pred) - a(pred)) - (b(target) - a(target))).abs() * unit
+            loss = loss + ORDER_WEIGHT * 0.5 * err[both].mean()
     return loss

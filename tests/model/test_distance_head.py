@@ -1,0 +1,128 @@
+"""The goal-distance head: its output, its labels, its loss, its training beside a fixed trunk."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from ndrql.dataset.render import DISTANCE_UNIT, goal_distance_pixels, render_grid
+from ndrql.model.checkpoint import save_checkpoint
+from ndrql.model.registry import build_model
+from ndrql.training.evaluate import order_accuracy
+from ndrql.training.losses import distance_loss, ndr_loss
+
+TINY = {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.25, "unet_base": 8, "input_mode": "grid"}
+
+
+@pytest.fixture(autouse=True)
+def _seed():
+    torch.manual_seed(0)
+
+
+@pytest.mark.parametrize("size", [(64, 64), (40, 72)])
+def test_third_output_at_input_size_only_with_the_head(size):
+    with_head = build_model({**TINY, "distance_head": True}).eval()
+    out = with_head(torch.zeros(2, 3, *size))
+    assert len(out) == 3 and all(t.shape == (2, 1, *size) for t in out)
+    assert out[2].dtype == torch.float32
+    assert len(build_model(TINY).eval()(torch.zeros(1, 3, *size))) == 2
+
+
+def test_distance_output_is_fp32_under_bf16_autocast():
+    model = build_model({**TINY, "distance_head": True}).eval()
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
+        region, _, dist = model(torch.zeros(1, 3, 64, 64))
+    assert region.dtype == torch.bfloat16 and dist.dtype == torch.float32
+
+
+def test_goal_distance_label_is_the_hand_counted_bfs():
+    blocked = np.zeros((3, 4), bool)
+    blocked[1, 1:3] = True  # a wall in the middle row
+    d = goal_distance_pixels(blocked, (0, 0), 16)
+    cells = d[:12:4, :16:4]  # one pixel per cell
+    expect = np.array([[0, 1, 2, 3], [1, -1, -1, 4], [2, 3, 4, 5]], np.float32)
+    assert np.array_equal(cells, expect)
+    assert np.array_equal(d[:12, :16], np.kron(expect, np.ones((4, 4), np.float32)))  # 4 px per cell
+    assert (d[12:] == -1).all()  # padding below the grid is unknown
+
+
+def test_render_grid_carries_the_distance_of_its_goal_cell():
+    obstacles = np.zeros((64, 64), bool)
+    obstacles[20:44, 30:34] = True
+    r = render_grid(obstacles, (32, 5), (32, 60), 16)
+    assert r is not None and r.distance is not None and r.distance.shape == r.obstacles.shape
+    g = r.goal
+    assert r.distance[g] == 0 and r.distance.max() > 0
+    assert (r.distance[r.obstacles] == -1).all()  # blocked pixels are unknown
+
+
+def test_distance_loss_is_zero_for_the_target_and_grows_with_a_wrong_order():
+    target = torch.full((1, 1, 8, 8), -1.0)
+    target[0, 0, :, :4] = 1.0
+    target[0, 0, :, 4:] = 1.0 + 1.0 / DISTANCE_UNIT  # the right cell one move further
+    pred_ok = torch.where(target >= 0, target, torch.zeros_like(target))
+    assert float(distance_loss(pred_ok, target)) == pytest.approx(0.0, abs=1e-7)
+    flipped = pred_ok.clone()
+    flipped[0, 0, :, 4:] = 1.0 - 1.0 / DISTANCE_UNIT  # same absolute error, order reversed
+    shifted = pred_ok + 2.0 / DISTANCE_UNIT  # larger absolute error, order kept
+    assert float(distance_loss(flipped, target)) > float(distance_loss(shifted, target)) > 0
+    assert float(distance_loss(pred_ok, torch.full_like(target, -1.0))) == 0.0  # nothing known: no loss
+
+
+def test_ndr_loss_adds_the_distance_term_only_with_its_label():
+    logits = torch.zeros(1, 1, 8, 8)
+    labels = torch.zeros(1, 1, 8, 8)
+    base = ndr_loss(logits, logits, labels, labels)
+    target = torch.ones(1, 1, 8, 8)
+    assert float(ndr_loss(logits, logits, labels, labels, torch.zeros(1, 1, 8, 8), None)) == float(base)
+    assert float(ndr_loss(logits, logits, labels, labels, torch.zeros(1, 1, 8, 8), target)) > float(base)
+
+
+def test_order_accuracy_on_known_input():
+    target = np.array([[0, 1, 2, 3, 4, 5, 6, 7]], np.float32)
+    pred = np.array([[0, 1, 2, 3, 4, 9, 6, 7]], np.float32)
+    right, total = order_accuracy(pred, target, step=1)
+    assert total == 7  # pairs along the row; none along the single-row column axis
+    assert right == 6  # only (9, 6) is out of order; (4, 9) still rises as (4, 5) does
+    assert order_accuracy(pred, np.full_like(target, -1), step=1) == (0, 0)
+
+
+def test_warm_start_adds_a_fresh_head_and_train_only_keeps_the_trunk(tmp_path):
+    from ndrql.training.loop import freeze_except, train_step, warm_start
+    from ndrql.training import distributed as D
+
+    plain = build_model(TINY)
+    src = save_checkpoint(tmp_path / "plain.pt", {"config": TINY, "model": plain.state_dict()})
+    cfg = {**TINY, "distance_head": True}
+    model = build_model(cfg)
+    warm_start(model, str(src), cfg)
+    state = model.state_dict()
+    assert all(torch.equal(state[k], v) for k, v in plain.state_dict().items())
+    frozen = freeze_except(model, "distance")
+    assert frozen and all(not p.requires_grad for m in frozen for p in m.parameters())
+    opt = torch.optim.AdamW([p for p in model.parameters() if p.requires_grad], lr=1e-2)
+    model.train()
+    for m in frozen:
+        m.eval()
+    x = torch.zeros(2, 3, 64, 64)
+    x[:, 0, 20:40, 30:34] = 1.0
+    x[:, 1, 32, 4] = 1.0
+    x[:, 2, 32, 60] = 1.0
+    target = torch.rand(2, 1, 64, 64)
+    batch = (x, torch.zeros(2, 1, 64, 64), torch.zeros(2, 1, 64, 64), target)
+    head_before = {k: v.clone() for k, v in model.state_dict().items() if k.startswith("distance.")}
+    for _ in range(2):
+        train_step(model, opt, batch, 1e-2, D.precision_for(torch.device("cpu"), False))
+    after = model.state_dict()
+    assert all(torch.equal(after[k], v) for k, v in plain.state_dict().items())  # weights and BN statistics
+    assert any(not torch.equal(after[k], v) for k, v in head_before.items())
+    with pytest.raises(Exception, match="no part"):
+        freeze_except(build_model(cfg), "decoder")
+
+
+def test_distance_head_needs_grid_mode():
+    from ndrql.training.config import TrainConfig
+
+    with pytest.raises(ValueError, match="--distance-head needs --input-mode grid"):
+        TrainConfig(distance_head=True)

@@ -1,0 +1,96 @@
+"""A model with a goal-distance head, end to end: its distance reaches Eq. 6 in plan, predict files and ONNX."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import ndrql
+from ndrql.pipeline.settings import PlanSettings
+from ndrql.planning.methods import build_priors
+
+from helpers.cli import run_cli
+
+
+def _walls() -> np.ndarray:
+    grid = np.zeros((120, 160), dtype=bool)
+    grid[40:46, :120] = True
+    grid[80:86, 40:] = True
+    return grid
+
+
+@pytest.fixture(scope="module")
+def distance_model(tmp_path_factory):
+    """A tiny grid-mode model with a distance head, trained two steps (its head only, from a fresh trunk)."""
+    from ndrql.dataset.generated import generate_set
+    from ndrql.synth.generate import SetSpec
+    from ndrql.training.config import TrainConfig
+    from ndrql.training.loop import train
+
+    root = tmp_path_factory.mktemp("dm")
+    generate_set(root / "set", SetSpec(("blocks",), (96,), 40, 1), progress=False, shard_size=20)  # 3% held out: 1
+    cfg = TrainConfig(sources=f"{root / 'set'}:1", input_mode="grid", grid_sizes="16", model_overrides={"width": 0.25},
+                      batch_size=2, epochs=1, steps_per_epoch=2, warmup_steps=1, bf16=False, threads=1, val_per_source=2,
+                      distance_head=True)
+    train(cfg, root / "run", progress=False, log=lambda m: None)
+    rows = (root / "run" / "metrics.csv").read_text().splitlines()
+    assert "distance_order_all" in rows[0].split(",")  # validation reports how well it orders neighbours
+    return root / "run" / "last.pt"
+
+
+def test_plan_uses_the_models_distance_in_eq6(distance_model):
+    from ndrql.model.predict import Predictor
+    from ndrql.pipeline.predictions import predict_region
+
+    report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
+                         workers=1, settings=PlanSettings(fallback=None))
+    assert report.info["qi_distance"] == "model"
+    pg = report.grid
+    view = predict_region(Predictor.load(distance_model, threads=1, backend="torch"), report.grid_map, pg,
+                          report.start, report.goal)
+    assert view.distance_grid is not None and view.distance_grid.shape == pg.shape
+    with_d = build_priors("NDR-QL", pg.blocked, pg.start, pg.goal, view.region_grid, view.guideline_grid,
+                          report.prior_config, view.distance_grid)
+    without = build_priors("NDR-QL", pg.blocked, pg.start, pg.goal, view.region_grid, view.guideline_grid,
+                           report.prior_config)
+    assert not np.allclose(with_d.q0, without.q0)
+    off = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
+                      workers=1, settings=PlanSettings(fallback=None, learned_distance=False))
+    assert off.info["qi_distance"] == "straight line"
+    # without a distance head nothing changes: the paper's straight line
+    oracle = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1)
+    assert oracle.info["qi_distance"] == "straight line"
+
+
+def test_predict_file_carries_the_distance_to_plan(distance_model, tmp_path, ndrql_exe):
+    np.save(tmp_path / "m.npy", _walls())
+    common = ("--start", "10,10", "--goal", "110,150")
+    out = run_cli(ndrql_exe, "predict", str(tmp_path / "m.npy"), *common, "--weights", str(distance_model),
+                  "--backend", "torch", "--out", str(tmp_path / "pred"))
+    assert out.returncode == 0, out.stderr
+    npz = next((tmp_path / "pred").glob("*.npz"))
+    with np.load(npz) as d:
+        assert "grid_distance" in d.files and d["grid_distance"].shape == d["grid_blocked"].shape
+    runs = {}
+    for name, extra in (("model", ("--weights", str(distance_model), "--backend", "torch")), ("file", ("--prior-from", str(npz)))):
+        res = run_cli(ndrql_exe, "plan", str(tmp_path / "m.npy"), *common, *extra, "--fallback", "none",
+                      "--json", str(tmp_path / f"{name}.json"))
+        assert res.returncode == 0, res.stderr
+        runs[name] = json.loads((tmp_path / f"{name}.json").read_text())
+        for run in runs[name]["runs"]:
+            run.pop("wall_time")
+    assert runs["file"]["prior_grid"] == "as given" and runs["file"]["qi_distance"] == "model"
+    assert runs["file"]["runs"] == runs["model"]["runs"]
+
+
+def test_onnx_graph_has_the_distance_output(distance_model, tmp_path):
+    pytest.importorskip("onnxruntime")
+    pytest.importorskip("onnx")
+    from ndrql.model.export import export_onnx, max_differences
+
+    graph = export_onnx(distance_model, tmp_path / "d.onnx")
+    diffs = max_differences(distance_model, graph, sides=(64, 96), count=1)
+    assert all(set(d) == {"region", "guideline", "distance"} for d in diffs.values())
+    assert max(d["distance"] for d in diffs.values()) < 1e-3

@@ -64,7 +64,7 @@ def main() -> None:
     learned = predictor.predict_grid_all(np.zeros((2, 2), bool), (0, 0), (1, 1))[2] is not None
     names = ["Eq. 6 (straight line)"] + (["Eq. 6 (the model's distance)"] if learned else []) + ["Eq. 6 (geodesic in the region)"]
     rows: dict[str, list[tuple[float, float]]] = {name: [] for name in names}
-    for (fam, case, (region, guide)), iql in zip(cases, ref):
+    for (fam, case, (region, guide, *_)), iql in zip(cases, ref):
         ql, pc = row_configs(preset, grid=case.n)["NDR-QL (model)"]
         paper = build_priors("NDR-QL", case.blocked, case.start_cell, case.goal_cell, region, guide, pc)
         geo = Priors(paper.r_c, geodesic_q0(case.blocked, case.goal_cell, region, paper.threshold, pc), paper.threshold)

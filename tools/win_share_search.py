@@ -58,7 +58,8 @@ def runs(case, method: str, ql, pc, priors, seeds) -> np.ndarray:
     """``(steps, path / A*, converged)`` per seed."""
     rows = []
     for s in seeds:
-        r = run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, ql, pc, *(priors or (None, None)))
+        region, guide, dist = (tuple(priors) + (None,))[:3] if priors else (None, None, None)
+        r = run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, ql, pc, region, guide, distance=dist)
         rows.append((r.convergence_steps if r.converged else r.total_steps,
                      r.length_ratio if r.converged and r.length_ratio is not None else math.nan, float(r.converged)))
     return np.array(rows, float)

@@ -24,7 +24,7 @@ from ndrql.dataset.batches import transform_array, transform_point
 from ndrql.dataset.cache import SplitArrays, unpack
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.generated import GeneratedSet
-from ndrql.dataset.render import DISTANCE_UNIT, Rendered, input_side, render
+from ndrql.dataset.render import DISTANCE_UNIT, Rendered, input_side, manhattan_pixels, render
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.families import family_names
@@ -155,8 +155,9 @@ def batch_size_for(side: int, batch_size: int) -> int:
 
 
 def stack(items: list[Rendered], encoding: str, distance: bool = False):
-    """(x, region, guideline) float tensors (B, C, H, W); with ``distance`` also the goal-distance label in
-    units of ``DISTANCE_UNIT`` cells (-1 where unknown, everywhere for a ``map``-mode item)."""
+    """(x, region, guideline) float tensors (B, C, H, W); with ``distance`` also the distance head's label: the
+    detour ``(moves - manhattan) / DISTANCE_UNIT`` (:func:`~ndrql.dataset.render.manhattan_pixels`; -1 where
+    unknown, everywhere for a ``map``-mode item)."""
     import torch
 
     x = np.stack([encode_input(r.obstacles, r.start, r.goal, encoding) for r in items])
@@ -165,8 +166,9 @@ def stack(items: list[Rendered], encoding: str, distance: bool = False):
     out = (torch.from_numpy(x), torch.from_numpy(region), torch.from_numpy(guide))
     if not distance:
         return out
-    d = np.stack([np.full(r.region.shape, -1.0, np.float32) if r.distance is None
-                  else np.where(r.distance >= 0, r.distance / DISTANCE_UNIT, -1.0).astype(np.float32) for r in items])
+    d = np.stack([np.full(r.region.shape, -1.0, np.float32) if r.distance is None else
+                  np.where(r.distance >= 0, (r.distance - manhattan_pixels(r.goal, r.distance.shape[0])) / DISTANCE_UNIT,
+                           -1.0).astype(np.float32) for r in items])
     return out + (torch.from_numpy(d[:, None]),)
 
 

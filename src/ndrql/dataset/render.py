@@ -39,7 +39,7 @@ Point = tuple[int, int]
 INPUT_MODES = ("map", "grid")
 #: Pixels per planning cell in the model's input.
 PX_PER_CELL = 4
-#: Planning cells per unit of the model's goal-distance output (targets stay near 1-20 on ``plan``'s grids).
+#: Planning cells per unit of the model's goal-distance output (:func:`manhattan_pixels`).
 DISTANCE_UNIT = 16.0
 
 
@@ -105,6 +105,16 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Ren
     r[:region.shape[0], :region.shape[1]] = region > 0.5
     gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
     return Rendered(img, s_px, g_px, gl, r, goal_distance_pixels(blocked, g, side))
+
+
+def manhattan_pixels(goal_px: Point, side: int) -> np.ndarray:
+    """Moves from each cell to the goal's cell on an empty grid (``|dr| + |dc|``), drawn at 4 px per cell on a
+    ``side`` square; ``goal_px`` is the goal's pixel. The model's distance head predicts the detour on top of
+    it, ``(moves - manhattan) / DISTANCE_UNIT`` (0 wherever walls do not lengthen the way), so that the
+    distance is ``manhattan + DISTANCE_UNIT * output``."""
+    cells = np.arange(side) // PX_PER_CELL
+    gr, gc = goal_px[0] // PX_PER_CELL, goal_px[1] // PX_PER_CELL
+    return (np.abs(cells - gr)[:, None] + np.abs(cells - gc)[None, :]).astype(np.float32)
 
 
 def goal_distance_pixels(blocked: np.ndarray, goal_cell: Point, side: int) -> np.ndarray:

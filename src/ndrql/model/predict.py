@@ -19,7 +19,7 @@ from typing import Iterator
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import DISTANCE_UNIT, cell_means, cells_to_map, from_model_output, grid_input, to_model_input
+from ndrql.dataset.render import DISTANCE_UNIT, cell_means, manhattan_pixels, cells_to_map, from_model_output, grid_input, to_model_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
@@ -202,7 +202,8 @@ class Predictor:
         without a distance head)."""
         img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
         r, gl, d = self._runner(encode_input(img, s, g, self.encoding)[None])
-        return r[0], None if gl is None else gl[0], None if d is None else DISTANCE_UNIT * d[0]
+        dist = None if d is None else manhattan_pixels(g, img.shape[0]) + DISTANCE_UNIT * d[0]
+        return r[0], None if gl is None else gl[0], dist
 
     def predict(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None = None) -> Prediction:
         """Region and guideline probabilities for one map, at the map's own resolution.

@@ -30,27 +30,34 @@ def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, reg
     if guide_logits is not None:
         loss = loss + bce_dice(guide_logits, guide)
     if distance is not None and distance_target is not None:
-        loss = loss + distance_loss(distance, distance_target)
+        loss = loss + distance_loss(distance, distance_target, weight=1.0 + REGION_WEIGHT * region)
     return loss
 
 
 #: Weight of the cell-to-cell difference term in :func:`distance_loss`.
-ORDER_WEIGHT = 0.5
+ORDER_WEIGHT = 1.0
+#: Extra weight of the distance error inside the region label (where Eq. 7's mask keeps the agent).
+REGION_WEIGHT = 2.0
 
 
-def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL) -> torch.Tensor:
-    """Goal-distance loss on the pixels whose target is known (``>= 0``), both in units of ``unit`` cells.
+def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL,
+                  weight: torch.Tensor | None = None) -> torch.Tensor:
+    """Distance-head loss on the pixels whose target (the detour, :func:`ndrql.dataset.mixture.stack`) is
+    known (``>= 0``), both in units of ``unit`` cells.
 
-    Relative L1 ``|p - t| / (1 + t)`` (far pixels may err more in absolute terms) plus
+    Relative L1 ``|p - t| / (1 + t)`` (long detours may err more in absolute terms) plus
     :data:`ORDER_WEIGHT` times the L1 error, in cells, of the differences between pixels one cell apart
     (``px_per_cell``) along rows and columns: what Eq. 6 compares is neighbouring cells, so their order
-    matters more than the absolute value. 0 (with a gradient) when no target is known.
+    matters more than the absolute value. ``weight`` (same shape, optional) weighs the pixels of the first
+    term. 0 (with a gradient) when no target is known.
     """
     pred = pred.float()
     known = target >= 0
     if not bool(known.any()):
         return pred.sum() * 0.0
-    loss = ((pred - target).abs() / (1.0 + target.clamp(min=0)))[known].mean()
+    w = torch.ones_like(target) if weight is None else weight.float()
+    err = (pred - target).abs() / (1.0 + target.clamp(min=0))
+    loss = (err * w)[known].sum() / w[known].sum().clamp(min=1e-6)
     k = int(px_per_cell)
     for dim in (-2, -1):
         n = pred.shape[dim] - k

@@ -71,6 +71,7 @@ def test_predict_file_carries_the_distance_to_plan(distance_model, tmp_path, ndr
                   "--backend", "torch", "--out", str(tmp_path / "pred"))
     assert out.returncode == 0, out.stderr
     npz = next((tmp_path / "pred").glob("*.npz"))
+    assert (tmp_path / "pred" / "distance.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and "distance.png" in out.stdout
     with np.load(npz) as d:
         assert "grid_distance" in d.files and d["grid_distance"].shape == d["grid_blocked"].shape
     runs = {}
@@ -94,3 +95,36 @@ def test_onnx_graph_has_the_distance_output(distance_model, tmp_path):
     diffs = max_differences(distance_model, graph, sides=(64, 96), count=1)
     assert all(set(d) == {"region", "guideline", "distance"} for d in diffs.values())
     assert max(d["distance"] for d in diffs.values()) < 1e-3
+
+
+def test_reproduce_prediction_cache_keeps_the_distance(distance_model, tmp_path):
+    """The reproduction commands' prediction cache stores the distance (fp32) and hands it to Eq. 6."""
+    from ndrql.experiments.planning_runs import plan_task
+    from ndrql.maps.astar import astar4
+    from ndrql.maps.safe import conservative_grid
+    from ndrql.pipeline.samples import PredictionCache, Problem
+    from ndrql.planning.config import PriorConfig, QLConfig
+    from ndrql.planning.methods import get_method
+
+    obstacles = _walls()
+    blocked = conservative_grid(obstacles, 40)
+    start, goal = (2, 2), (27, 37)
+    p = Problem("hand", 0, "walls", obstacles, (10, 10), (110, 150), blocked, start, goal,
+                int(astar4(blocked, start, goal).moves))
+    cache = PredictionCache(tmp_path / "c", weights=distance_model)
+    first = cache.attach(p)
+    again = PredictionCache(tmp_path / "c", weights=distance_model).attach(p)  # from the file this time
+    assert first.distance is not None and first.distance.shape == blocked.shape
+    assert np.array_equal(first.distance, again.distance) and cache.computed == 1
+    with np.load(next((tmp_path / "c").glob("*.npz"))) as d:
+        assert d["distance"].dtype == np.float32
+    ql = QLConfig(max_episodes=50)
+    m = get_method("NDR-QL")
+    res = plan_task(blocked, start, goal, m, [0], ql, PriorConfig(), first.region, first.guideline, None, first.distance)
+    expect = build_priors(m, blocked, start, goal, first.region, first.guideline, PriorConfig(), first.distance)
+    assert not np.allclose(expect.q0, build_priors(m, blocked, start, goal, first.region, first.guideline).q0)
+    from ndrql.planning.runner import run_plan
+
+    again_run = run_plan(blocked, start, goal, m, 0, ql, PriorConfig(), priors=expect)
+    assert res["threshold"] == expect.threshold
+    assert res["runs"][0]["total_steps"] == again_run.total_steps and res["runs"][0]["path"] == [list(c) for c in again_run.path]

@@ -9,11 +9,12 @@ from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_pro
                               check_dpi, resolve_problem, save_figure)
 from ndrql.cli.options import add_command
 from ndrql.io import make_folder, save_npz
-from ndrql.maps.safe import DEFAULT_MAX_SIZE
+from ndrql.dataset.render import cells_to_map
+from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
 from ndrql.limits import MAX_THREADS, check_int
 from ndrql.model.predict import BACKENDS, Predictor
 from ndrql.pipeline.predictions import prediction_arrays
-from ndrql.viz.prediction import plot_probability_overlay
+from ndrql.viz.prediction import plot_distance_field, plot_probability_overlay
 
 EXAMPLES = """examples:
   ndrql predict --sample path-planning-dataset:unseen:600 --out out/pred
@@ -24,7 +25,8 @@ EXAMPLES = """examples:
 def register(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "predict", help="predict the path region and guideline with the NDR model",
                     description="Predict the optimal path's region and guideline (probabilities) with the NDR model; "
-                    "writes region.png, guideline.png (overlays) and prediction.npz (arrays at the map's size and, from "
+                    "writes region.png, guideline.png (overlays), distance.png (a model with a distance head) and "
+                    "prediction.npz (arrays at the map's size and, from "
                     "a grid-mode model, on the planning grid it saw: ndrql plan --prior-from prediction.npz then plans "
                     "on that grid exactly as with the model).",
                     examples=EXAMPLES)
@@ -78,6 +80,11 @@ def run(args: argparse.Namespace) -> int:
         written.append(save_figure(lambda ax, prob=prob, name=name: plot_probability_overlay(
             ax, obstacles, prob, kind=name, start=problem.start, goal=problem.goal, title=f"NDR {name}"),
             out / f"{name}.png", figsize=size, dpi=dpi))
+    if pred.grid is not None and pred.grid.distance is not None:
+        dist_map = cells_to_map(pred.grid.distance, obstacles.shape, (cell_size_px(obstacles.shape, pred.grid.size),) * 2)
+        written.append(save_figure(lambda ax: plot_distance_field(
+            ax, obstacles, dist_map, start=problem.start, goal=problem.goal, title="NDR distance to the goal"),
+            out / "distance.png", figsize=size, dpi=dpi))
     if pred.grid is not None:
         g = pred.grid
         print(f"grid-mode model: saw the safe {g.blocked.shape[0]}x{g.blocked.shape[1]} planning grid "

@@ -96,11 +96,13 @@ def method_fields(m: Method) -> dict[str, Any]:
 
 def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], method: Method,
               seeds: list[int], ql: QLConfig, pc: PriorConfig, region: np.ndarray | None,
-              guideline: np.ndarray | None, records_seed: int | None = None) -> dict[str, Any]:
-    """All seeds of one method on one planning grid -> JSON-able dict (the sweep's unit of work)."""
+              guideline: np.ndarray | None, records_seed: int | None = None,
+              distance: np.ndarray | None = None) -> dict[str, Any]:
+    """All seeds of one method on one planning grid -> JSON-able dict (the sweep's unit of work);
+    ``distance``: the model's goal distance for Eq. 6 (a model with a distance head)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        pri = build_priors(method, blocked, start, goal, region, guideline, pc)
+        pri = build_priors(method, blocked, start, goal, region, guideline, pc, distance)
     runs = []
     for s in seeds:
         r = run_plan(blocked, start, goal, method, s, ql, pc, priors=pri, keep_records=(s == records_seed))
@@ -141,8 +143,9 @@ def make_tasks(problems: Sequence[Problem], methods: Sequence[Method], opts: Swe
             fp = fingerprint(TASK_VERSION, p.key, array_digest(p.blocked), p.start, p.goal, method_fields(m),
                              opts.seed_list, asdict(ql), asdict(pc), prior_id(source, p) if m.needs_ndr else None, rec)
             key = f"{p.key}__{m.name}".replace(" ", "_") + (ORACLE_KEY if m.needs_ndr and is_oracle(source) else "")
+            distance = p.distance if m.n_qi else None
             tasks.append(Task(key, plan_task, (p.blocked, p.start, p.goal, m, opts.seed_list, ql,
-                                               pc, region, guideline, rec), fp))
+                                               pc, region, guideline, rec, distance), fp))
     return tasks
 
 

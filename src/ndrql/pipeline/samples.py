@@ -112,9 +112,10 @@ class PredictionCache:
     def path(self, p: Problem) -> Path:
         return self.dir / f"{p.key}.npz"
 
-    def _entry(self, p: Problem) -> tuple[str, np.ndarray, np.ndarray]:
-        """``(mode, region, guideline)`` as the model drew them (float32): at the map's resolution for
-        ``map``-mode models, at 4 px per cell of the planning grid for ``grid``-mode ones."""
+    def _entry(self, p: Problem) -> tuple[str, np.ndarray, np.ndarray, np.ndarray | None]:
+        """``(mode, region, guideline, distance)`` as the model drew them (float32): at the map's resolution
+        for ``map``-mode models, at 4 px per cell of the planning grid for ``grid``-mode ones; ``distance``
+        (cells) from a model with a distance head, else ``None``."""
         path = self.path(p)
         inputs = data_digest(np.packbits(p.obstacles), repr((p.source_start, p.source_goal)),
                              np.packbits(p.blocked), repr((p.start, p.goal)))[:16]  # grid models see the grid
@@ -123,7 +124,8 @@ class PredictionCache:
                 with np.load(path, allow_pickle=False) as d:
                     if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs:
                         mode = str(d["mode"]) if "mode" in d.files else "map"
-                        return mode, d["region"].astype(np.float32), d["guideline"].astype(np.float32)
+                        dist = d["distance"].astype(np.float32) if "distance" in d.files else None
+                        return mode, d["region"].astype(np.float32), d["guideline"].astype(np.float32), dist
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
                 pass  # a damaged cache entry is predicted again
         if self._predictor is None:
@@ -131,23 +133,25 @@ class PredictionCache:
             # backends differ by ~1e-4 in probability, which could move a run; same numbers on re-runs
             self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
         mode = getattr(self._predictor, "input_mode", "map")
+        distance = None
         if mode == "grid":
-            region, guideline, _, _ = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
+            region, guideline, _, distance = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
         else:
             pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
             region, guideline = pred.region, pred.guideline
         if guideline is None:
             raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")
         region, guideline = np.asarray(region).astype(np.float16), np.asarray(guideline).astype(np.float16)
+        extra = {} if distance is None else {"distance": np.asarray(distance, np.float32)}  # fp16 would blur neighbours
         save_npz(path, region=region, guideline=guideline, weights=np.array(self.digest), inputs=np.array(inputs),
-                 mode=np.array(mode))
+                 mode=np.array(mode), **extra)
         self.computed += 1
-        return mode, region.astype(np.float32), guideline.astype(np.float32)
+        return mode, region.astype(np.float32), guideline.astype(np.float32), extra.get("distance")
 
     def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
         """Region and guideline at the map's resolution (float32), from the cache or the model (a grid-mode
         model's cell means drawn back on the map's pixels)."""
-        mode, region, guideline = self._entry(p)
+        mode, region, guideline, _ = self._entry(p)
         if mode == "grid":
             n = max(p.blocked.shape)
             return (to_map_pixels(region, p.obstacles.shape, n).astype(np.float32),
@@ -156,13 +160,15 @@ class PredictionCache:
 
     def attach(self, p: Problem) -> Problem:
         """``p`` with region and guideline on its planning grid: area averaging of the map-resolution
-        prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells."""
-        mode, region, guideline = self._entry(p)
+        prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells (and its goal
+        distance per cell when it has a distance head, for Eq. 6)."""
+        mode, region, guideline, distance = self._entry(p)
         if mode == "grid":
             r = np.clip(cell_means(region, p.blocked.shape), 0, 1)
             g = np.clip(cell_means(guideline, p.blocked.shape), 0, 1)
-        else:
-            r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
+            d = None if distance is None else cell_means(distance, p.blocked.shape)
+            return replace(p, region=r, guideline=g, distance=d)
+        r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
         return replace(p, region=r, guideline=g)
 
 

@@ -50,3 +50,27 @@ def plot_label_comparison(ax: Any, obstacles: np.ndarray, pred: np.ndarray, labe
         ax.set_title(title)
     ax.set_axis_off()
     return artists
+
+
+def plot_distance_field(ax: Any, obstacles: np.ndarray, distance: np.ndarray, *, start: Sequence[float] | None = None,
+                        goal: Sequence[float] | None = None, title: str | None = None, levels: int = 12) -> list[Any]:
+    """A predicted distance to the goal (cells, at the map's pixels) as colour with iso-distance lines, the
+    map in black on top, start and goal in a legend below; returns the artists. The lines should wrap
+    around walls where the way does."""
+    d = np.ma.masked_where(np.asarray(obstacles, bool), np.asarray(distance, float))
+    image = ax.imshow(d, cmap="viridis_r", interpolation="nearest", zorder=1)
+    artists = [image, plot_occupancy(ax, obstacles, zorder=2)]
+    if d.count() and np.ptp(d.compressed()) > 0:
+        artists.append(ax.contour(d, levels=levels, colors="white", linewidths=0.5, alpha=0.7, zorder=3))
+    if start is not None and goal is not None:
+        artists += list(plot_endpoints(ax, start, goal))
+        artists.append(legend_below(ax, ncol=2))
+    bar = ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
+    bar.set_label("distance to the goal (cells)", fontsize=8)
+    artists.append(bar)
+    if title:
+        ax.set_title(title, fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.set_aspect("equal")
+    return artists

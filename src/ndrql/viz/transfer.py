@@ -26,8 +26,9 @@ class PredictionPanel:
     blocked: np.ndarray
     start: Point
     goal: Point
-    model: tuple[np.ndarray, np.ndarray]
-    oracle: tuple[np.ndarray, np.ndarray]
+    model: tuple[np.ndarray, ...]
+    """Region and guideline on the cells (and the goal distance of a model with a distance head, not drawn)."""
+    oracle: tuple[np.ndarray, ...]
     title: str = ""
 
 
@@ -47,7 +48,7 @@ def transfer_figure(panels: Sequence[PredictionPanel], model_label: str, fig: An
         ax.set_axis_off()
     for k, p in enumerate(panels):
         r, c = 2 * (k // cols), k % cols
-        for row, (label, (region, guide)) in enumerate(((model_label, p.model), ("oracle", p.oracle))):
+        for row, (label, (region, guide, *_)) in enumerate(((model_label, p.model), ("oracle", p.oracle))):
             ax = axes[r + row, c]
             ax.set_axis_on()
             plot_prediction(ax, p.blocked, region, guide, p.start, p.goal)

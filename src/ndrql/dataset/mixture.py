@@ -155,9 +155,8 @@ def batch_size_for(side: int, batch_size: int) -> int:
 
 
 def stack(items: list[Rendered], encoding: str, distance: bool = False):
-    """(x, region, guideline) float tensors (B, C, H, W); with ``distance`` also the distance head's label: the
-    detour ``(moves - manhattan) / DISTANCE_UNIT`` (:func:`~ndrql.dataset.render.manhattan_pixels`; -1 where
-    unknown, everywhere for a ``map``-mode item)."""
+    """(x, region, guideline) float tensors (B, C, H, W); with ``distance`` also the distance head's label
+    (B, 2, H, W), :func:`distance_target`."""
     import torch
 
     x = np.stack([encode_input(r.obstacles, r.start, r.goal, encoding) for r in items])
@@ -166,10 +165,20 @@ def stack(items: list[Rendered], encoding: str, distance: bool = False):
     out = (torch.from_numpy(x), torch.from_numpy(region), torch.from_numpy(guide))
     if not distance:
         return out
-    d = np.stack([np.full(r.region.shape, -1.0, np.float32) if r.distance is None else
-                  np.where(r.distance >= 0, (r.distance - manhattan_pixels(r.goal, r.distance.shape[0])) / DISTANCE_UNIT,
-                           -1.0).astype(np.float32) for r in items])
-    return out + (torch.from_numpy(d[:, None]),)
+    d = np.stack([distance_target(r) for r in items])
+    return out + (torch.from_numpy(d),)
+
+
+def distance_target(r: Rendered) -> np.ndarray:
+    """(2, side, side) float32: the detour ``(moves - manhattan) / DISTANCE_UNIT`` (-1 where unknown, everywhere
+    for an item without distance) and the Manhattan distance ``/ DISTANCE_UNIT`` (:func:`manhattan_pixels`)."""
+    side = r.region.shape[0]
+    manh = manhattan_pixels(r.goal, side)
+    if r.distance is None:
+        detour = np.full((side, side), -1.0, np.float32)
+    else:
+        detour = np.where(r.distance >= 0, (r.distance - manh) / DISTANCE_UNIT, -1.0).astype(np.float32)
+    return np.stack([detour, manh / DISTANCE_UNIT]).astype(np.float32)
 
 
 class Mixture:

@@ -138,7 +138,6 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     overall and per group (``region_f1/<group>``); for a model with a distance head also the percentage of
     neighbouring cells whose goal distances it orders right (``distance_order/all``, :func:`order_accuracy`)."""
     from ndrql.dataset.mixture import stack  # lazy: loads scipy
-    from ndrql.dataset.render import DISTANCE_UNIT, manhattan_pixels  # lazy: as above
 
     model.eval()
     rf: list[float] = []
@@ -156,9 +155,8 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
             x, region, guide, dist_t = stack([items[j][1] for j in sel], encoding, distance=True)
             r, g, d = predict_all(model, x, bf16)
             if d is not None:  # the order of the distances themselves: manhattan + detour
-                for j, item in enumerate(sel):
-                    base = manhattan_pixels(items[item][1].goal, d.shape[-1]) / DISTANCE_UNIT
-                    t = dist_t[j, 0].numpy()
+                for j in range(len(sel)):
+                    t, base = dist_t[j, 0].numpy(), dist_t[j, 1].numpy()
                     got = order_accuracy(d[j] + base, np.where(t >= 0, t + base, -1.0))
                     ordered = [u + v for u, v in zip(ordered, got)]
             rf.extend(f1_per_image(r >= 0.5, region[:, 0].numpy() > 0.5).tolist())

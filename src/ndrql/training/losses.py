@@ -22,6 +22,14 @@ def bce_dice(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     return F.binary_cross_entropy_with_logits(logits.float(), target) + dice_loss(logits, target)
 
 
+#: Weight of the ranking term in :func:`distance_loss` (the relative L1 term has weight 1).
+ORDER_WEIGHT = 4.0
+#: Scale of the ranking term's logit: the order margin of one move.
+ORDER_SCALE = 2.0
+#: Extra weight of the distance-head loss inside the region label (where Eq. 7's mask keeps the agent).
+REGION_WEIGHT = 2.0
+
+
 def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, region: torch.Tensor, guide: torch.Tensor,
              distance: torch.Tensor | None = None, distance_target: torch.Tensor | None = None) -> torch.Tensor:
     """Sum of BCE + Dice on the region and (when present) the guideline output, plus
@@ -34,29 +42,28 @@ def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, reg
     return loss
 
 
-#: Weight of the cell-to-cell difference term in :func:`distance_loss`.
-ORDER_WEIGHT = 1.0
-#: Extra weight of the distance error inside the region label (where Eq. 7's mask keeps the agent).
-REGION_WEIGHT = 2.0
-
-
 def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL,
                   weight: torch.Tensor | None = None) -> torch.Tensor:
-    """Distance-head loss on the pixels whose target (the detour, :func:`ndrql.dataset.mixture.stack`) is
-    known (``>= 0``), both in units of ``unit`` cells.
+    """Distance-head loss. ``pred`` (B, 1, H, W): the detour in units of ``unit`` cells; ``target``
+    (B, 2, H, W): the true detour (``< 0`` where unknown) and the Manhattan distance, same units
+    (:func:`ndrql.dataset.mixture.stack`); the distance is ``manhattan + detour``.
 
-    Relative L1 ``|p - t| / (1 + t)`` (long detours may err more in absolute terms) plus
-    :data:`ORDER_WEIGHT` times the L1 error, in cells, of the differences between pixels one cell apart
-    (``px_per_cell``) along rows and columns: what Eq. 6 compares is neighbouring cells, so their order
-    matters more than the absolute value. ``weight`` (same shape, optional) weighs the pixels of the first
-    term. 0 (with a gradient) when no target is known.
+    Relative L1 of the detour ``|p - t| / (1 + t)`` on the known pixels (long detours may err more in
+    absolute terms; an L1 fit alone is median-seeking and stays flat where it is unsure, which never
+    reorders a neighbour), plus :data:`ORDER_WEIGHT` times a ranking loss on every pair of known pixels
+    one cell apart (``px_per_cell``) along rows and columns: what Eq. 6 compares is neighbours, whose
+    true distances differ by one move, so the loss is the logistic loss of the predicted difference
+    having the true sign, ``softplus(-ORDER_SCALE * sign * (d_b - d_a))`` with distances in cells.
+    ``weight`` (B, 1, H, W, optional) weighs the pixels of both terms. 0 (with a gradient) when no
+    target is known.
     """
     pred = pred.float()
-    known = target >= 0
+    detour, manh = target[:, :1], target[:, 1:2]
+    known = detour >= 0
     if not bool(known.any()):
         return pred.sum() * 0.0
-    w = torch.ones_like(target) if weight is None else weight.float()
-    err = (pred - target).abs() / (1.0 + target.clamp(min=0))
+    w = torch.ones_like(detour) if weight is None else weight.float()
+    err = (pred - detour).abs() / (1.0 + detour.clamp(min=0))
     loss = (err * w)[known].sum() / w[known].sum().clamp(min=1e-6)
     k = int(px_per_cell)
     for dim in (-2, -1):
@@ -64,8 +71,12 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
         if n <= 0:
             continue
         a, b = (lambda t: t.narrow(dim, 0, n)), (lambda t: t.narrow(dim, k, n))
-        both = a(known) & b(known)
-        if bool(both.any()):
-            err = ((b(pred) - a(pred)) - (b(target) - a(target))).abs() * unit
-            loss = loss + ORDER_WEIGHT * 0.5 * err[both].mean()
+        true_diff = unit * ((b(detour) + b(manh)) - (a(detour) + a(manh)))
+        both = a(known) & b(known) & (true_diff.abs() > 0.5)
+        if not bool(both.any()):
+            continue
+        pred_diff = unit * ((b(pred) + b(manh)) - (a(pred) + a(manh)))
+        rank = F.softplus(-ORDER_SCALE * torch.sign(true_diff) * pred_diff)
+        pw = (a(w) + b(w)) / 2
+        loss = loss + ORDER_WEIGHT * 0.5 * (rank * pw)[both].sum() / pw[both].sum().clamp(min=1e-6)
     return loss

@@ -96,7 +96,8 @@ def test_order_accuracy_on_known_input():
 
 
 def test_warm_start_adds_a_fresh_head_and_train_only_keeps_the_trunk(tmp_path):
-    from ndrql.training.loop import freeze_except, train_step, warm_start
+    from ndrql.training.loop import train_step
+    from ndrql.training.start import freeze_except, warm_start
     from ndrql.training import distributed as D
 
     plain = build_model(TINY)

@@ -36,6 +36,7 @@ from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.evaluate import evaluate, evaluate_rendered
 from ndrql.training.losses import ndr_loss
+from ndrql.training.start import freeze_except, warm_start
 
 
 def learning_rate(cfg: TrainConfig, global_step: int, total_steps: int, peak: float | None = None) -> float:
@@ -167,35 +168,6 @@ def build_mixture(cfg: TrainConfig, progress: bool):
     tr_ids = np.concatenate([s.train_ids for s in sources])
     va_ids = np.concatenate([s.val_ids for s in sources])
     return mixture, tr_ids, va_ids, paper
-
-
-def warm_start(model: nn.Module, path: str, model_cfg: dict) -> None:
-    """Load the weights of checkpoint ``path`` into ``model`` (same architecture; the input mode may differ,
-    and a model with a distance head may start from one without: that head keeps its initialisation)."""
-    ck = load_checkpoint(path)
-    strip = lambda d: {k: v for k, v in dict(d).items() if k not in ("input_mode", "distance_head")}  # noqa: E731
-    if strip(ck["config"]) != strip(model_cfg) or (ck["config"].get("distance_head") and not model_cfg.get("distance_head")):
-        raise CheckpointError(f"--init-weights {path} holds model {ck['config']}, this run builds {model_cfg}")
-    weights = {k: v.float() if v.is_floating_point() else v for k, v in ck["model"].items()}
-    fresh = {k: v for k, v in model.state_dict().items() if k.startswith("distance.") and k not in weights}
-    model.load_state_dict({**weights, **fresh})
-
-
-def freeze_except(model: nn.Module, train_only: str) -> list[nn.Module]:
-    """Fix every top-level module of ``model`` not named in ``train_only`` (comma-separated; empty: train
-    all); returns the fixed modules (the loop keeps them in eval mode). Unknown names are a one-line error."""
-    names = [n.strip() for n in train_only.split(",") if n.strip()]
-    if not names:
-        return []
-    children = dict(model.named_children())
-    unknown = [n for n in names if children.get(n) is None]
-    if unknown:
-        valid = ", ".join(n for n, m in children.items() if m is not None)
-        raise CheckpointError(f"--train-only: this model has no part {', '.join(unknown)}; valid: {valid}")
-    frozen = [m for n, m in children.items() if n not in names and m is not None]
-    for m in frozen:
-        m.requires_grad_(False)
-    return frozen
 
 
 @dataclass

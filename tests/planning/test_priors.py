@@ -102,24 +102,33 @@ def test_ndr_qi_mask_term_alone_eq6():
 
 
 def test_ndr_qi_eq6_with_a_given_goal_distance():
-    """Beyond the paper: a predicted distance replaces the straight line in Eq. 6's distance term only."""
+    """Beyond the paper: a predicted distance, snapped to Manhattan + an even detour with straight-line
+    tie-breaks, replaces the straight line in Eq. 6's distance term only."""
     start, goal = (0, 0), (0, 2)
-    dist = np.array([[2.0, 5.0, 0.0], [1.5, 9.0, 0.5], [-3.0, 7.0, 1.0]])  # any field; negatives clip to 0
-    q0, thd = P.ndr_qi(FREE, start, goal, REGION, distance=dist)
+    rows, cols = np.indices((3, 3))
+    manh = np.abs(rows - goal[0]) + np.abs(cols - goal[1])
+    hyp = np.hypot(rows - goal[0], cols - goal[1])
+    pred = manh + np.array([[0.4, 2.9, 0.0], [0.2, 5.2, 0.1], [-3.0, 1.1, 0.0]])  # detours as a model may give them
+    snapped = P.snapped_distance(pred, goal)
+    detour = np.array([[0, 2, 0], [0, 6, 0], [0, 2, 0]])  # nearest even >= 0: 0.4->0, 2.9->2, 5.2->6, 1.1->2
+    assert np.allclose(snapped, manh + detour + P.TIE_BREAK * hyp)
+    exact = manh + np.array([[0, 0, 0], [2, 0, 0], [4, 2, 0]])  # an exact distance keeps its values (+ tie-break)
+    assert np.allclose(P.snapped_distance(exact, goal), exact + P.TIE_BREAK * hyp)
+    q0, thd = P.ndr_qi(FREE, start, goal, REGION, distance=pred)
     assert thd == pytest.approx(0.79)  # the threshold does not depend on the distance
-    assert q0[idx(0, 0), RIGHT] == pytest.approx(0.5 * -10 + 0.5 * math.exp(-5.0))
-    assert q0[idx(0, 0), DOWN] == pytest.approx(0.5 * math.exp(-1.5))
-    assert q0[idx(1, 0), DOWN] == pytest.approx(-5 + 0.5 * math.exp(-0.0))  # (2, 0): -3 clipped to 0
-    assert q0[idx(0, 0), UP] == pytest.approx(0.5 * math.exp(-2.0))  # blocked move: s' = s
-    hyp = np.hypot(*np.indices((3, 3)) - np.array(goal)[:, None, None])
-    assert np.allclose(P.ndr_qi(FREE, start, goal, REGION, distance=hyp)[0], P.ndr_qi(FREE, start, goal, REGION)[0])
+    assert q0[idx(0, 0), RIGHT] == pytest.approx(0.5 * -10 + 0.5 * math.exp(-snapped[0, 1]))
+    assert q0[idx(0, 0), DOWN] == pytest.approx(0.5 * math.exp(-snapped[1, 0]))
+    assert q0[idx(0, 0), UP] == pytest.approx(0.5 * math.exp(-snapped[0, 0]))  # blocked move: s' = s
+    # the straight line breaks the tie between two moves that Manhattan finds equally good
+    q_tie, _ = P.ndr_qi(FREE, (2, 0), goal, np.ones((3, 3)), distance=manh.astype(float))
+    assert q_tie[idx(1, 0), RIGHT] > q_tie[idx(1, 0), UP]  # (1,1) is nearer (0,2) in a straight line than (0,0)
     with pytest.raises(ValueError, match="distance has shape"):
         P.ndr_qi(FREE, start, goal, REGION, distance=np.zeros((2, 2)))
     with pytest.raises(ValueError, match="finite"):
         P.ndr_qi(FREE, start, goal, REGION, distance=np.full((3, 3), np.nan))
-    pri = build_priors("NDR-QL", FREE, start, goal, REGION, REGION, distance=dist)
+    pri = build_priors("NDR-QL", FREE, start, goal, REGION, REGION, distance=pred)
     assert np.array_equal(pri.q0, q0)
-    iql = build_priors("IQL", FREE, start, goal, distance=dist)  # D-QI keeps the straight line
+    iql = build_priors("IQL", FREE, start, goal, distance=pred)  # D-QI keeps the straight line
     assert np.array_equal(iql.q0, build_priors("IQL", FREE, start, goal).q0)
 
 

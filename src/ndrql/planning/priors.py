@@ -147,9 +147,9 @@ def ndr_qi(
 
     ``thd`` defaults to :func:`adaptive_threshold`; when none connects, MASK is 0 everywhere and a
     :class:`ThresholdWarning` is emitted. ``mask_only``: the mask term alone
-    (:func:`ndr_qi_mask_term`). ``distance``: ``dist(s', goal)`` per cell, in cells (the model's
-    predicted distance to the goal through free space, beyond the paper); default the straight line,
-    as in the paper. Returns ``(q0, thd)``.
+    (:func:`ndr_qi_mask_term`). ``distance``: the model's predicted distance to the goal through free
+    space per cell, in cells (beyond the paper), taken as ``dist(s', goal)`` after
+    :func:`snapped_distance`; default the straight line, as in the paper. Returns ``(q0, thd)``.
     """
     blocked = np.asarray(blocked, dtype=bool)
     region = _check_field("region", region, blocked.shape)
@@ -169,9 +169,32 @@ def ndr_qi(
     if distance is None:
         dist = np.hypot(r2 - goal[0], c2 - goal[1])
     else:
-        dist = _check_distance(distance, blocked.shape)[r2, c2]
+        dist = snapped_distance(_check_distance(distance, blocked.shape), goal)[r2, c2]
     q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-dist)
     return q0, thd
+
+
+#: Weight of the straight line that breaks ties between equally distant cells in :func:`snapped_distance`.
+TIE_BREAK = 0.01
+
+
+def snapped_distance(distance: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
+    """A predicted distance to the goal (cells) as Eq. 6 takes it: snapped to the values a 4-connected
+    distance can take, and with ties broken by the straight line.
+
+    The moves from a cell to the goal are its Manhattan distance plus an even detour (a grid is
+    bipartite), so the predicted detour ``distance - manhattan`` is rounded to the nearest even number
+    of moves (at least 0): the model's small, noisy detours in open space become 0 and leave the order
+    of neighbours to the geometry. Neighbours that are then equally far (in open space two moves
+    usually are) are told apart by :data:`TIE_BREAK` times their straight-line distance, which prefers
+    the move that heads more directly for the goal, as Eq. 5 does. An exact distance (the oracle's)
+    keeps its order.
+    """
+    d = np.asarray(distance, dtype=np.float64)
+    rows, cols = np.indices(d.shape)
+    manhattan = np.abs(rows - goal[0]) + np.abs(cols - goal[1])
+    detour = 2.0 * np.round(np.maximum(d - manhattan, 0.0) / 2.0)
+    return manhattan + detour + TIE_BREAK * np.hypot(rows - goal[0], cols - goal[1])
 
 
 def _check_distance(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

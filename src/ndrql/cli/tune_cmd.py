@@ -77,6 +77,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "--methods' studies as a preset file, after checking them against spec on fresh seeds")
     p.add_argument("--methods", metavar="LIST", default="QL,O-QL,IQL,NDR-QL",
                    help="--export-preset: methods to collect (default: QL,O-QL,IQL,NDR-QL)")
+    p.add_argument("--keep-from", metavar="PRESET", default="",
+                   help="--export-preset with --maps generated: methods not in --methods keep this per-grid "
+                   "preset's constants and provenance (e.g. re-search NDR-QL alone for new weights)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
 
@@ -197,6 +200,8 @@ def _export_grids(args, cfgs, grids, storage, log) -> int:
         entry = tuned_preset(settings, check, meta)
         entries[n], metas[str(n)] = dict(entry.methods), dict(entry.meta)
         wins.append(entry.plan_default)
+    if args.keep_from:
+        entries, metas = kept_entries(load_preset(args.keep_from), entries, metas)
     name = Path(args.export_preset).stem
     preset = Preset(name=name, grids=entries, plan_default=all(wins),
                     meta={"maps": "generated", "objective": cfgs[0].objective, "grids": metas})
@@ -204,6 +209,26 @@ def _export_grids(args, cfgs, grids, storage, log) -> int:
     print(f"wrote {path} (grids {', '.join(map(str, grids))}; plan default for its weights: "
           f"{'yes' if preset.plan_default else 'no'})")
     return 0
+
+
+def kept_entries(base: Preset, entries: dict, metas: dict) -> tuple[dict, dict]:
+    """Per grid: ``base``'s methods and provenance, with the newly searched methods of ``entries`` /
+    ``metas`` replacing theirs (their search settings under ``meta["search_by_method"]``, since the
+    weights digest may differ from the kept methods' search)."""
+    if set(map(int, base.grids)) != set(entries):
+        raise NdrqlError(f"--keep-from {base.name}: it has grids {sorted(base.grids)}, the export {sorted(entries)}")
+    out_e, out_m = {}, {}
+    for n, new in entries.items():
+        old_meta = dict(dict(base.meta).get("grids", {}).get(str(n), {}))
+        meta = {**old_meta, "studies": {**old_meta.get("studies", {}), **metas[str(n)]["studies"]},
+                "validation_check": {**old_meta.get("validation_check", {}), **metas[str(n)]["validation_check"]},
+                "search_by_method": {**old_meta.get("search_by_method", {}),
+                                     **{m: metas[str(n)]["search"] for m in new}}}
+        kept = [m for m in old_meta.get("kept_spec", []) if m not in new] + list(metas[str(n)]["kept_spec"])
+        meta["kept_spec"] = kept
+        out_e[n] = {**dict(base.grids[n]), **new}
+        out_m[str(n)] = meta
+    return out_e, out_m
 
 
 def _collect(args, cfgs, problems, storage, digest, log):

@@ -134,3 +134,16 @@ def test_distance_head_needs_grid_mode():
 
     with pytest.raises(ValueError, match="--distance-head needs --input-mode grid"):
         TrainConfig(distance_head=True)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--distance-head"], "--distance-head needs --input-mode grid"),
+    (["--train-only", "decoder"], "--train-only: unknown part decoder; valid: backbone"),
+    (["--input-mode", "grid", "--train-only", "distance"], "--train-only distance needs --distance-head"),
+])
+def test_train_flags_of_the_distance_head_fail_in_one_line_and_write_nothing(tmp_path, ndrql_exe, args, message):
+    from helpers.cli import assert_one_line_error, run_cli
+
+    out = run_cli(ndrql_exe, "train", *args, "--run-dir", str(tmp_path / "run"))
+    assert_one_line_error(out, message)
+    assert not (tmp_path / "run").exists()

@@ -37,6 +37,16 @@ def check_train_config(cfg: "TrainConfig") -> None:
         raise bad("model_overrides", "a JSON object", cfg.model_overrides)
     if cfg.distance_head and cfg.input_mode != "grid":
         raise ValueError("--distance-head needs --input-mode grid (its labels are the planning grid's goal distances)")
+    parts = [p.strip() for p in str(cfg.train_only).split(",") if p.strip()]
+    unknown = [p for p in parts if p not in TRAIN_PARTS]
+    if unknown:
+        raise ValueError(f"--train-only: unknown part {', '.join(unknown)}; valid: {', '.join(TRAIN_PARTS)}")
+    if "distance" in parts and not cfg.distance_head:
+        raise ValueError("--train-only distance needs --distance-head")
+
+
+#: Top-level parts of an NDR network that ``--train-only`` may name.
+TRAIN_PARTS = ("backbone", "context", "fuse4", "fuse3", "region_head", "guideline", "distance")
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,8 @@
 # use 900000 and above. EXCLUDE=maze,office trains on the same generated set without those families
 # (leave-families-out runs: `ndrql train --exclude-families`). INIT= warm-starts from other weights
 # (e.g. src/ndrql/data/ndr_general.pt to continue the shipped model); EXTRA=DIR:W adds a source.
+# DISTANCE=1 trains only a goal-distance head on the fixed trunk of INIT (--distance-head --train-only distance):
+#   DISTANCE=1 INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=8 TAG=general-distance tools/train_general.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
@@ -27,6 +29,7 @@ THREADS=${THREADS:-2}
 EXCLUDE=${EXCLUDE:-}
 INIT=${INIT:-src/ndrql/data/ndr_default.pt}
 EXTRA=${EXTRA:-}
+DISTANCE=${DISTANCE:-}
 FAMILIES=$(.venv/bin/python -c "from ndrql.synth.families import family_names; print(','.join(family_names()))")
 TAG=${TAG:-general-${MODE}${EXCLUDE:+-no-${EXCLUDE//,/-}}}
 GEN=$CACHE/gen/train-s${SEED}-${FAMILIES//,/-}
@@ -38,7 +41,9 @@ echo "run: $RUN"
 "$NDRQL" data generate --family "$FAMILIES" --count "$COUNT" --size "$SIZES" --seed "$SEED" --out "$GEN" --workers 2 --no-progress
 RESUME=()
 [ -f "$RUN/last.pt" ] && RESUME=(--resume)
+HEAD=()
+[ -n "$DISTANCE" ] && HEAD=(--distance-head --train-only distance)
 exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3${EXTRA:+,$EXTRA}" --input-mode "$MODE" --grid-sizes "$GRIDS" \
     --exclude-families "$EXCLUDE" --init-weights "$INIT" --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
     --warmup-steps 100 --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
-    --no-progress --run-dir "$RUN" "${RESUME[@]}"
+    --no-progress --run-dir "$RUN" "${HEAD[@]}" "${RESUME[@]}"

@@ -23,11 +23,17 @@ def plot_probability_overlay(ax: Any, obstacles: np.ndarray, prob: np.ndarray, *
     masked = np.ma.masked_less(np.asarray(prob, float), 0.02)
     image = ax.imshow(masked, cmap=cmap, vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest", zorder=1)
     artists = [image, plot_occupancy(ax, obstacles, zorder=2)]
+    if colorbar:
+        artists.append(probability_colorbar(ax, image, f"{kind} probability"))
+    return _finish_overlay(ax, artists, start, goal, title)
+
+
+def _finish_overlay(ax: Any, artists: list[Any], start: Sequence[float] | None, goal: Sequence[float] | None,
+                    title: str | None) -> list[Any]:
+    """Start and goal with their legend below, the title, no ticks, equal aspect; returns ``artists`` with them."""
     if start is not None and goal is not None:
         artists += list(plot_endpoints(ax, start, goal))
         artists.append(legend_below(ax, ncol=2))
-    if colorbar:
-        artists.append(probability_colorbar(ax, image, f"{kind} probability"))
     if title:
         ax.set_title(title, fontsize=9)
     ax.set_xticks([])
@@ -62,15 +68,7 @@ def plot_distance_field(ax: Any, obstacles: np.ndarray, distance: np.ndarray, *,
     artists = [image, plot_occupancy(ax, obstacles, zorder=2)]
     if d.count() and np.ptp(d.compressed()) > 0:
         artists.append(ax.contour(d, levels=levels, colors="white", linewidths=0.5, alpha=0.7, zorder=3))
-    if start is not None and goal is not None:
-        artists += list(plot_endpoints(ax, start, goal))
-        artists.append(legend_below(ax, ncol=2))
     bar = ax.figure.colorbar(image, ax=ax, fraction=0.046, pad=0.04)
     bar.set_label("distance to the goal (cells)", fontsize=8)
     artists.append(bar)
-    if title:
-        ax.set_title(title, fontsize=9)
-    ax.set_xticks([])
-    ax.set_yticks([])
-    ax.set_aspect("equal")
-    return artists
+    return _finish_overlay(ax, artists, start, goal, title)

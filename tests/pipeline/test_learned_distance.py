@@ -128,3 +128,19 @@ def test_reproduce_prediction_cache_keeps_the_distance(distance_model, tmp_path)
     again_run = run_plan(blocked, start, goal, m, 0, ql, PriorConfig(), priors=expect)
     assert res["threshold"] == expect.threshold
     assert res["runs"][0]["total_steps"] == again_run.total_steps and res["runs"][0]["path"] == [list(c) for c in again_run.path]
+
+
+def test_shipped_general_model_has_the_distance_head_and_plan_uses_it():
+    from ndrql.model.predict import Predictor
+    from ndrql.model.weights import shipped_weights
+
+    pred = Predictor.load(shipped_weights("general"), threads=1)
+    obstacles = _walls()
+    p = pred.predict(obstacles, (10, 10), (110, 150))
+    d = p.grid.distance
+    assert d is not None and d.shape == p.grid.blocked.shape and np.isfinite(d).all()
+    goal = p.grid.goal
+    assert d[goal] < 3  # about 0 at the goal itself
+    report = ndrql.solve(obstacles, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1,
+                         settings=PlanSettings(fallback=None))
+    assert report.info["qi_distance"] == "model" and report.results[0].converged

@@ -120,7 +120,7 @@ def solve(
     n_workers = check_workers(workers)
     with clock.stage("learn"):
         results = learn(pg, ms, seed_list, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
-                        progress)
+                        progress, pred.distance)
     with clock.stage("route"):
         runs = planned_runs(results, setup.check_map, pg, grid_map, settings.smoothing, start_yaw, goal_yaw)
 

@@ -61,9 +61,10 @@ def check_workers(workers: int | None) -> int:
 
 def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts: Constants,
           priors: dict[str, Priors], region: np.ndarray | None, guideline: np.ndarray | None, workers: int,
-          keep_records: bool = False, progress: bool = False) -> list[PlanResult]:
+          keep_records: bool = False, progress: bool = False, distance: np.ndarray | None = None) -> list[PlanResult]:
     """Every method with every seed (methods outer): in this process with the given priors, or on
-    ``workers`` processes (:func:`~ndrql.planning.runner.run_many`, which rebuilds the same priors)."""
+    ``workers`` processes (:func:`~ndrql.planning.runner.run_many`, which rebuilds the same priors from
+    ``region``, ``guideline`` and ``distance``)."""
     jobs = [(m, s) for m in ms for s in seeds]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
@@ -74,4 +75,4 @@ def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts
                              keep_records=keep_records)
                     for m, s in tqdm(jobs, desc="runs", unit="run", disable=None if progress else True, leave=False)]
         return run_many([PlanJob(grid.blocked, grid.start, grid.goal, m.name, s, *consts(m.name), region, guideline,
-                                 keep_records) for m, s in jobs], workers=workers, progress=progress)
+                                 keep_records, distance) for m, s in jobs], workers=workers, progress=progress)

@@ -153,6 +153,8 @@ class PlanJob:
     region: np.ndarray | None = None
     guideline: np.ndarray | None = None
     keep_records: bool = False
+    distance: np.ndarray | None = None
+    """The model's goal distance for Eq. 6 (:func:`run_plan`)."""
 
 
 def _run_job(job: PlanJob) -> PlanResult:
@@ -167,6 +169,7 @@ def _run_job(job: PlanJob) -> PlanResult:
         job.region,
         job.guideline,
         keep_records=job.keep_records,
+        distance=job.distance,
     )
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ndrql.experiments.ceiling import prior_arrays
 from ndrql.experiments.transfer import eval_set, eval_spec, grid_case, larger_sizes, model_priors, row_configs
 from ndrql.io import make_folder, write_json
 from ndrql.model.predict import Predictor
@@ -58,7 +59,7 @@ def runs(case, method: str, ql, pc, priors, seeds) -> np.ndarray:
     """``(steps, path / A*, converged)`` per seed."""
     rows = []
     for s in seeds:
-        region, guide, dist = (tuple(priors) + (None,))[:3] if priors else (None, None, None)
+        region, guide, dist = prior_arrays(priors)
         r = run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, ql, pc, region, guide, distance=dist)
         rows.append((r.convergence_steps if r.converged else r.total_steps,
                      r.length_ratio if r.converged and r.length_ratio is not None else math.nan, float(r.converged)))

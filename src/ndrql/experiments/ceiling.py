@@ -110,6 +110,15 @@ class CaseResult:
     threshold: dict[str, float | None] = field(default_factory=dict)
 
 
+def prior_arrays(pr) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """``(region, guideline, distance)`` of a row's priors (two or three arrays, or ``None`` for QL/IQL);
+    ``None`` for what is missing."""
+    if pr is None:
+        return None, None, None
+    arrays = [np.asarray(a) for a in pr]
+    return arrays[0], arrays[1], arrays[2] if len(arrays) > 2 else None
+
+
 def run_case(case: GridCase, priors: dict[str, tuple[np.ndarray, ...] | None], seeds: list[int],
              config: QLConfig = QLConfig(), prior_config: PriorConfig = PriorConfig()) -> CaseResult:
     """Run each row in ``priors`` (row name -> region, guideline and optionally the goal distance on the
@@ -117,7 +126,7 @@ def run_case(case: GridCase, priors: dict[str, tuple[np.ndarray, ...] | None], s
     out = CaseResult(case.name, case.group, case.n)
     for row, pr in priors.items():
         method = row.split(" ")[0]
-        region, guide, dist = (tuple(pr) + (None,))[:3] if pr is not None else (None, None, None)
+        region, guide, dist = prior_arrays(pr)
         runs = [run_plan(case.blocked, case.start_cell, case.goal_cell, method, s, config, prior_config, region, guide,
                          distance=dist) for s in seeds]
         out.steps[row] = [int(r.convergence_steps if r.converged else r.total_steps) for r in runs]

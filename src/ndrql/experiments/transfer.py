@@ -27,7 +27,7 @@ from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.generated import GeneratedSet, generate_set, read_manifest
 from ndrql.dataset.render import render
 from ndrql.errors import NdrqlError
-from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_priors
+from ndrql.experiments.ceiling import GridCase, grid_case, model_priors, oracle_priors, prior_arrays
 from ndrql.experiments.report import md_table
 from ndrql.experiments.stats import share_of_oracle
 from ndrql.experiments.digests import array_digest, fingerprint
@@ -80,8 +80,7 @@ def _runs(blocked, s, g, priors: dict, seeds: list[int], configs: dict[str, tupl
     out: dict = {}
     for row, pr in priors.items():
         method = row.split(" ")[0]
-        region, guide = (np.asarray(pr[0]), np.asarray(pr[1])) if pr is not None else (None, None)
-        dist = np.asarray(pr[2]) if pr is not None and len(pr) > 2 else None
+        region, guide, dist = prior_arrays(pr)
         ql, pc = configs[row]
         runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide, distance=dist) for seed in seeds]
         out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],

@@ -12,6 +12,8 @@
 # (e.g. src/ndrql/data/ndr_general.pt to continue the shipped model); EXTRA=DIR:W adds a source.
 # DISTANCE=1 trains only a goal-distance head on the fixed trunk of INIT (--distance-head --train-only distance):
 #   DISTANCE=1 INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=8 TAG=general-distance tools/train_general.sh
+# DECODER=skips picks the kind of distance head (--distance-decoder; v5 of `general`):
+#   DISTANCE=1 DECODER=skips INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=8 TAG=general-skips tools/train_general.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
@@ -30,6 +32,7 @@ EXCLUDE=${EXCLUDE:-}
 INIT=${INIT:-src/ndrql/data/ndr_default.pt}
 EXTRA=${EXTRA:-}
 DISTANCE=${DISTANCE:-}
+DECODER=${DECODER:-}
 FAMILIES=$(.venv/bin/python -c "from ndrql.synth.families import family_names; print(','.join(family_names()))")
 TAG=${TAG:-general-${MODE}${EXCLUDE:+-no-${EXCLUDE//,/-}}}
 GEN=$CACHE/gen/train-s${SEED}-${FAMILIES//,/-}
@@ -42,7 +45,7 @@ echo "run: $RUN"
 RESUME=()
 [ -f "$RUN/last.pt" ] && RESUME=(--resume)
 HEAD=()
-[ -n "$DISTANCE" ] && HEAD=(--distance-head --train-only distance)
+[ -n "$DISTANCE" ] && HEAD=(--distance-head --train-only distance ${DECODER:+--distance-decoder "$DECODER"})
 exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3${EXTRA:+,$EXTRA}" --input-mode "$MODE" --grid-sizes "$GRIDS" \
     --exclude-families "$EXCLUDE" --init-weights "$INIT" --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
     --warmup-steps 100 --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \

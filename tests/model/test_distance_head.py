@@ -20,17 +20,57 @@ def _seed():
     torch.manual_seed(0)
 
 
+@pytest.mark.parametrize("decoder", ["coarse", "skips"])
 @pytest.mark.parametrize("size", [(64, 64), (40, 72)])
-def test_third_output_at_input_size_only_with_the_head(size):
-    with_head = build_model({**TINY, "distance_head": True}).eval()
+def test_third_output_at_input_size_only_with_the_head(size, decoder):
+    with_head = build_model({**TINY, "distance_head": True, "distance_decoder": decoder}).eval()
     out = with_head(torch.zeros(2, 3, *size))
     assert len(out) == 3 and all(t.shape == (2, 1, *size) for t in out)
     assert out[2].dtype == torch.float32
     assert len(build_model(TINY).eval()(torch.zeros(1, 3, *size))) == 2
 
 
+def test_skips_head_sees_a_wall_the_coarse_field_cannot():
+    """A one-pixel change of the walls changes the skips head's output next to it (the path through the
+    strides 2 and 4), with the coarse layers unchanged."""
+    model = build_model({**TINY, "distance_head": True, "distance_decoder": "skips"}).eval()
+    x = torch.zeros(1, 3, 64, 64)
+    x[0, 2, 32, 60] = 1.0
+    moved = x.clone()
+    moved[0, 0, 10, 10] = 1.0
+    with torch.no_grad():
+        a, b = model(x)[2], model(moved)[2]
+    near = (a - b)[0, 0, 6:15, 6:15].abs().max()
+    assert float(near) > 0
+
+
+def test_unknown_distance_decoder_is_one_line():
+    from ndrql.model.registry import check_config
+
+    with pytest.raises(ValueError, match="unknown distance_decoder 'unet'.*valid: coarse, skips"):
+        check_config({**TINY, "distance_head": True, "distance_decoder": "unet"})
+
+
+def test_warm_start_of_the_skips_head_from_a_coarse_one_keeps_its_coarse_layers(tmp_path):
+    from ndrql.training.start import warm_start
+
+    coarse_cfg = {**TINY, "distance_head": True}
+    coarse = build_model(coarse_cfg)
+    src = save_checkpoint(tmp_path / "coarse.pt", {"config": coarse_cfg, "model": coarse.state_dict()})
+    cfg = {**coarse_cfg, "distance_decoder": "skips"}
+    model = build_model(cfg)
+    fresh = {k: v.clone() for k, v in model.state_dict().items()}
+    warm_start(model, str(src), cfg)
+    state, old = model.state_dict(), coarse.state_dict()
+    assert all(torch.equal(state[k], old[k]) for k in old if not k.startswith("distance.refine."))
+    assert any(k.startswith("distance.coarse.") for k in old)
+    assert not any(k.startswith("distance.refine.") for k in state)  # the coarse head's own refinement is dropped
+    new = [k for k in state if k.startswith(("distance.enc", "distance.up", "distance.out"))]
+    assert new and all(torch.equal(state[k], fresh[k]) for k in new)
+
+
 def test_distance_output_is_fp32_under_bf16_autocast():
-    model = build_model({**TINY, "distance_head": True}).eval()
+    model = build_model({**TINY, "distance_head": True, "distance_decoder": "skips"}).eval()
     with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
         region, _, dist = model(torch.zeros(1, 3, 64, 64))
     assert region.dtype == torch.bfloat16 and dist.dtype == torch.float32
@@ -140,6 +180,8 @@ def test_distance_head_needs_grid_mode():
     (["--distance-head"], "--distance-head needs --input-mode grid"),
     (["--train-only", "decoder"], "--train-only: unknown part decoder; valid: backbone"),
     (["--input-mode", "grid", "--train-only", "distance"], "--train-only distance needs --distance-head"),
+    (["--input-mode", "grid", "--distance-decoder", "skips"], "--distance-decoder needs --distance-head"),
+    (["--input-mode", "grid", "--distance-head", "--distance-decoder", "unet"], "unknown distance_decoder 'unet'"),
 ])
 def test_train_flags_of_the_distance_head_fail_in_one_line_and_write_nothing(tmp_path, ndrql_exe, args, message):
     from helpers.cli import assert_one_line_error, run_cli

@@ -23,7 +23,7 @@ def _walls() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def distance_model(tmp_path_factory):
-    """A tiny grid-mode model with a distance head, trained two steps (its head only, from a fresh trunk)."""
+    """A tiny grid-mode model with a distance head (the skips decoder), trained two steps from scratch."""
     from ndrql.dataset.generated import generate_set
     from ndrql.synth.generate import SetSpec
     from ndrql.training.config import TrainConfig
@@ -33,7 +33,7 @@ def distance_model(tmp_path_factory):
     generate_set(root / "set", SetSpec(("blocks",), (96,), 40, 1), progress=False, shard_size=20)  # 3% held out: 1
     cfg = TrainConfig(sources=f"{root / 'set'}:1", input_mode="grid", grid_sizes="16", model_overrides={"width": 0.25},
                       batch_size=2, epochs=1, steps_per_epoch=2, warmup_steps=1, bf16=False, threads=1, val_per_source=2,
-                      distance_head=True)
+                      distance_head=True, distance_decoder="skips")
     train(cfg, root / "run", progress=False, log=lambda m: None)
     rows = (root / "run" / "metrics.csv").read_text().splitlines()
     assert "distance_order_all" in rows[0].split(",")  # validation reports how well it orders neighbours
@@ -86,13 +86,23 @@ def test_predict_file_carries_the_distance_to_plan(distance_model, tmp_path, ndr
     assert runs["file"]["runs"] == runs["model"]["runs"]
 
 
-def test_onnx_graph_has_the_distance_output(distance_model, tmp_path):
+@pytest.mark.parametrize("decoder", ["trained skips", "coarse"])
+def test_onnx_graph_has_the_distance_output(distance_model, tmp_path, decoder):
     pytest.importorskip("onnxruntime")
     pytest.importorskip("onnx")
-    from ndrql.model.export import export_onnx, max_differences
+    import torch
 
-    graph = export_onnx(distance_model, tmp_path / "d.onnx")
-    diffs = max_differences(distance_model, graph, sides=(64, 96), count=1)
+    from ndrql.model.checkpoint import save_checkpoint
+    from ndrql.model.export import export_onnx, max_differences
+    from ndrql.model.registry import build_model
+
+    weights = distance_model
+    if decoder == "coarse":  # the v4 head, untrained: the graph must still match eager
+        torch.manual_seed(0)
+        cfg = {"arch": "ndr", "encoding": "point", "width": 0.25, "unet_base": 8, "input_mode": "grid", "distance_head": True}
+        weights = save_checkpoint(tmp_path / "coarse.pt", {"config": cfg, "model": build_model(cfg).state_dict()})
+    graph = export_onnx(weights, tmp_path / "d.onnx")
+    diffs = max_differences(weights, graph, sides=(64, 96), count=1)
     assert all(set(d) == {"region", "guideline", "distance"} for d in diffs.values())
     assert max(d["distance"] for d in diffs.values()) < 1e-3
 

@@ -1,4 +1,4 @@
-"""Output heads: the region head, the 4-level UNet guideline decoder and the goal-distance head."""
+"""Output heads: the region head, the 4-level UNet guideline decoder and the goal-distance heads."""
 
 from __future__ import annotations
 
@@ -89,3 +89,40 @@ class DistanceHead(nn.Module):
         coarse = self.coarse(torch.cat([features, pooled], dim=1))
         coarse = F.interpolate(coarse, size=x.shape[-2:], mode="bilinear", align_corners=False)
         return coarse + self.refine(torch.cat([coarse, x], dim=1))
+
+
+class SkipDistanceHead(DistanceHead):
+    """:class:`DistanceHead`'s coarse field, decoded with skips from the walls at strides 4 and 2.
+
+    The coarse stride-8 path (same layers and names as :class:`DistanceHead`, so it warm-starts from
+    one) sees far but blurs the cell right behind a wall, where the order of two neighbours flips. A
+    light encoder of the input channels and the region probability at strides 2 and 4 (4 px per cell:
+    stride 4 is one planning cell) meets the coarse features on the way up; at stride 4 dilated
+    convolutions (1, 2, 4 cells) spread the correction along the walls. The output is the upsampled
+    coarse field plus that correction.
+    """
+
+    def __init__(self, cin: int, cmid: int, in_channels: int, base: int = 16):
+        super().__init__(cin, cmid, in_channels)
+        del self.refine
+        c2, c4 = base, 2 * base
+        self.enc2 = ConvBNReLU(in_channels + 1, c2, stride=2)
+        self.enc4 = nn.Sequential(ConvBNReLU(c2, c4, stride=2), ConvBNReLU(c4, c4))
+        up4: list[nn.Module] = [ConvBNReLU(cmid + 1 + c4, c4)]
+        for d in (1, 2, 4):
+            up4 += [nn.Conv2d(c4, c4, 3, padding=d, dilation=d, bias=False), nn.BatchNorm2d(c4), nn.ReLU(inplace=True)]
+        self.up4 = nn.Sequential(*up4)
+        self.up2 = DoubleConv(c4 + c2, c2)
+        self.out = nn.Sequential(ConvBNReLU(c2 + in_channels, base // 2), nn.Conv2d(base // 2, 1, 1))
+
+    def forward(self, features: torch.Tensor, x: torch.Tensor, region: torch.Tensor | None = None) -> torch.Tensor:
+        """``features`` at stride 8 of ``x`` (sides multiples of 8); ``region`` the region probability (B, 1, H, W)."""
+        pooled = F.max_pool2d(x, x.shape[-1] // features.shape[-1])
+        hidden = self.coarse[:-1](torch.cat([features, pooled], dim=1))
+        coarse = self.coarse[-1](hidden)
+        e2 = self.enc2(torch.cat([x, torch.zeros_like(x[:, :1]) if region is None else region], dim=1))
+        e4 = self.enc4(e2)
+        up = lambda t, ref: F.interpolate(t, size=ref.shape[-2:], mode="bilinear", align_corners=False)  # noqa: E731
+        y = self.up4(torch.cat([up(hidden, e4), up(coarse, e4), e4], dim=1))
+        y = self.up2(torch.cat([up(y, e2), e2], dim=1))
+        return up(coarse, x) + self.out(torch.cat([up(y, x), x], dim=1))

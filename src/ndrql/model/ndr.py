@@ -21,9 +21,13 @@ from torch import nn
 from ndrql.dataset.render import DISTANCE_UNIT  # noqa: F401  (re-exported: the unit of the distance output)
 from ndrql.model.backbone import STDC_DEPTHS, STDCBackbone
 from ndrql.model.context import SimplePyramidPooling
-from ndrql.model.decoders import DistanceHead, RegionHead, UNetDecoder
+from ndrql.model.decoders import DistanceHead, RegionHead, SkipDistanceHead, UNetDecoder
 from ndrql.model.fusion import AttentionFusion
 from ndrql.model.layers import exporting
+
+
+DISTANCE_DECODERS = {"coarse": DistanceHead, "skips": SkipDistanceHead}
+"""The goal-distance heads by the name NDRConfig.distance_decoder gives."""
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,8 @@ class NDRConfig:
     """What the model was trained to see: map (the map resized, the paper's input) or grid (the planning grid at 4 px per cell)."""
     distance_head: bool = False
     """Also predict the distance to the goal through free space (grid mode; units of DISTANCE_UNIT cells)."""
+    distance_decoder: str = "coarse"
+    """The distance head: coarse (stride-8 field + full-res correction, v4) or skips (decoded with the walls at strides 4 and 2)."""
 
     @classmethod
     def from_dict(cls, data: dict) -> "NDRConfig":
@@ -110,7 +116,10 @@ class NDRNet(nn.Module):
         self.fuse3 = AttentionFusion(c3, f4, f3)
         self.region_head = RegionHead(f3, f3)
         self.guideline = UNetDecoder(config.in_channels + 1, config.unet_base) if config.guideline_decoder else None
-        self.distance = DistanceHead(f3, f3, config.in_channels) if config.distance_head else None
+        if config.distance_decoder not in DISTANCE_DECODERS:
+            raise ValueError(f"unknown distance_decoder {config.distance_decoder!r}; valid: {', '.join(DISTANCE_DECODERS)}")
+        head = DISTANCE_DECODERS[config.distance_decoder]
+        self.distance = head(f3, f3, config.in_channels) if config.distance_head else None
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
         if x.ndim != 4 or x.shape[1] != self.config.in_channels:
@@ -128,5 +137,8 @@ class NDRNet(nn.Module):
         if self.distance is None:
             return region[..., :h, :w], guide
         with _full_precision(x):
-            dist = self.distance(y.float(), xp.float())[..., :h, :w]
+            if isinstance(self.distance, SkipDistanceHead):
+                dist = self.distance(y.float(), xp.float(), torch.sigmoid(region.float()))[..., :h, :w]
+            else:
+                dist = self.distance(y.float(), xp.float())[..., :h, :w]
         return region[..., :h, :w], guide, dist

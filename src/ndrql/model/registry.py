@@ -16,7 +16,7 @@ from torch import nn
 from ndrql.dataset.encodings import ENCODINGS
 from ndrql.errors import brief
 from ndrql.model.backbone import STDC_DEPTHS
-from ndrql.model.ndr import NDRConfig, NDRNet
+from ndrql.model.ndr import DISTANCE_DECODERS, NDRConfig, NDRNet
 from ndrql.model.rgp import RGPConfig, RGPNet
 
 
@@ -53,7 +53,7 @@ LIMITS: dict[str, tuple[float, float]] = {
 }
 
 #: Allowed values of the named config fields.
-CHOICES: dict[str, tuple[str, ...]] = {"backbone": tuple(STDC_DEPTHS)}
+CHOICES: dict[str, tuple[str, ...]] = {"backbone": tuple(STDC_DEPTHS), "distance_decoder": tuple(DISTANCE_DECODERS)}
 
 
 def _config_class(arch: str) -> Any:

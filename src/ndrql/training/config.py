@@ -41,6 +41,8 @@ def check_train_config(cfg: "TrainConfig") -> None:
     unknown = [p for p in parts if p not in TRAIN_PARTS]
     if unknown:
         raise ValueError(f"--train-only: unknown part {', '.join(unknown)}; valid: {', '.join(TRAIN_PARTS)}")
+    if cfg.distance_decoder and not cfg.distance_head:
+        raise ValueError("--distance-decoder needs --distance-head")
     if "distance" in parts and not cfg.distance_head:
         raise ValueError("--train-only distance needs --distance-head")
 
@@ -111,6 +113,8 @@ class TrainConfig:
     """Warm start: weights (checkpoint file) to start from instead of random initialisation."""
     distance_head: bool = False
     """Also train the goal-distance output (grid mode; a warm start without one initialises it anew)."""
+    distance_decoder: str = ""
+    """Kind of distance head with --distance-head: coarse (v4) or skips (decoded with the walls at strides 4 and 2); empty: the model preset's."""
     train_only: str = ""
     """Train only these parts of the model (comma-separated top-level modules, e.g. distance); the rest keeps its weights and BatchNorm statistics."""
 
@@ -128,4 +132,6 @@ class TrainConfig:
             overrides["input_mode"] = self.input_mode
         if self.distance_head:
             overrides["distance_head"] = True
+        if self.distance_decoder:
+            overrides["distance_decoder"] = self.distance_decoder
         return preset(self.model, **overrides)

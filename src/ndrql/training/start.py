@@ -8,15 +8,22 @@ from ndrql.errors import CheckpointError
 from ndrql.model.checkpoint import load_checkpoint
 
 
+#: Model config fields a warm start may change: what the model sees and its distance head.
+_HEAD_FIELDS = ("input_mode", "distance_head", "distance_decoder")
+
+
 def warm_start(model: nn.Module, path: str, model_cfg: dict) -> None:
     """Load the weights of checkpoint ``path`` into ``model`` (same architecture; the input mode may differ,
-    and a model with a distance head may start from one without: that head keeps its initialisation)."""
+    and a model with a distance head may start from one without, or with another kind of head: the
+    head's layers the checkpoint holds under the same names load, the others keep their initialisation)."""
     ck = load_checkpoint(path)
-    strip = lambda d: {k: v for k, v in dict(d).items() if k not in ("input_mode", "distance_head")}  # noqa: E731
+    strip = lambda d: {k: v for k, v in dict(d).items() if k not in _HEAD_FIELDS}  # noqa: E731
     if strip(ck["config"]) != strip(model_cfg) or (ck["config"].get("distance_head") and not model_cfg.get("distance_head")):
         raise CheckpointError(f"--init-weights {path} holds model {ck['config']}, this run builds {model_cfg}")
-    weights = {k: v.float() if v.is_floating_point() else v for k, v in ck["model"].items()}
-    fresh = {k: v for k, v in model.state_dict().items() if k.startswith("distance.") and k not in weights}
+    own = model.state_dict()
+    weights = {k: v.float() if v.is_floating_point() else v for k, v in ck["model"].items()
+               if not k.startswith("distance.") or (k in own and own[k].shape == v.shape)}
+    fresh = {k: v for k, v in own.items() if k.startswith("distance.") and k not in weights}
     model.load_state_dict({**weights, **fresh})
 
 

@@ -54,9 +54,10 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--weights", default="general")
     ap.add_argument("--preset", default="general")
+    ap.add_argument("--symmetries", type=int, default=1, help="average the model over this many orientations (1, 2, 4, 8)")
     args = ap.parse_args()
 
-    predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch")
+    predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch", symmetries=args.symmetries)
     preset = load_preset(args.preset)
     seeds = list(range(args.seeds))
     cases = cases_of(args.set, args.grid, args.per_family, predictor)
@@ -77,7 +78,8 @@ def main() -> None:
             steps = np.mean([r.convergence_steps if r.converged else r.total_steps for r in rs])
             ratio = np.mean([r.length_ratio for r in rs if r.converged and r.length_ratio is not None] or [math.nan])
             rows[name].append((steps, ratio, iql[:, 0].mean()))
-    print(f"{args.set}, grid {args.grid}, weights {args.weights}, preset {args.preset}: {len(cases)} maps x {len(seeds)} seeds\n")
+    print(f"{args.set}, grid {args.grid}, weights {args.weights}, preset {args.preset}, symmetries {args.symmetries}: "
+          f"{len(cases)} maps x {len(seeds)} seeds\n")
     print("| NDR-QI distance term | beats IQL | geometric mean of steps (IQL's) | path / A* |\n|---|---:|---:|---:|")
     for name, vals in rows.items():
         a = np.array(vals)

@@ -154,3 +154,22 @@ def test_shipped_general_model_has_the_distance_head_and_plan_uses_it():
     report = ndrql.solve(obstacles, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1,
                          settings=PlanSettings(fallback=None))
     assert report.info["qi_distance"] == "model" and report.results[0].converged
+
+
+def test_plan_averages_over_the_grid_symmetries_it_reports(distance_model, tmp_path, ndrql_exe):
+    from helpers.cli import assert_one_line_error
+
+    for k in (1, 4):
+        report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
+                             workers=1, settings=PlanSettings(fallback=None, symmetries=k, backend="torch"))
+        assert report.info["symmetries"] == k and report.results[0].total_steps > 0
+    assert PlanSettings().symmetries == 4
+    with pytest.raises(ndrql.api.NdrqlError, match="symmetries must be one of 1, 2, 4, 8, got 3"):
+        PlanSettings(symmetries=3)
+    np.save(tmp_path / "m.npy", _walls())
+    for cmd in ("plan", "predict"):
+        out = run_cli(ndrql_exe, cmd, str(tmp_path / "m.npy"), "--start", "10,10", "--goal", "110,150",
+                      "--weights", str(distance_model), "--symmetries", "3", "--out" if cmd == "predict" else "--json",
+                      str(tmp_path / f"{cmd}.out"))
+        assert_one_line_error(out, "argument --symmetries: invalid choice: 3")
+        assert not (tmp_path / f"{cmd}.out").exists()

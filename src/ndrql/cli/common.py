@@ -208,6 +208,14 @@ def add_dpi_argument(parser: argparse.ArgumentParser) -> None:
                         help=f"figure resolution in dots per inch, {MIN_DPI}..{MAX_DPI} (default: {DEFAULT_DPI})")
 
 
+def add_symmetries_argument(parser: argparse.ArgumentParser, help_text: str, default: int) -> None:
+    """``--symmetries N``: average a grid-mode model's prediction over N orientations (:mod:`ndrql.model.symmetry`)."""
+    from ndrql.model.symmetry import COUNTS
+
+    parser.add_argument("--symmetries", type=int, choices=COUNTS, default=default, metavar="N",
+                        help=f"{help_text} (default: {default})")
+
+
 #: Range of ``--dpi``.
 MIN_DPI, MAX_DPI = 30, 600
 

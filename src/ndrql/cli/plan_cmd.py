@@ -6,8 +6,8 @@ import argparse
 from typing import Any
 
 from ndrql.api import PlanSettings, solve
-from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_weights_argument, check_dpi,
-                              check_outputs, load_map_argument, parse_point, parse_scen, warnings_to_stderr, write_json)
+from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
+                              check_dpi, check_outputs, load_map_argument, parse_point, parse_scen, warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
@@ -117,6 +117,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"{docs['backend']} (default: {settings.backend})")
     p.add_argument("--learned-distance", action=argparse.BooleanOptionalAction, default=settings.learned_distance,
                    help=f"{docs['learned_distance']} (default: on)")
+    add_symmetries_argument(p, docs["symmetries"], settings.symmetries)
     p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
     p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
     p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
@@ -299,7 +300,7 @@ def _settings(args: argparse.Namespace, sample: bool) -> Any:
         fallback = None
     return PlanSettings(grid=rule, size=args.size, robot_radius=args.robot_radius, smooth=smooth, fallback=fallback,
                         max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads,
-                        backend=args.backend, learned_distance=args.learned_distance)
+                        backend=args.backend, learned_distance=args.learned_distance, symmetries=args.symmetries)
 
 
 def _xyyaw(point: Any) -> Any:

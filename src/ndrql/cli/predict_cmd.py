@@ -5,14 +5,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_weights_argument,
-                              check_dpi, resolve_problem, save_figure)
+from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_symmetries_argument,
+                              add_weights_argument, check_dpi, resolve_problem, save_figure)
 from ndrql.cli.options import add_command
 from ndrql.io import make_folder, save_npz
 from ndrql.dataset.render import cells_to_map
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
 from ndrql.limits import MAX_THREADS, check_int
 from ndrql.model.predict import BACKENDS, Predictor
+from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.pipeline.predictions import prediction_arrays
 from ndrql.viz.prediction import plot_distance_field, plot_probability_overlay
 
@@ -40,6 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--size", type=int, default=None, metavar="N",
                    help="grid-mode models (the default general weights): the safe planning grid they see, cells on the "
                    "map's longer side (default: what ndrql plan --size auto picks); map-mode models ignore it")
+    add_symmetries_argument(p, "grid-mode models: average the prediction over N orientations of the grid (1, 2, 4, 8), "
+                            "as ndrql plan does", DEFAULT_COUNT)
     add_dpi_argument(p)
     p.set_defaults(func=run)
 
@@ -58,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
     obstacles = problem.grid_map.obstacles
     t0 = time.perf_counter()
-    predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend)
+    predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend, symmetries=args.symmetries)
     t1 = time.perf_counter()
     try:  # a grid-mode model needs a planning grid that joins start and goal
         pred = predictor.predict(obstacles, problem.start, problem.goal, args.size)

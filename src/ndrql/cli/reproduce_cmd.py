@@ -7,12 +7,13 @@ import shlex
 import sys
 from pathlib import Path
 
-from ndrql.cli.common import add_weights_argument
+from ndrql.cli.common import add_symmetries_argument, add_weights_argument
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
 from ndrql.errors import NdrqlError
 from ndrql.experiments.labels_check import labels_check
 from ndrql.experiments.presets import run_presets
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import builtin_path, load_preset
@@ -83,6 +84,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="transfer: at most N maps per family of the evaluation set (default: all)")
     p.add_argument("--eval-set", default="transfer", metavar="NAME",
                    help="transfer: evaluation set of transfer_sets.json (default: transfer)")
+    add_symmetries_argument(p, "transfer: average a grid-mode model's prediction over N orientations of the grid, as "
+                            "ndrql plan does (1, 2, 4, 8)", DEFAULT_COUNT)
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
@@ -187,7 +190,8 @@ def run(args: argparse.Namespace) -> int:
             paths = run_presets(target, lambda o, d: transfer(
                 d, weights=args.weights, set_name=args.eval_set, grids=grids, seeds=args.seeds, seed0=args.seed,
                 per_family=args.per_family, workers=args.workers, executor=args.executor, progress=not args.no_progress,
-                command=opts.command, log=log, preset=o.preset), opts, out, _presets(args, target), log=log)
+                command=opts.command, log=log, preset=o.preset, symmetries=args.symmetries), opts, out,
+                _presets(args, target), log=log)
             path = ", ".join(str(x) for x in paths)
         elif target == "sizing":
             from ndrql.experiments.sizing import sizing  # lazy: loads torch

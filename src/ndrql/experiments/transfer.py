@@ -35,6 +35,7 @@ from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import file_digest, save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.predict import Predictor
+from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.pipeline.predictions import MIN_THRESHOLD
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -247,14 +248,15 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
 def transfer(out: str | Path, weights: str | None = None, set_name: str = "transfer", grids: tuple[int, ...] = (50, 100),
              seeds: int = 10, seed0: int = 0, per_family: int | None = None, workers: int = 2, executor: str = "process",
              progress: bool = True, command: str = "", log: Callable[[str], None] = print,
-             preset: Preset | None = None) -> Path:
+             preset: Preset | None = None, symmetries: int = DEFAULT_SYMMETRIES) -> Path:
     """Run the transfer report and write ``transfer.md`` and ``summary.json`` under ``out``.
 
     ``preset``: the constants of each method (``None``: the paper's for every row; a per-grid preset's
-    entry nearest to the grid a case is planned on); the oracle row takes NDR-QL's."""
+    entry nearest to the grid a case is planned on); the oracle row takes NDR-QL's. ``symmetries``: a
+    grid-mode model's prediction averaged over that many orientations (``ndrql plan``'s default)."""
     out = Path(out)
     wpath = resolve_weights(weights or None)
-    predictor = Predictor.load(wpath, threads=1, backend="torch")
+    predictor = Predictor.load(wpath, threads=1, backend="torch", symmetries=symmetries)
     mode = predictor.input_mode
     gs = eval_set(eval_spec(set_name), progress)
     seed_list = list(range(seed0, seed0 + seeds))
@@ -264,7 +266,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
                       workers=workers, executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels)
     constants = "the paper's constants" if preset is None or preset.name == "spec" else \
         f"constants of preset {preset.name!r} (each method its own; the oracle row NDR-QL's)"
-    text = (f"Weights {wpath.name} (input mode {mode}); evaluation set {set_name!r} {gs.spec.to_dict()}; "
+    turns = f", averaged over {symmetries} orientations" if mode == "grid" and symmetries > 1 else ""
+    text = (f"Weights {wpath.name} (input mode {mode}{turns}); evaluation set {set_name!r} {gs.spec.to_dict()}; "
             f"seeds {seed_list[0]}..{seed_list[-1]}; {constants}.\n\n" + render_tables(records, tuple(grids)))
     if command:
         text += f"\nCommand: `{command}`\n"
@@ -273,7 +276,7 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
         save_figure(fig, out / "transfer_predictions.png", dpi=110)
         text += "\n![predictions](transfer_predictions.png)\n"
     write_text(out / "transfer.md", text)
-    write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "set": gs.spec.to_dict(), "seeds": seed_list,
+    write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "symmetries": symmetries, "set": gs.spec.to_dict(), "seeds": seed_list,
                                       "grids": list(grids), "preset": preset.name if preset else "spec",
                                       "constants": {str(n): {row: {"ql": vars(q), "priors": vars(p)}
                                                              for row, (q, p) in configs(n).items()} for n in grids},

@@ -19,6 +19,7 @@ from ndrql.experiments.transfer import eval_set, eval_spec, larger_sizes
 from ndrql.io import file_digest
 from ndrql.maps.astar import astar4
 from ndrql.model.predict import Predictor
+from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.samples import Problem
 
@@ -38,10 +39,11 @@ def interleave(by_family: dict[str, list[int]], k: int) -> list[tuple[str, int]]
 
 
 def generated_problems(k: int, n: int, weights: str | Path | None = None, set_name: str = TUNE_SET,
-                       progress: bool = False) -> tuple[list[Problem], list[str], str]:
+                       progress: bool = False, symmetries: int = DEFAULT_SYMMETRIES) -> tuple[list[Problem], list[str], str]:
     """``k`` problems of set ``set_name`` on the safe grid of ``n`` cells with the model's priors (module
-    docstring); also the keys of the maps skipped as disconnected on every size tried, and the first 16
-    hex digits of the weights' SHA-256."""
+    docstring; a grid-mode model averaged over ``symmetries`` orientations, as ``plan`` does); also the
+    keys of the maps skipped as disconnected on every size tried, and the first 16 hex digits of the
+    weights' SHA-256 (with ``-s<symmetries>`` when not 1)."""
     from tqdm import tqdm
 
     if set_name in ("transfer", "select"):
@@ -57,7 +59,7 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
         cases[i] = case
         by_family.setdefault(fam, []).append(i)
     wpath = resolve_weights(None if weights is None else str(weights))
-    predictor = Predictor.load(wpath, threads=1, backend="torch")
+    predictor = Predictor.load(wpath, threads=1, backend="torch", symmetries=symmetries)
     mode = "map201" if predictor.input_mode == "map" else predictor.input_mode
     out = []
     for fam, i in tqdm(interleave(by_family, k), desc="predictions", unit="map", disable=not progress):
@@ -67,4 +69,4 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
         out.append(Problem(f"{set_name}-g{n}", i, fam, c.obstacles, tuple(c.start), tuple(c.goal), c.blocked,
                            tuple(c.start_cell), tuple(c.goal_cell), opt, region, guide,  # type: ignore[arg-type]
                            dist[0] if dist else None))
-    return out, skipped, file_digest(wpath)[:16]
+    return out, skipped, file_digest(wpath)[:16] + ("" if symmetries == 1 else f"-s{symmetries}")

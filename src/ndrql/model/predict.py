@@ -24,6 +24,7 @@ from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, Ndrq
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
+from ndrql.model.symmetry import COUNTS, averaged
 from ndrql.model.weights import resolve_weights
 
 Point = tuple[int, int]
@@ -120,6 +121,18 @@ class Predictor:
         self.encoding = encoding
         self.input_mode = input_mode
         """What the model was trained to see: ``map`` (the map resized) or ``grid`` (the planning grid at 4 px per cell)."""
+        self.symmetries = 1
+        """Grid-mode predictions average over this many orientations of the grid (1, 2, 4 or 8;
+        :mod:`ndrql.model.symmetry`); set by :meth:`load` or :meth:`with_symmetries`."""
+
+    def with_symmetries(self, count: int) -> "Predictor":
+        """This model averaging its grid-mode predictions over ``count`` orientations (a new Predictor
+        sharing the loaded network; ``ValueError`` for a count not in 1, 2, 4, 8)."""
+        if count not in COUNTS:
+            raise NdrqlError(f"symmetries must be one of {', '.join(map(str, COUNTS))}, got {count!r}")
+        out = Predictor(self._runner, self.encoding, self.input_mode)
+        out.symmetries = count
+        return out
 
     @property
     def backend_name(self) -> str:
@@ -138,13 +151,16 @@ class Predictor:
         return cls(_TorchRunner(model, threads), encoding)
 
     @classmethod
-    def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto") -> "Predictor":
-        """Load weights from ``path`` (default: :func:`default_weights_path`) on ``backend`` (:data:`BACKENDS`).
+    def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto", symmetries: int = 1) -> "Predictor":
+        """Load weights from ``path`` (default: :func:`default_weights_path`) on ``backend`` (:data:`BACKENDS`),
+        averaging grid-mode predictions over ``symmetries`` orientations (:meth:`with_symmetries`).
 
         The shipped weights and ``.onnx`` files run on ONNX Runtime without torch; other checkpoints are
         exported once (torch) or run on torch. Without torch, whatever needs it is one clear error."""
         if backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {backend!r}; valid: {', '.join(BACKENDS)}")
+        if symmetries != 1:
+            return cls.load(path, threads, backend).with_symmetries(symmetries)
         path = resolve_weights(path)
         if not path.is_file():
             raise CheckpointError(
@@ -201,7 +217,7 @@ class Predictor:
         """:meth:`predict_grid` plus the goal distance per pixel, in planning cells (``None`` for a model
         without a distance head)."""
         img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
-        r, gl, d = self._runner(encode_input(img, s, g, self.encoding)[None])
+        r, gl, d = averaged(self._runner, encode_input(img, s, g, self.encoding)[None], self.symmetries)
         dist = None if d is None else manhattan_pixels(g, img.shape[0]) + DISTANCE_UNIT * d[0]
         return r[0], None if gl is None else gl[0], dist
 
@@ -242,14 +258,15 @@ class Predictor:
                           grid=GridPrediction(int(size), blocked, s, g, cells[0], cells[1], cells[2]))
 
 
-def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto") -> Predictor:
+def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto",
+                   symmetries: int = 1) -> Predictor:
     """The NDR model for ``weights`` (default: ``$NDRQL_WEIGHTS`` or the shipped file), loaded once per process.
 
     Loaded models are cached by path, size, modification time, threads and backend, so a second call
     is free and a replaced weights file is picked up. A missing or unreadable file raises
     :class:`~ndrql.errors.CheckpointError` with what to do. ``backend``: ``auto`` (ONNX Runtime when
     installed: the shipped models and ``.onnx`` files never import torch, other checkpoints once their
-    export is cached), ``onnx`` or ``torch``.
+    export is cached), ``onnx`` or ``torch``. ``symmetries``: see :meth:`Predictor.with_symmetries`.
     """
     path = resolve_weights(weights)
     try:
@@ -257,7 +274,7 @@ def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, b
         key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
     except OSError:
         key = (str(path), -1, -1)  # Predictor.load gives the clear "missing model weights" error
-    return _cached_predictor(key, threads, backend)
+    return _cached_predictor(key, threads, backend).with_symmetries(symmetries)
 
 
 @functools.lru_cache(maxsize=4)

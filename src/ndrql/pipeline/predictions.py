@@ -334,8 +334,10 @@ def predict_for(ms: Sequence[Method], predictions: GivenPredictions | tuple[np.n
                                  f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
     else:
         with clock.stage("load"):
-            predictor = load_predictor(weights, settings.threads, settings.backend)
+            predictor = load_predictor(weights, settings.threads, settings.backend, settings.symmetries)
         info["backend"] = predictor.backend_name
+        if predictor.input_mode == "grid":
+            info["symmetries"] = predictor.symmetries
         used_weights = str(resolve_weights(weights))
         with clock.stage("predict"):
             view = predict_region(predictor, grid_map, grid, start, goal)

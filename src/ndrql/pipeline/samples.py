@@ -93,15 +93,19 @@ class PredictionCache:
     prior_from = "model"
     """Where the priors come from: a model (the weights in :attr:`weights`)."""
 
-    def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1):
+    def __init__(self, cache_dir: str | Path, weights: str | Path | None = None, threads: int = 1, symmetries: int = 1):
         self.dir = Path(cache_dir)
+        self.symmetries = symmetries
+        """Grid-mode models average over this many orientations of the grid (``ndrql plan`` does over
+        :data:`~ndrql.model.symmetry.DEFAULT_COUNT`); part of :attr:`digest` when not 1."""
         self.weights = resolve_weights(weights, PAPER_WEIGHTS)
         if not self.weights.is_file():
             raise NdrqlError(
                 f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "
                 "(set NDRQL_WEIGHTS or pass --weights FILE)"
             )
-        self.digest = file_digest(self.weights)[:16]
+        self.digest = file_digest(self.weights)[:16] + ("" if symmetries == 1 else f"-s{symmetries}")
+        """Names the predictions in task fingerprints and cache entries: the weights and the symmetries."""
         self.threads = threads
         self._predictor: Any = None
         self.computed = 0
@@ -131,7 +135,7 @@ class PredictionCache:
         if self._predictor is None:
             # torch, not ONNX Runtime: the tables in docs/results.md were made with it, and the two
             # backends differ by ~1e-4 in probability, which could move a run; same numbers on re-runs
-            self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch")
+            self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch", symmetries=self.symmetries)
         mode = getattr(self._predictor, "input_mode", "map")
         distance = None
         if mode == "grid":

@@ -9,6 +9,7 @@ from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.maps.safe import DEFAULT_MAX_SIZE
 from ndrql.model.predict import BACKENDS
+from ndrql.model.symmetry import COUNTS as SYMMETRY_COUNTS, DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.planning.methods import get_method
 
 #: Planning-grid rules: ``safe`` (square cells, a cell blocked when any pixel is an obstacle; the
@@ -48,6 +49,8 @@ class PlanSettings:
     """Model inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch."""
     learned_distance: bool = True
     """Eq. 6's distance term from the model's predicted distance to the goal when the model has one (False: the paper's straight line)."""
+    symmetries: int = DEFAULT_SYMMETRIES
+    """Grid-mode models: average the prediction over this many orientations of the grid (1, 2, 4 or 8; one forward pass each, in one batch)."""
 
     def __post_init__(self) -> None:
         if self.grid not in GRID_RULES:
@@ -89,6 +92,8 @@ class PlanSettings:
 
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
+        if self.symmetries not in SYMMETRY_COUNTS or isinstance(self.symmetries, bool):
+            raise NdrqlError(f"symmetries must be one of {', '.join(map(str, SYMMETRY_COUNTS))}, got {self.symmetries!r}")
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":

@@ -270,7 +270,9 @@ def run(args: argparse.Namespace) -> int:
     if report.info.get("prior_from") == "oracle":
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.weights:
-        echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')})")
+        turns = report.info.get("symmetries", 1)
+        echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
+             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''})")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")

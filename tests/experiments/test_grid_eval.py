@@ -54,6 +54,21 @@ def test_prediction_cache_asks_a_grid_model_on_the_planning_grid(dataset_root, t
     assert region_map.shape == p.obstacles.shape
 
 
+def test_prediction_cache_turns_only_a_grid_model_and_names_it(dataset_root, tmp_path):
+    """Averaged over 4 orientations (plan's default) the grid model's priors differ from the plain
+    forward's, and the digest that goes into task fingerprints says so; the paper's map-mode model is
+    never turned, so its digest and predictions stay those of earlier runs."""
+    from ndrql.pipeline.samples import PredictionCache, load_problem
+
+    p = load_problem(dataset_root, "seen", 0)
+    plain, four = PredictionCache(tmp_path / "1", "general"), PredictionCache(tmp_path / "4", "general", symmetries=4)
+    assert four.digest == plain.digest + "-s4" and four.symmetries == 4
+    a, b = plain.attach(p), four.attach(p)
+    assert not np.array_equal(a.region, b.region)
+    paper = PredictionCache(tmp_path / "p", "paper", symmetries=4)
+    assert paper.symmetries == 1 and len(paper.digest) == 16
+
+
 def test_eval_prior_from_oracle_scores_the_grids_own_labels(ndrql_exe, dataset_root, tmp_path):
     """The oracle's arrays are the grid's labels: 100 against those, less against the dataset's (the ceiling
     of a prediction on the 50x50 grid); no weights are named, 'oracle priors' is."""

@@ -84,8 +84,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="transfer: at most N maps per family of the evaluation set (default: all)")
     p.add_argument("--eval-set", default="transfer", metavar="NAME",
                    help="transfer: evaluation set of transfer_sets.json (default: transfer)")
-    add_symmetries_argument(p, "transfer: average a grid-mode model's prediction over N orientations of the grid, as "
-                            "ndrql plan does (1, 2, 4, 8)", DEFAULT_COUNT)
+    add_symmetries_argument(p, "a grid-mode model's prediction (--weights general) is averaged over N orientations of "
+                            "the grid, as ndrql plan does (1, 2, 4, 8; the paper's model is never averaged)", DEFAULT_COUNT)
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
@@ -109,7 +109,8 @@ def _options(args: argparse.Namespace):
     command = "ndrql " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv and "ndrql" in sys.argv[0] else ""
     return SweepOptions(seeds=args.seeds, seed0=args.seed, workers=args.workers, executor=args.executor,
                         ray_address=args.ray_address, progress=not args.no_progress, ql=cfgs[0], priors=cfgs[1],
-                        data=args.data, weights=args.weights, command=command, prior_from=args.prior_from)
+                        data=args.data, weights=args.weights, command=command, prior_from=args.prior_from,
+                        symmetries=args.symmetries)
 
 
 def _check_prior_from(args: argparse.Namespace) -> None:

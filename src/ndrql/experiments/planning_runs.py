@@ -77,6 +77,9 @@ class SweepOptions:
     """A :class:`~ndrql.planning.preset.Preset` giving each row its constants (``None``: ``ql`` and ``priors``)."""
     prior_from: str = "model"
     """Priors of the NDR rows: ``model`` (``weights``) or ``oracle`` (the grid's own shortest path; a diagnostic)."""
+    symmetries: int = DEFAULT_SYMMETRIES
+    """A grid-mode model's prediction is averaged over this many orientations of the grid, as ``ndrql plan`` does
+    (map-mode models, the paper's, are never averaged)."""
 
     @property
     def seed_list(self) -> list[int]:
@@ -181,7 +184,8 @@ def attach_predictions(problems: list[Problem], methods: Sequence[Method], out_r
     if opts.prior_from == "oracle":
         source: PredictionCache | OraclePriors = OraclePriors()
     else:
-        source = PredictionCache(out_root / "predictions" / ("" if grid == PLANNING_SIZE else f"grid{grid}"), opts.weights)
+        source = PredictionCache(out_root / "predictions" / ("" if grid == PLANNING_SIZE else f"grid{grid}"), opts.weights,
+                                 symmetries=opts.symmetries)
     out = [source.attach(p) for p in tqdm(problems, desc="NDR predictions", unit="map", disable=not opts.progress)]
     return out, source
 

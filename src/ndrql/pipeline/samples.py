@@ -87,6 +87,13 @@ def load_problems(root: str | Path, refs: list[tuple[str, int]],
     return out, skipped
 
 
+def _input_mode(weights: Path) -> str:
+    """What the model in the checkpoint ``weights`` sees (its config's ``input_mode``)."""
+    from ndrql.model.checkpoint import load_checkpoint  # lazy: loads torch
+
+    return str(load_checkpoint(weights)["config"].get("input_mode", "map"))
+
+
 class PredictionCache:
     """NDR predictions per sample, made once and kept on disk (module docstring)."""
 
@@ -97,13 +104,16 @@ class PredictionCache:
         self.dir = Path(cache_dir)
         self.symmetries = symmetries
         """Grid-mode models average over this many orientations of the grid (``ndrql plan`` does over
-        :data:`~ndrql.model.symmetry.DEFAULT_COUNT`); part of :attr:`digest` when not 1."""
+        :data:`~ndrql.model.symmetry.DEFAULT_COUNT`); part of :attr:`digest` when not 1; always 1 for a
+        map-mode model."""
         self.weights = resolve_weights(weights, PAPER_WEIGHTS)
         if not self.weights.is_file():
             raise NdrqlError(
                 f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "
                 "(set NDRQL_WEIGHTS or pass --weights FILE)"
             )
+        if symmetries != 1 and _input_mode(self.weights) != "grid":
+            self.symmetries = symmetries = 1  # a map-mode model (the paper's) sees the map, never turned
         self.digest = file_digest(self.weights)[:16] + ("" if symmetries == 1 else f"-s{symmetries}")
         """Names the predictions in task fingerprints and cache entries: the weights and the symmetries."""
         self.threads = threads

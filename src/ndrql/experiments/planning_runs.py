@@ -32,6 +32,7 @@ from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.presets import method_configs
 from ndrql.experiments.sweep import SweepReport, Task, run_sweep
 from ndrql.maps.grid import PLANNING_SIZE
+from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.pipeline.samples import OraclePriors, PredictionCache, Problem
 from ndrql.planning import kernel
 from ndrql.planning.config import PriorConfig, QLConfig

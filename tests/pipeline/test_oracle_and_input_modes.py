@@ -128,8 +128,9 @@ def test_a_grid_mode_model_predicts_on_the_safe_grid_plan_builds(model_weights):
     from ndrql.dataset.render import cell_means
     from ndrql.maps.safe import conservative_grid
     from ndrql.model.predict import load_predictor
+    from ndrql.pipeline.settings import PlanSettings
 
-    predictor = load_predictor(model_weights)
+    predictor = load_predictor(model_weights, symmetries=PlanSettings().symmetries)  # as plan loads it
     if predictor.input_mode != "grid":
         pytest.skip(f"{model_weights} holds a map-mode model")
     m = _walls()

@@ -24,7 +24,7 @@ from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, Ndrq
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
-from ndrql.model.symmetry import COUNTS, averaged
+from ndrql.model.symmetry import COUNTS, DEFAULT_COUNT, averaged
 from ndrql.model.weights import resolve_weights
 
 Point = tuple[int, int]
@@ -274,15 +274,20 @@ def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, b
         key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
     except OSError:
         key = (str(path), -1, -1)  # Predictor.load gives the clear "missing model weights" error
-    return _cached_predictor(key, threads, backend).with_symmetries(symmetries)
+    if symmetries not in COUNTS:
+        raise NdrqlError(f"symmetries must be one of {', '.join(map(str, COUNTS))}, got {symmetries!r}")
+    return _cached_predictor(key, threads, backend, symmetries)
 
 
-@functools.lru_cache(maxsize=4)
-def _cached_predictor(key: tuple[str, int, int], threads: int, backend: str) -> Predictor:
+@functools.lru_cache(maxsize=8)
+def _cached_predictor(key: tuple[str, int, int], threads: int, backend: str, symmetries: int) -> Predictor:
+    if symmetries != 1:
+        return _cached_predictor(key, threads, backend, 1).with_symmetries(symmetries)  # one network in memory
     return Predictor.load(key[0], threads=threads, backend=backend)
 
 
 def predict(obstacles: np.ndarray, start: Point, goal: Point, weights: str | Path | None = None,
-            backend: str = "auto", size: int | None = None) -> Prediction:
-    """One-shot prediction with the shipped (or given) weights (``size``: see :meth:`Predictor.predict`)."""
-    return Predictor.load(weights, backend=backend).predict(obstacles, start, goal, size)
+            backend: str = "auto", size: int | None = None, symmetries: int = DEFAULT_COUNT) -> Prediction:
+    """One-shot prediction with the shipped (or given) weights (``size``: see :meth:`Predictor.predict`;
+    ``symmetries``: :meth:`Predictor.with_symmetries`, ``ndrql plan``'s default)."""
+    return Predictor.load(weights, backend=backend, symmetries=symmetries).predict(obstacles, start, goal, size)

@@ -23,6 +23,7 @@ from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
 from ndrql.model.predict import GridPrediction, load_predictor
+from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.report import StageClock
 from ndrql.pipeline.settings import PlanSettings
@@ -135,6 +136,7 @@ def predict_priors(
     threads: int = 1,
     backend: str = "auto",
     size: int | None = None,
+    symmetries: int = DEFAULT_SYMMETRIES,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """NDR region and guideline probabilities at the map's resolution, from the trained model.
 
@@ -144,10 +146,11 @@ def predict_priors(
     the size ``ndrql plan --size auto`` picks) and each map pixel takes its cell's mean. The model is
     loaded once per process (:func:`ndrql.model.predict.load_predictor`). ``threads``: threads for the
     forward pass (default 1: one map gains little from more, and a busy machine makes more threads
-    much slower); ``backend``: see :func:`~ndrql.model.predict.load_predictor`. The guideline is
-    ``None`` for a model without the guideline decoder.
+    much slower); ``backend``: see :func:`~ndrql.model.predict.load_predictor`; ``symmetries``: a
+    grid-mode model's prediction averaged over that many orientations of the grid, as ``ndrql plan``
+    does. The guideline is ``None`` for a model without the guideline decoder.
     """
-    predictor = load_predictor(weights, threads, backend)
+    predictor = load_predictor(weights, threads, backend, symmetries)
     pred = predictor.predict(np.asarray(obstacles, dtype=bool), tuple(start), tuple(goal), size)
     guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
     return np.asarray(pred.region, dtype=np.float64), guideline

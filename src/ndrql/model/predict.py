@@ -24,7 +24,7 @@ from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, Ndrq
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
-from ndrql.model.symmetry import COUNTS, DEFAULT_COUNT, averaged
+from ndrql.model.symmetry import DEFAULT_COUNT, averaged, check_count
 from ndrql.model.weights import resolve_weights
 
 Point = tuple[int, int]
@@ -128,8 +128,7 @@ class Predictor:
     def with_symmetries(self, count: int) -> "Predictor":
         """This model averaging its grid-mode predictions over ``count`` orientations (a new Predictor
         sharing the loaded network; ``ValueError`` for a count not in 1, 2, 4, 8)."""
-        if count not in COUNTS:
-            raise NdrqlError(f"symmetries must be one of {', '.join(map(str, COUNTS))}, got {count!r}")
+        check_count(count, NdrqlError)
         out = Predictor(self._runner, self.encoding, self.input_mode)
         out.symmetries = count
         return out
@@ -274,8 +273,7 @@ def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, b
         key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
     except OSError:
         key = (str(path), -1, -1)  # Predictor.load gives the clear "missing model weights" error
-    if symmetries not in COUNTS:
-        raise NdrqlError(f"symmetries must be one of {', '.join(map(str, COUNTS))}, got {symmetries!r}")
+    check_count(symmetries, NdrqlError)
     return _cached_predictor(key, threads, backend, symmetries)
 
 

@@ -26,6 +26,13 @@ DEFAULT_COUNT = 4
 Runner = Callable[[np.ndarray], tuple]
 
 
+def check_count(count: object, error: type[Exception] = ValueError) -> int:
+    """``count`` if it is one of :data:`COUNTS`, else ``error`` with one line saying which are."""
+    if isinstance(count, bool) or count not in COUNTS:
+        raise error(f"symmetries must be one of {', '.join(map(str, COUNTS))}, got {count!r}")
+    return int(count)  # type: ignore[call-overload]
+
+
 def turn(x: np.ndarray, k: int) -> np.ndarray:
     """Symmetry ``k`` (0..7) of the last two axes: transposed when ``k & 4``, then ``k & 3`` quarter turns."""
     if k & 4:
@@ -42,9 +49,7 @@ def turn_back(x: np.ndarray, k: int) -> np.ndarray:
 def averaged(runner: Runner, x: np.ndarray, count: int) -> tuple:
     """``runner``'s outputs for ``x`` (B, C, S, S), averaged over the first ``count`` of :data:`ORDER`
     (all orientations in one batch of ``count * B``). ``count`` 1 is the plain forward."""
-    if count not in COUNTS:
-        raise ValueError(f"symmetries must be one of {', '.join(map(str, COUNTS))}, got {count!r}")
-    if count == 1:
+    if check_count(count) == 1:
         return runner(x)
     if x.shape[-1] != x.shape[-2]:
         raise ValueError(f"averaging over turns needs a square input, got {x.shape[-2]}x{x.shape[-1]}")

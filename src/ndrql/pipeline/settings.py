@@ -9,7 +9,7 @@ from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.maps.safe import DEFAULT_MAX_SIZE
 from ndrql.model.predict import BACKENDS
-from ndrql.model.symmetry import COUNTS as SYMMETRY_COUNTS, DEFAULT_COUNT as DEFAULT_SYMMETRIES
+from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES, check_count as check_symmetries
 from ndrql.planning.methods import get_method
 
 #: Planning-grid rules: ``safe`` (square cells, a cell blocked when any pixel is an obstacle; the
@@ -92,8 +92,7 @@ class PlanSettings:
 
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
-        if self.symmetries not in SYMMETRY_COUNTS or isinstance(self.symmetries, bool):
-            raise NdrqlError(f"symmetries must be one of {', '.join(map(str, SYMMETRY_COUNTS))}, got {self.symmetries!r}")
+        check_symmetries(self.symmetries, NdrqlError)
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":

@@ -23,6 +23,7 @@ from ndrql.limits import check_finite, check_int
 from ndrql.maps.grid import Cell, GridMap
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
 from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
+from ndrql.model.symmetry import COUNTS as SYMMETRY_COUNTS
 from ndrql.viz.maps import new_figure
 from ndrql.viz.style import DEFAULT_DPI
 
@@ -210,9 +211,7 @@ def add_dpi_argument(parser: argparse.ArgumentParser) -> None:
 
 def add_symmetries_argument(parser: argparse.ArgumentParser, help_text: str, default: int) -> None:
     """``--symmetries N``: average a grid-mode model's prediction over N orientations (:mod:`ndrql.model.symmetry`)."""
-    from ndrql.model.symmetry import COUNTS
-
-    parser.add_argument("--symmetries", type=int, choices=COUNTS, default=default, metavar="N",
+    parser.add_argument("--symmetries", type=int, choices=SYMMETRY_COUNTS, default=default, metavar="N",
                         help=f"{help_text} (default: {default})")
 
 

@@ -83,8 +83,9 @@ class DistanceHead(nn.Module):
         self.coarse = nn.Sequential(*layers, nn.Conv2d(cmid, 1, 1))
         self.refine = nn.Sequential(ConvBNReLU(in_channels + 1, refine), ConvBNReLU(refine, refine), nn.Conv2d(refine, 1, 1))
 
-    def forward(self, features: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
-        """``features`` at stride 8 of ``x`` (whose sides are multiples of 8)."""
+    def forward(self, features: torch.Tensor, x: torch.Tensor, region: torch.Tensor | None = None) -> torch.Tensor:
+        """``features`` at stride 8 of ``x`` (whose sides are multiples of 8); ``region`` is not used here
+        (the heads share one signature)."""
         pooled = F.max_pool2d(x, x.shape[-1] // features.shape[-1])
         coarse = self.coarse(torch.cat([features, pooled], dim=1))
         coarse = F.interpolate(coarse, size=x.shape[-2:], mode="bilinear", align_corners=False)

@@ -137,8 +137,5 @@ class NDRNet(nn.Module):
         if self.distance is None:
             return region[..., :h, :w], guide
         with _full_precision(x):
-            if isinstance(self.distance, SkipDistanceHead):
-                dist = self.distance(y.float(), xp.float(), torch.sigmoid(region.float()))[..., :h, :w]
-            else:
-                dist = self.distance(y.float(), xp.float())[..., :h, :w]
+            dist = self.distance(y.float(), xp.float(), torch.sigmoid(region.float()))[..., :h, :w]
         return region[..., :h, :w], guide, dist

@@ -32,6 +32,7 @@ from ndrql.experiments.ceiling import prior_arrays
 from ndrql.experiments.transfer import eval_set, eval_spec, grid_case, larger_sizes, model_priors, row_configs
 from ndrql.io import make_folder, write_json
 from ndrql.model.predict import Predictor
+from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.preset import load_preset
 from ndrql.planning.runner import run_plan
@@ -68,15 +69,17 @@ def runs(case, method: str, ql, pc, priors, seeds) -> np.ndarray:
 
 def measure(cases, reference, ql, pc, seeds) -> dict:
     """Share of maps won against ``reference`` (IQL's runs per map), geometric mean of the steps, path / A*."""
-    won, logs, ratios, failed = [], [], [], 0
+    won, logs, losses, ratios, failed = [], [], [], [], 0
     for (fam, case, pri), ref in zip(cases, reference):
         st = runs(case, "NDR-QL", ql, pc, pri, seeds)
         won.append(bool(st[:, 0].mean() < ref[:, 0].mean()))
         logs.append(math.log(st[:, 0].mean()))
+        losses.append(max(0.0, math.log(st[:, 0].mean() / ref[:, 0].mean())))
         ratios.extend(x for x in st[:, 1] if not math.isnan(x))
         failed += int((st[:, 2] == 0).sum())
-    return {"wins": float(np.mean(won)), "geomean": float(math.exp(np.mean(logs))),
-            "path": float(np.mean(ratios)) if ratios else math.inf, "not_converged": failed}
+    return {"wins": float(np.mean(won)), "geomean": float(math.exp(np.mean(logs))), "loss": float(np.mean(losses)),
+            "worst": float(math.exp(max(losses))), "path": float(np.mean(ratios)) if ratios else math.inf,
+            "not_converged": failed}
 
 
 def reference_runs(cases, preset, seeds) -> list[np.ndarray]:
@@ -94,6 +97,8 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=150)
     ap.add_argument("--seed", type=int, default=0, help="TPE sampler seed")
     ap.add_argument("--path-margin", type=float, default=0.03)
+    ap.add_argument("--loss-weight", type=float, default=0.0, help="weight of the mean log-loss of the lost maps")
+    ap.add_argument("--symmetries", type=int, default=DEFAULT_COUNT, help="orientations the predictions average")
     ap.add_argument("--weights", default="general")
     ap.add_argument("--preset", default="general")
     ap.add_argument("--out", default="results/win-share")
@@ -102,7 +107,8 @@ def main() -> None:
     import optuna
 
     t0 = time.time()
-    predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch")
+    predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch",
+                               symmetries=args.symmetries)
     preset = load_preset(args.preset)
     q0, p0 = row_configs(preset, grid=args.grid)["NDR-QL (model)"]
     seeds = list(range(args.seeds))
@@ -115,7 +121,7 @@ def main() -> None:
 
     def score(m: dict) -> float:
         return (1 - m["wins"]) + 0.05 * math.log(m["geomean"] / ref_geo) + (1.0 if m["not_converged"] else 0.0) \
-            + max(0.0, m["path"] - start["path"] - args.path_margin)
+            + args.loss_weight * m["loss"] + max(0.0, m["path"] - start["path"] - args.path_margin)
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=args.seed), direction="minimize")
@@ -141,7 +147,9 @@ def main() -> None:
     out = make_folder(args.out)
     write_json(out / f"grid{args.grid}.json", {
         "grid": args.grid, "search_set": args.search_set, "check_set": args.check_set, "weights": args.weights,
-        "preset": args.preset, "trials": args.trials, "seed": args.seed, "maps": len(cases), "seeds": len(seeds),
+        "preset": args.preset, "trials": args.trials, "seed": args.seed,
+        "symmetries": args.symmetries, "loss_weight": args.loss_weight, "path_margin": args.path_margin,
+        "maps": len(cases), "seeds": len(seeds),
         "search": {"preset": start, "best": best.user_attrs["measured"], "best_trial": best.number},
         "check": {"maps": len(check), "preset": before, "searched": found}, "params": best.params,
         "minutes": round((time.time() - t0) / 60, 1)})

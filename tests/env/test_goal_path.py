@@ -11,7 +11,9 @@ from gymnasium.utils.env_checker import check_env
 
 import ndrql.env  # noqa: F401  (registers the ids)
 from ndrql.env import RANDOM_ENV_ID, GoalGridPathEnv, grid_problem
+from ndrql.env.observe import distance_channel
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import bfs_distances
 from ndrql.planning.priors import d_crf
 
 DOC_SECTIONS = ("Description", "Action Space", "Observation Space", "Starting State", "Reward", "Episode End", "Arguments")
@@ -125,6 +127,26 @@ def test_oracle_prior_channels_follow_the_shortest_path():
     assert guideline[2, 6] > 0 and guideline[3:, 0].sum() == 0
 
 
+def test_oracle_distance_channel_is_the_exact_goal_distance():
+    env = GoalGridPathEnv(source=FixedSource(), size=8, prior="oracle", prior_distance=True)
+    obs, _ = env.reset(seed=0)
+    assert obs["image"].shape == (7, 8, 8)
+    blocked = FixedSource().problem.blocked
+    d = bfs_distances(blocked, FixedSource().problem.goal)
+    channel = obs["image"][6, :6, :7]
+    free = d >= 0
+    np.testing.assert_allclose(channel[free], d[free] / (d[free] + 8.0), rtol=1e-6)
+    assert channel[FixedSource().problem.goal] == 0 and np.all(channel[~free] == 1)
+    assert np.array_equal(obs["image"][:6], GoalGridPathEnv(source=FixedSource(), size=8, prior="oracle")
+                          .reset(seed=0)[0]["image"])  # the other channels do not move
+
+
+def test_distance_channel_keeps_the_order_of_long_detours():
+    d = np.array([0.0, 1.0, 8.0, 100.0, 1000.0, -1.0])
+    c = distance_channel(d, 8)
+    assert c[0] == 0 and c[2] == pytest.approx(0.5) and c[-1] == 1 and np.all(np.diff(c[:-1]) > 0) and c[4] < 1
+
+
 def test_reset_options_play_one_episode_on_a_given_map():
     env = GoalGridPathEnv(size=10)
     m = np.zeros((40, 40), dtype=bool)
@@ -146,22 +168,38 @@ def test_ndr_prior_from_the_shipped_model(model_weights):
     assert prior.shape == (2, 12, 12) and 0 <= prior.min() and prior.max() <= 1 and prior[0].max() > 0.5
 
 
-def test_ndr_prior_of_a_grid_mode_model_is_predicted_on_the_envs_own_grid(model_weights):
-    """The default (general, grid-mode) model sees the env's planning grid at 4 px per cell, as in ndrql plan:
-    the prior channels are the 4x4 means of its prediction for exactly that grid, start and goal."""
+@pytest.mark.parametrize("symmetries", [4, 1])
+def test_ndr_prior_of_a_grid_mode_model_is_predicted_on_the_envs_own_grid(model_weights, symmetries):
+    """The default (general, grid-mode) model sees the env's planning grid at 4 px per cell, as in ndrql plan
+    (averaged over plan's 4 orientations unless told otherwise): the prior channels are the 4x4 means of its
+    prediction for exactly that grid, start and goal, and the distance channel its distance head's."""
     from ndrql.dataset.render import cell_means
     from ndrql.model.predict import load_predictor
 
-    predictor = load_predictor(model_weights)
+    predictor = load_predictor(model_weights, symmetries=symmetries)
     if predictor.input_mode != "grid":
         pytest.skip(f"{model_weights} holds a map-mode model")
-    env = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights)
+    kwargs = {} if symmetries == 4 else {"symmetries": symmetries}
+    env = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights, prior_distance=True, **kwargs)
     obs, info = env.reset(seed=3)
     blocked = obs["image"][0, :20, :20].astype(bool)
-    r, g = predictor.predict_grid(blocked, tuple(info["start"]), tuple(info["goal"]))
+    r, g, d = predictor.predict_grid_all(blocked, tuple(info["start"]), tuple(info["goal"]))
+    if d is None:
+        pytest.skip(f"{model_weights} has no distance head")
     h, w = blocked.shape
+    assert obs["image"].shape == (7, 20, 20)
     assert np.allclose(obs["image"][4, :h, :w], cell_means(r, blocked.shape), atol=1e-6)
     assert np.allclose(obs["image"][5, :h, :w], cell_means(g, blocked.shape), atol=1e-6)
+    assert np.allclose(obs["image"][6, :h, :w], distance_channel(cell_means(d, blocked.shape), 20), atol=1e-6)
+    if symmetries == 1:
+        averaged = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights).reset(seed=3)[0]["image"][4]
+        assert not np.allclose(averaged[:h, :w], obs["image"][4, :h, :w], atol=1e-4)  # the default averages
+
+
+def test_distance_prior_of_a_model_without_distance_head_is_one_clear_error():
+    env = GoalGridPathEnv(size=12, prior="ndr", prior_distance=True, weights="paper")  # the paper's model has none
+    with pytest.raises(NdrqlError, match="distance head"):
+        env.reset(seed=0)
 
 
 def test_dataset_source(tiny_dataset):
@@ -186,7 +224,8 @@ def test_bad_arguments():
     for kwargs, match in [({"view": "top"}, "unknown view"), ({"prior": "gps"}, "unknown prior"),
                           ({"continuous_reward": "ndr"}, "needs prior"), ({"source": "dataset"}, "needs data"),
                           ({"source": "web"}, "unknown source"), ({"view": "ego", "view_size": 4}, "odd"),
-                          ({"families": ["mazes"]}, "valid: blocks")]:
+                          ({"families": ["mazes"]}, "valid: blocks"), ({"prior_distance": True}, "needs prior"),
+                          ({"prior": "ndr", "symmetries": 3}, "symmetries must be one of")]:
         with pytest.raises(NdrqlError, match=match):
             GoalGridPathEnv(**kwargs)
     with pytest.raises(NdrqlError, match="reset"):

@@ -16,6 +16,7 @@ from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, DatasetSource, EnvProblem, GeneratorSource, map_problem
 from ndrql.errors import NdrqlError
 from ndrql.model.predict import Predictor
+from ndrql.model.symmetry import DEFAULT_COUNT, check_count
 from ndrql.planning import priors, rules
 from ndrql.planning.config import PriorConfig, QLConfig
 
@@ -44,7 +45,8 @@ class GoalGridPathEnv(gym.Env):
     ``Dict``:
     - ``image``: ``Box(0, 1, (C, V, V), float32)``, channels ``obstacle``, ``visited``, ``agent``,
       ``goal`` and, with a ``prior``, ``region`` and ``guideline`` (the NDR model's or the oracle's
-      probabilities averaged onto each cell). ``view="full"``: the whole grid, ``V = size``
+      probabilities averaged onto each cell) and, with ``prior_distance``, ``distance`` (the goal
+      distance ``d`` in cells as ``d / (d + size)``: the model's distance head or the oracle's exact moves). ``view="full"``: the whole grid, ``V = size``
       (padded with obstacles); ``view="ego"``: a ``V = view_size`` window centred on the agent
       (off-grid cells are obstacles).
     - ``goal``: ``Box(-1, 1, (2,), float32)``, ``(goal - agent) / size`` in rows and columns.
@@ -73,7 +75,8 @@ class GoalGridPathEnv(gym.Env):
     - ``data``, ``split``: the dataset root in its original layout and ``train``/``seen``/``unseen``;
     - ``view`` (``full``/``ego``), ``view_size`` (odd, default 7);
     - ``prior``: ``none``, ``ndr`` (the NDR model, loaded on first use from ``weights`` or the
-      shipped model; a forward pass per episode) or ``oracle``;
+      shipped model; a forward pass per episode, averaged over ``symmetries`` orientations of the
+      grid, ``ndrql plan``'s 4 by default) or ``oracle``; ``prior_distance``: add the goal-distance channel;
     - ``continuous_reward``: ``none``, ``d-crf`` or ``ndr``; ``prior_config``: the constants of Eqs. 2-4;
     - ``config``: :class:`~ndrql.planning.config.QLConfig` (reward constants, ``max_steps``);
     - ``render_mode``: ``"ansi"`` or ``"rgb_array"`` (``cell_px`` pixels per cell).
@@ -99,6 +102,8 @@ class GoalGridPathEnv(gym.Env):
         view_size: int = 7,
         prior: str = "none",
         weights: str | Path | None = None,
+        symmetries: int = DEFAULT_COUNT,
+        prior_distance: bool = False,
         continuous_reward: str = "none",
         prior_config: PriorConfig | None = None,
         config: QLConfig | None = None,
@@ -113,6 +118,9 @@ class GoalGridPathEnv(gym.Env):
             raise NdrqlError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         if continuous_reward == "ndr" and prior == "none":
             raise NdrqlError("continuous_reward='ndr' (Eq. 4) needs prior='ndr' or prior='oracle'")
+        if prior_distance and prior == "none":
+            raise NdrqlError("prior_distance needs prior='ndr' or prior='oracle'")
+        check_count(symmetries, NdrqlError)
         if view == "ego" and (int(view_size) < 3 or int(view_size) % 2 == 0):
             raise NdrqlError(f"view_size must be an odd number >= 3, got {view_size}")
         self.size = int(size)
@@ -122,13 +130,15 @@ class GoalGridPathEnv(gym.Env):
         self.view_size = int(view_size) if view == "ego" else self.size
         self.prior = prior
         self.weights = weights
+        self.symmetries = int(symmetries)
+        self.prior_distance = bool(prior_distance)
         self.continuous_reward = continuous_reward
         self.prior_config = prior_config or PriorConfig()
         self.config = config or QLConfig()
         self.render_mode = render_mode
         self.cell_px = int(cell_px)
         self.max_steps = self.config.steps_cap(self.size * self.size)
-        n = len(CHANNELS) + (0 if prior == "none" else len(PRIOR_CHANNELS))
+        n = len(CHANNELS) + (0 if prior == "none" else len(PRIOR_CHANNELS) + int(self.prior_distance))
         v = self.view_size
         self.observation_space = spaces.Dict({
             "image": spaces.Box(0.0, 1.0, (n, v, v), dtype=np.float32),
@@ -154,11 +164,11 @@ class GoalGridPathEnv(gym.Env):
 
     def _prior(self, problem: EnvProblem) -> np.ndarray | None:
         if self.prior == "oracle":
-            return oracle_prior(problem)
+            return oracle_prior(problem, self.size if self.prior_distance else None)
         if self.prior == "ndr":
             if self._predictor is None:
-                self._predictor = Predictor.load(self.weights, threads=1)
-            return ndr_prior(self._predictor, problem, self.grid_rule, self.size)
+                self._predictor = Predictor.load(self.weights, threads=1, symmetries=self.symmetries)
+            return ndr_prior(self._predictor, problem, self.grid_rule, self.size, self.prior_distance)
         return None
 
     def _r_c(self, problem: EnvProblem, prior: np.ndarray | None) -> np.ndarray:

@@ -6,7 +6,9 @@ fixed side); ``ego`` shows a square window centred on the agent (cells off the g
 
 The priors are the NDR model's region and guideline (or an oracle's: what a perfect model would
 predict, drawn from the grid's own shortest path), area-averaged onto the planning grid, the
-quantities Eqs. 3-7 of the paper turn into rewards and an initial Q-table.
+quantities Eqs. 3-7 of the paper turn into rewards and an initial Q-table; optionally also the goal
+distance (:data:`DISTANCE_CHANNEL`): the model's distance head (beyond the paper; the term ``ndrql plan``
+puts in Eq. 6) or the oracle's exact moves to the goal.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from ndrql.dataset.render import cell_means
 from ndrql.env.sources import EnvProblem
 from ndrql.errors import NdrqlError
-from ndrql.maps.grid import area_downscale
+from ndrql.maps.grid import area_downscale, bfs_distances
 from ndrql.maps.safe import cell_size_px
 from ndrql.synth.oracle import oracle_prediction
 
@@ -28,6 +30,8 @@ Cell = tuple[int, int]
 CHANNELS = ("obstacle", "visited", "agent", "goal")
 #: Channels added by a prior, in order.
 PRIOR_CHANNELS = ("region", "guideline")
+#: The optional channel after :data:`PRIOR_CHANNELS`: the goal distance, :func:`distance_channel`.
+DISTANCE_CHANNEL = "distance"
 #: Views of the grid.
 VIEWS = ("full", "ego")
 #: Priors: none, the NDR model's predictions, or the oracle's (from the grid's shortest path).
@@ -36,9 +40,10 @@ PRIORS = ("none", "ndr", "oracle")
 
 def grid_image(blocked: np.ndarray, visited: np.ndarray, agent: Cell, goal: Cell,
                prior: np.ndarray | None = None) -> np.ndarray:
-    """The ``(C, h, w)`` float32 channels of the whole grid (``prior``: ``(2, h, w)`` region, guideline)."""
+    """The ``(C, h, w)`` float32 channels of the whole grid (``prior``: ``(2, h, w)`` region, guideline, or
+    ``(3, h, w)`` with the goal distance)."""
     h, w = blocked.shape
-    n = len(CHANNELS) + (0 if prior is None else len(PRIOR_CHANNELS))
+    n = len(CHANNELS) + (0 if prior is None else len(prior))
     img = np.zeros((n, h, w), dtype=np.float32)
     img[0] = blocked
     img[1] = visited
@@ -80,11 +85,24 @@ def goal_vector(agent: Cell, goal: Cell, side: int) -> np.ndarray:
     return np.clip(d, -1.0, 1.0).astype(np.float32)
 
 
-def oracle_prior(problem: EnvProblem) -> np.ndarray:
-    """``(2, h, w)`` region and guideline of the oracle (:func:`ndrql.synth.oracle.oracle_prediction`) on the grid."""
+def distance_channel(cells: np.ndarray, side: int) -> np.ndarray:
+    """A goal distance in cells as an image channel: ``d / (d + side)`` in ``[0, 1)`` (0 at the goal, 1/2 one
+    grid side away; the order of cells is kept however long the detour), 1 where ``d`` is negative
+    (the goal cannot be reached)."""
+    d = np.asarray(cells, dtype=np.float64)
+    return np.where(d < 0, 1.0, np.maximum(d, 0.0) / (np.maximum(d, 0.0) + float(side))).astype(np.float32)
+
+
+def oracle_prior(problem: EnvProblem, distance_side: int | None = None) -> np.ndarray:
+    """``(2, h, w)`` region and guideline of the oracle (:func:`ndrql.synth.oracle.oracle_prediction`) on the
+    grid; with a ``distance_side`` ``(3, h, w)``, the third the exact 4-connected moves to the goal
+    (:func:`distance_channel` with that side)."""
     region, guideline = oracle_prediction(problem.blocked, problem.start, problem.goal, px_per_cell=4)
     shape = problem.blocked.shape
-    return np.stack([area_downscale(region, shape), area_downscale(guideline, shape)]).astype(np.float32)
+    layers = [area_downscale(region, shape), area_downscale(guideline, shape)]
+    if distance_side is not None:
+        layers.append(distance_channel(bfs_distances(problem.blocked, problem.goal), distance_side))
+    return np.stack(layers).astype(np.float32)
 
 
 def _grid_area(values: np.ndarray, shape: tuple[int, int], rule: str, size: int) -> np.ndarray:
@@ -99,14 +117,27 @@ def _grid_area(values: np.ndarray, shape: tuple[int, int], rule: str, size: int)
     return area_downscale(canvas[:rows, :cols], shape)
 
 
-def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int) -> np.ndarray:
+_NO_DISTANCE = ("prior_distance needs weights with a distance head (the shipped general weights); "
+                "these have none (or use prior='oracle')")
+
+
+def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int, distance: bool = False) -> np.ndarray:
     """``(2, h, w)`` region and guideline of the NDR model on the planning grid: a grid-mode model (the
     default ``general``) predicts on the grid itself (4x4 means per cell); a map-mode model (the paper's)
-    on the source map, averaged onto the grid."""
-    if getattr(predictor, "input_mode", "map") == "grid":  # sees the planning grid itself, as ndrql plan's model does
-        r, gl = predictor.predict_grid(problem.blocked, problem.start, problem.goal)
+    on the source map, averaged onto the grid. With ``distance`` ``(3, h, w)``, the third the model's
+    goal distance (:func:`distance_channel` with side ``size``; only models with a distance head have one)."""
+    grid_mode = getattr(predictor, "input_mode", "map") == "grid"
+    if grid_mode:  # sees the planning grid itself, as ndrql plan's model does
+        r, gl, d = predictor.predict_grid_all(problem.blocked, problem.start, problem.goal)
         shape = problem.blocked.shape
-        return np.stack([cell_means(r, shape), cell_means(r if gl is None else gl, shape)]).astype(np.float32)
+        layers = [cell_means(r, shape), cell_means(r if gl is None else gl, shape)]
+        if distance:
+            if d is None:
+                raise NdrqlError(_NO_DISTANCE)
+            layers.append(distance_channel(cell_means(d, shape), size))
+        return np.stack(layers).astype(np.float32)
+    if distance:
+        raise NdrqlError(_NO_DISTANCE)
     if problem.source is None:
         raise NdrqlError("the paper's NDR model needs the map in pixels; this problem came as a planning grid "
                          "(use a grid-mode model such as the default general weights, or prior='oracle')")

@@ -37,6 +37,22 @@ def test_eval_scores_a_grid_model_both_ways(ndrql_exe, dataset_root, tmp_path):
     assert "region F1 (grid labels)" in res.stdout
 
 
+def test_eval_averages_orientations_as_plan_does(ndrql_exe, dataset_root, tmp_path):
+    """--symmetries 4 scores what ndrql plan predicts (4 orientations of the grid averaged): other
+    probabilities, so other F1s than the plain forward's, and the JSON and the title say so."""
+    rows = {}
+    for k in (1, 4):
+        out = tmp_path / f"e{k}.json"
+        res = run_cli(ndrql_exe, "eval", "--split", "unseen", "--weights", "general", "--limit", "4", "--threads", "1",
+                      "--data", str(dataset_root), "--json", str(out), "--symmetries", str(k))
+        assert res.returncode == 0, res.stderr
+        data = json.loads(out.read_text())
+        assert data["symmetries"] == k and ("averaged over 4 orientations" in res.stdout) == (k == 4)
+        rows[k] = data["rows"][0]
+    assert rows[1]["n"] == rows[4]["n"] == 4
+    assert (rows[1]["grid_region_f1"], rows[1]["grid_guideline_f1"]) != (rows[4]["grid_region_f1"], rows[4]["grid_guideline_f1"])
+
+
 def test_prediction_cache_asks_a_grid_model_on_the_planning_grid(dataset_root, tmp_path):
     """The tables' prediction cache: a grid-mode model predicts on the problem's own planning grid; its
     priors are the 4x4 cell means; the second call reads the cache and gives the same arrays."""
@@ -89,3 +105,5 @@ def test_eval_prior_from_oracle_bad_combinations(ndrql_exe, tmp_path):
     assert_one_line_error(r, "give either --weights or --prior-from oracle, not both")
     r = run_cli(ndrql_exe, "eval", "--prior-from", "oracle", "--split", "val")
     assert_one_line_error(r, "with --prior-from oracle use seen or unseen")
+    r = run_cli(ndrql_exe, "eval", "--prior-from", "oracle", "--symmetries", "4")
+    assert_one_line_error(r, "the oracle's arrays are not predicted")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ndrql.cli.common import add_weights_argument, check_outputs, write_json
+from ndrql.cli.common import add_symmetries_argument, add_weights_argument, check_outputs, write_json
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.layout import CATEGORIES, check_root, default_root
 from ndrql.dataset.splits import train_val_split
@@ -28,6 +28,7 @@ EXAMPLES = """examples:
   ndrql eval --split seen
   ndrql eval --split unseen --weights ~/.cache/ndrql/runs/ndr-default/best.pt --markdown out/unseen.md
   ndrql eval --split val --weights ~/.cache/ndrql/runs/ndr-default/best.pt
+  ndrql eval --split unseen --weights general --symmetries 4   # as ndrql plan predicts
   ndrql eval --split unseen --prior-from oracle --json out/oracle.json   # the oracle's arrays, no model
 """
 
@@ -47,6 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--prior-from", choices=PRIOR_SOURCES, default="model",
                    help="score the model (--weights) or the oracle's arrays on the safe --grid (seen/unseen; named "
                    "'oracle priors' in the output) (default: model)")
+    add_symmetries_argument(p, "a grid-mode model's predictions averaged over N orientations of the grid "
+                               "(ndrql plan uses 4; the F1 tables of docs/results.md use 1; ignored for map-mode models)", 1)
     p.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
     p.add_argument("--json", metavar="FILE", help="also write the numbers as JSON")
     p.set_defaults(func=run)
@@ -67,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
     if args.prior_from == "oracle":
         if args.weights:
             raise NdrqlError("give either --weights or --prior-from oracle, not both")
+        if args.symmetries != 1:
+            raise NdrqlError("--symmetries averages a model's predictions; the oracle's arrays are not predicted")
         if args.split == "val":
             raise NdrqlError("--split val is a model's own validation split; with --prior-from oracle use seen or unseen")
         check_int(args.grid, "--grid", 8, 256)
@@ -100,11 +105,12 @@ def run(args: argparse.Namespace) -> int:
 
         check_int(args.grid, "--grid", 8, 256)
         ge = evaluate_grid_model(model, data, indices, n=args.grid, encoding=encoding,
-                                 batch_size=min(args.batch_size, 16), progress=True)
+                                 batch_size=min(args.batch_size, 16), progress=True, symmetries=args.symmetries)
         res = ge.dataset
         rows = category_rows(res, names, grid=(ge.grid_region_f1, ge.grid_guideline_f1))
         title += (f"; grid-mode model on the safe {args.grid}x{args.grid} grid (larger where start and goal need it: "
-                  f"{int((ge.sizes > args.grid).sum())} maps), each map pixel scored with its cell's mean")
+                  f"{int((ge.sizes > args.grid).sum())} maps), each map pixel scored with its cell's mean"
+                  + (f", averaged over {args.symmetries} orientations of the grid" if args.symmetries > 1 else ""))
     else:
         res = evaluate(model, data, indices, batch_size=args.batch_size, encoding=encoding, progress=True)
         rows = category_rows(res, names)
@@ -116,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, {"split": args.split, "weights": str(weights), "prior_from": "model", "input_mode": mode,
                                 "grid": args.grid if mode == "grid" else None, "rows": rows,
+                                "symmetries": args.symmetries if mode == "grid" else 1,
                                 "images_per_s": res.images_per_s})
     return 0
 

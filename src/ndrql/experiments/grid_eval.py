@@ -31,6 +31,7 @@ from ndrql.dataset.cache import SplitArrays
 from ndrql.dataset.mixture import stack
 from ndrql.dataset.render import Rendered, render_grid
 from ndrql.experiments.transfer import larger_sizes
+from ndrql.model.symmetry import averaged
 from ndrql.dataset.render import to_map_pixels
 from ndrql.training.evaluate import EvalResult, predict_batch
 from ndrql.training.metrics import f1_per_image
@@ -64,12 +65,19 @@ PredictFn = Callable[..., tuple[np.ndarray, np.ndarray | None]]
 
 
 def evaluate_grid_model(model, data: SplitArrays, indices: np.ndarray, n: int = 50, encoding: str = "point",
-                        batch_size: int = 16, progress: bool = False) -> GridEval:
+                        batch_size: int = 16, progress: bool = False, symmetries: int = 1) -> GridEval:
     """F1 of grid-mode ``model`` on samples ``indices`` of ``data`` (module docstring); a sample that does
-    not connect even at ``2n`` scores 0 everywhere."""
+    not connect even at ``2n`` scores 0 everywhere. ``symmetries``: the predictions averaged over that many
+    orientations of the grid, as ``ndrql plan`` does (:func:`ndrql.model.symmetry.averaged`)."""
+    import torch  # lazy: the oracle's evaluation runs no model
+
     model.eval()
-    return _evaluate(lambda x, region, guide: predict_batch(model, x, False), data, indices, n, encoding, batch_size,
-                     progress)
+
+    def runner(a: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        return predict_batch(model, torch.from_numpy(np.ascontiguousarray(a)), False)
+
+    return _evaluate(lambda x, region, guide: averaged(runner, x.numpy(), symmetries), data, indices, n, encoding,
+                     batch_size, progress)
 
 
 def evaluate_oracle(data: SplitArrays, indices: np.ndarray, n: int = 50, batch_size: int = 16,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ndrql.model.symmetry import ORDER, averaged, turn, turn_back
+from ndrql.model.symmetry import ORDER, averaged, digest_suffix, turn, turn_back
 
 
 def test_each_turn_is_undone_and_the_eight_are_distinct():
@@ -82,3 +82,9 @@ def test_predictor_averages_its_grid_prediction_over_the_turned_grid():
     assert np.abs(a[2] - got[2]).max() > 1e-3  # the untrained network is not symmetric: averaging changes it
     with pytest.raises(Exception, match="symmetries must be one of 1, 2, 4, 8"):
         plain.with_symmetries(3)
+
+
+def test_digest_suffix_names_only_averaged_predictions():
+    assert digest_suffix(1) == "" and digest_suffix(4) == "-s4" and digest_suffix(8) == "-s8"
+    with pytest.raises(ValueError, match="symmetries must be one of"):
+        digest_suffix(3)

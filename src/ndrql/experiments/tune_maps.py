@@ -20,6 +20,7 @@ from ndrql.io import file_digest
 from ndrql.maps.astar import astar4
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
+from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.samples import Problem
 
@@ -69,4 +70,4 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
         out.append(Problem(f"{set_name}-g{n}", i, fam, c.obstacles, tuple(c.start), tuple(c.goal), c.blocked,
                            tuple(c.start_cell), tuple(c.goal_cell), opt, region, guide,  # type: ignore[arg-type]
                            dist[0] if dist else None))
-    return out, skipped, file_digest(wpath)[:16] + ("" if symmetries == 1 else f"-s{symmetries}")
+    return out, skipped, file_digest(wpath)[:16] + digest_suffix(symmetries)

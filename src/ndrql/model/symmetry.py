@@ -33,6 +33,12 @@ def check_count(count: object, error: type[Exception] = ValueError) -> int:
     return int(count)  # type: ignore[call-overload]
 
 
+def digest_suffix(count: int) -> str:
+    """What a count of orientations adds to the digest that names a model's cached predictions: nothing
+    for the plain forward (so earlier caches stay valid), ``-sN`` otherwise."""
+    return "" if check_count(count) == 1 else f"-s{count}"
+
+
 def turn(x: np.ndarray, k: int) -> np.ndarray:
     """Symmetry ``k`` (0..7) of the last two axes: transposed when ``k & 4``, then ``k & 3`` quarter turns."""
     if k & 4:

@@ -26,6 +26,7 @@ from ndrql.io import data_digest, file_digest, save_npz
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
 from ndrql.model.predict import Predictor
+from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 from ndrql.dataset.render import cell_means, to_map_pixels
 from ndrql.pipeline.predictions import predict_on_grid
@@ -114,7 +115,7 @@ class PredictionCache:
             )
         if symmetries != 1 and _input_mode(self.weights) != "grid":
             self.symmetries = symmetries = 1  # a map-mode model (the paper's) sees the map, never turned
-        self.digest = file_digest(self.weights)[:16] + ("" if symmetries == 1 else f"-s{symmetries}")
+        self.digest = file_digest(self.weights)[:16] + digest_suffix(symmetries)
         """Names the predictions in task fingerprints and cache entries: the weights and the symmetries."""
         self.threads = threads
         self._predictor: Any = None

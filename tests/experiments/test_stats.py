@@ -67,3 +67,18 @@ def test_paper_numbers_cover_every_row():
     assert list(t4["rows"]) == [v.name for v in TABLE4_VARIANTS] and t4["rows"]["point+GD"] == t1["rows"]["NDR"]
     with pytest.raises(KeyError, match="valid: table1"):
         paper_table("table5")
+
+
+@pytest.mark.parametrize("k,n", [(8, 10), (0, 10), (10, 10), (143, 172), (1, 1)])
+def test_wilson_interval_matches_scipy(k, n):
+    lo, hi = stats.wilson_interval(k, n)
+    ref = sps.binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    assert (lo, hi) == pytest.approx((ref.low, ref.high), abs=1e-6)
+
+
+def test_wilson_interval_by_hand_and_bad_input():
+    assert stats.wilson_interval(8, 10) == pytest.approx((0.4902, 0.9433), abs=1e-4)  # the textbook 8 of 10
+    assert all(np.isnan(stats.wilson_interval(0, 0)))
+    with pytest.raises(ValueError, match="0..10"):
+        stats.wilson_interval(11, 10)
+

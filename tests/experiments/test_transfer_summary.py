@@ -32,6 +32,8 @@ def test_plan_falls_back_to_iql_below_the_threshold_and_the_pooled_figures_match
     assert s["oracle_beats_iql"] == 1.0  # 80 < 400, 100 < 600, 100 < 300
     text = render_tables([good, lost, low], (50,))
     assert "| -75.0% | -23.1% | 0% |" in text and "*plan*" in text and "| 67% | 100% |" in text
+    # the pooled row adds the 95% Wilson interval of 2 maps won of 3 (0.208-0.939, by hand)
+    assert s["beats_iql_ci"] == pytest.approx([0.2077, 0.9385], abs=1e-4) and "| 67% (21-94) | 100% |" in text
 
 
 def test_row_configs_give_each_row_its_methods_constants():

@@ -1,7 +1,8 @@
 """Statistics of the experiment tables (docs/method.md: mean, median, 95% CI, non-converged runs).
 
 The confidence interval is the Student-t interval of the mean, as in
-:func:`ndrql.planning.results.summarize` (which this module reuses).
+:func:`ndrql.planning.results.summarize` (which this module reuses); a share of maps (e.g. "beats
+IQL") takes the Wilson score interval (:func:`wilson_interval`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 from ndrql.planning.results import summarize
 
 __all__ = ["summarize", "describe", "relative_improvement", "per_map_improvement", "run_steps", "share_of_oracle", "fmt",
-           "fmt_ci"]
+           "fmt_ci", "wilson_interval"]
 
 
 def describe(values: Iterable[float | int | None]) -> dict[str, float | int | None]:
@@ -78,3 +79,20 @@ def fmt_ci(s: Mapping[str, float | int | None], nd: int = 0) -> str:
     if s.get("ci95_low") is None:
         return "-"
     return f"[{fmt(s['ci95_low'], nd)}, {fmt(s['ci95_high'], nd)}]"
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """The Wilson score interval of a share ``successes / n`` (95% for the default ``z``).
+
+    Unlike the normal approximation it stays inside [0, 1] and is sensible at 0 and ``n`` successes
+    and for the few maps of one family; ``(nan, nan)`` for ``n = 0``.
+    """
+    if n <= 0:
+        return math.nan, math.nan
+    if not 0 <= successes <= n:
+        raise ValueError(f"successes must lie in 0..{n}, got {successes}")
+    p = successes / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)

@@ -11,6 +11,7 @@ gain of a row over the model's is what a perfect version of that one output woul
 A diagnostic for where to train next, run on ``select`` (never on the reported set):
 
     python tools/oracle_swap_probe.py --grid 50            # 20 maps per family, 10 seeds (~4 min)
+    python tools/oracle_swap_probe.py --grid 50 --rows model --weights FILE   # a candidate's own row
 """
 
 from __future__ import annotations
@@ -52,7 +53,12 @@ def main() -> None:
     ap.add_argument("--weights", default="general")
     ap.add_argument("--preset", default="general")
     ap.add_argument("--symmetries", type=int, default=DEFAULT_COUNT)
+    ap.add_argument("--rows", default=",".join(SWAPS), help=f"rows to run, comma-separated (default all: {', '.join(SWAPS)})")
     args = ap.parse_args()
+    rows = [r.strip() for r in args.rows.split(",") if r.strip()]
+    unknown = [r for r in rows if r not in SWAPS]
+    if unknown:
+        raise SystemExit(f"unknown row(s) {', '.join(unknown)}; valid: {', '.join(SWAPS)}")
 
     predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch", symmetries=args.symmetries)
     preset = load_preset(args.preset)
@@ -68,7 +74,8 @@ def main() -> None:
           f"preset {args.preset}, {args.symmetries} orientations")
     print("| NDR-QL with | beats IQL | maps won | geometric mean of steps | vs QL pooled | path / A* |")
     print("|---|---:|---:|---:|---:|---:|")
-    for name, take in SWAPS.items():
+    for name in rows:
+        take = SWAPS[name]
         won, logs, total, ratios = 0, [], 0.0, []
         for (fam, case, pr), orc, iq in zip(cases, oracles, ref):
             q, p = row_configs(preset, grid=case.n)["NDR-QL (model)"]

@@ -16,7 +16,6 @@ A diagnostic for where to train next, run on ``select`` (never on the reported s
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
@@ -27,7 +26,7 @@ from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.preset import load_preset
-from win_share_search import cases_of, reference_runs, runs
+from win_share_search import cases_of, probe_parser, reference_runs, runs
 
 #: Rows: which outputs come from the oracle (region, guideline, distance).
 SWAPS = {
@@ -45,14 +44,7 @@ def mixed(model: list[np.ndarray], oracle: tuple[np.ndarray, ...], take: tuple[b
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--grid", type=int, default=50)
-    ap.add_argument("--set", default="select")
-    ap.add_argument("--per-family", type=int, default=20)
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--weights", default="general")
-    ap.add_argument("--preset", default="general")
-    ap.add_argument("--symmetries", type=int, default=DEFAULT_COUNT)
+    ap = probe_parser(__doc__, symmetries=DEFAULT_COUNT)
     ap.add_argument("--rows", default=",".join(SWAPS), help=f"rows to run, comma-separated (default all: {', '.join(SWAPS)})")
     args = ap.parse_args()
     rows = [r.strip() for r in args.rows.split(",") if r.strip()]

@@ -14,7 +14,6 @@ Weights with a distance head add a row with their own predicted distance in Eq. 
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
@@ -28,7 +27,7 @@ from ndrql.planning import priors as P
 from ndrql.planning.methods import Priors, build_priors
 from ndrql.planning.preset import load_preset
 from ndrql.planning.runner import run_plan
-from win_share_search import cases_of, reference_runs
+from win_share_search import cases_of, probe_parser, reference_runs
 
 #: Moves added outside the region, so that a path through it is always preferred.
 OUTSIDE = 100
@@ -47,15 +46,7 @@ def geodesic_q0(blocked: np.ndarray, goal: tuple[int, int], region: np.ndarray, 
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--grid", type=int, default=50)
-    ap.add_argument("--set", default="select")
-    ap.add_argument("--per-family", type=int, default=20)
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--weights", default="general")
-    ap.add_argument("--preset", default="general")
-    ap.add_argument("--symmetries", type=int, default=1, help="average the model over this many orientations (1, 2, 4, 8)")
-    args = ap.parse_args()
+    args = probe_parser(__doc__, symmetries=1).parse_args()
 
     predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch", symmetries=args.symmetries)
     preset = load_preset(args.preset)

@@ -82,6 +82,21 @@ def measure(cases, reference, ql, pc, seeds) -> dict:
             "not_converged": failed}
 
 
+def probe_parser(doc: str, symmetries: int) -> argparse.ArgumentParser:
+    """The arguments the probes on one evaluation set share (``qi_distance_probe``, ``oracle_swap_probe``):
+    grid, set (default ``select``), maps per family, seeds, weights, preset and orientations."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--grid", type=int, default=50)
+    ap.add_argument("--set", default="select")
+    ap.add_argument("--per-family", type=int, default=20)
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--weights", default="general")
+    ap.add_argument("--preset", default="general")
+    ap.add_argument("--symmetries", type=int, default=symmetries,
+                    help="average the model over this many orientations (1, 2, 4, 8)")
+    return ap
+
+
 def reference_runs(cases, preset, seeds) -> list[np.ndarray]:
     """IQL with the preset's constants for the grid each map is planned on."""
     return [runs(c, "IQL", *row_configs(preset, grid=c.n)["IQL"], None, seeds) for _, c, _ in cases]

@@ -46,7 +46,8 @@ class GoalGridPathEnv(gym.Env):
     - ``image``: ``Box(0, 1, (C, V, V), float32)``, channels ``obstacle``, ``visited``, ``agent``,
       ``goal`` and, with a ``prior``, ``region`` and ``guideline`` (the NDR model's or the oracle's
       probabilities averaged onto each cell) and, with ``prior_distance``, ``distance`` (the goal
-      distance ``d`` in cells as ``d / (d + size)``: the model's distance head or the oracle's exact moves). ``view="full"``: the whole grid, ``V = size``
+      distance ``d`` in cells as ``d / (d + size)``: the model's distance head or the oracle's exact
+      moves). ``view="full"``: the whole grid, ``V = size``
       (padded with obstacles); ``view="ego"``: a ``V = view_size`` window centred on the agent
       (off-grid cells are obstacles).
     - ``goal``: ``Box(-1, 1, (2,), float32)``, ``(goal - agent) / size`` in rows and columns.

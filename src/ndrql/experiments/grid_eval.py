@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+import torch
 
 from ndrql.dataset.batches import make_batch
 from ndrql.dataset.cache import SplitArrays
@@ -69,8 +70,6 @@ def evaluate_grid_model(model, data: SplitArrays, indices: np.ndarray, n: int = 
     """F1 of grid-mode ``model`` on samples ``indices`` of ``data`` (module docstring); a sample that does
     not connect even at ``2n`` scores 0 everywhere. ``symmetries``: the predictions averaged over that many
     orientations of the grid, as ``ndrql plan`` does (:func:`ndrql.model.symmetry.averaged`)."""
-    import torch  # lazy: the oracle's evaluation runs no model
-
     model.eval()
 
     def runner(a: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:

@@ -223,13 +223,9 @@ def summarize(records: list[dict]) -> dict:
 
 
 def _share_cell(s: dict, with_ci: bool) -> str:
-    """The 'beats IQL' cell: the share, and for the pooled row its 95% Wilson interval (records written
-    before the interval was stored show the share alone)."""
-    cell = f"{100 * s['beats_iql']:.0f}%"
-    if with_ci and "beats_iql_ci" in s:
-        lo, hi = s["beats_iql_ci"]
-        cell += f" ({100 * lo:.0f}-{100 * hi:.0f})"
-    return cell
+    """The 'beats IQL' cell: the share, and for the pooled row its 95% Wilson interval."""
+    lo, hi = s["beats_iql_ci"]
+    return f"{100 * s['beats_iql']:.0f}%" + (f" ({100 * lo:.0f}-{100 * hi:.0f})" if with_ci else "")
 
 
 def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:

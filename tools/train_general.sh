@@ -14,6 +14,8 @@
 #   DISTANCE=1 INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=8 TAG=general-distance tools/train_general.sh
 # DECODER=skips picks the kind of distance head (--distance-decoder; v5 of `general`):
 #   DISTANCE=1 DECODER=skips INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=8 TAG=general-skips tools/train_general.sh
+# RANKING=raw+snapped also ranks the distance head's detours as Eq. 6 snaps them (--distance-rank; v6 of `general`):
+#   DISTANCE=1 DECODER=skips RANKING=raw+snapped INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=4 LR=5e-4 TAG=general-snap tools/train_general.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
@@ -33,6 +35,7 @@ INIT=${INIT:-src/ndrql/data/ndr_default.pt}
 EXTRA=${EXTRA:-}
 DISTANCE=${DISTANCE:-}
 DECODER=${DECODER:-}
+RANKING=${RANKING:-}  # not RANK: torchrun reads that one
 FAMILIES=$(.venv/bin/python -c "from ndrql.synth.families import family_names; print(','.join(family_names()))")
 TAG=${TAG:-general-${MODE}${EXCLUDE:+-no-${EXCLUDE//,/-}}}
 GEN=$CACHE/gen/train-s${SEED}-${FAMILIES//,/-}
@@ -45,7 +48,7 @@ echo "run: $RUN"
 RESUME=()
 [ -f "$RUN/last.pt" ] && RESUME=(--resume)
 HEAD=()
-[ -n "$DISTANCE" ] && HEAD=(--distance-head --train-only distance ${DECODER:+--distance-decoder "$DECODER"})
+[ -n "$DISTANCE" ] && HEAD=(--distance-head --train-only distance ${DECODER:+--distance-decoder "$DECODER"} ${RANKING:+--distance-rank "$RANKING"})
 exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3${EXTRA:+,$EXTRA}" --input-mode "$MODE" --grid-sizes "$GRIDS" \
     --exclude-families "$EXCLUDE" --init-weights "$INIT" --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
     --warmup-steps 100 --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \

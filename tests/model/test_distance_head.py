@@ -10,7 +10,8 @@ from ndrql.dataset.render import DISTANCE_UNIT, goal_distance_pixels, render_gri
 from ndrql.model.checkpoint import save_checkpoint
 from ndrql.model.registry import build_model
 from ndrql.training.evaluate import order_accuracy
-from ndrql.training.losses import distance_loss, ndr_loss
+from ndrql.planning.priors import snap_detour
+from ndrql.training.losses import distance_loss, ndr_loss, soft_snap
 
 TINY = {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.25, "unet_base": 8, "input_mode": "grid"}
 
@@ -117,6 +118,38 @@ def test_distance_loss_ranks_neighbours_and_ignores_unknown_pixels():
         l_right, rel=1e-5)
 
 
+def test_soft_snap_is_the_snap_at_integers_and_flat_where_the_snap_keeps_a_value():
+    q = torch.arange(-2.0, 9.0, 1.0, requires_grad=True)
+    assert torch.allclose(soft_snap(q), q.detach().clamp(min=0), atol=1e-6)  # exact at every integer
+    soft_snap(q).sum().backward()
+    slope, v = q.grad.numpy(), q.detach().numpy()
+    assert np.allclose(slope[(v >= 0) & (v % 2 == 0)], 0.0, atol=1e-6)  # flat at evens
+    assert np.allclose(slope[(v > 0) & (v % 2 == 1)], 4.0, atol=1e-5)  # steepest at odds, where the snap jumps
+    assert np.allclose(slope[v < 0], 0.0)  # a negative detour snaps to 0
+    # the hard snap it stands in for: halfway between steps, soft_snap lies between them
+    assert snap_detour(np.array([0.9, 1.1, 2.9, 3.1])).tolist() == [0.0, 2.0, 2.0, 4.0]
+
+
+def test_snapped_ranking_punishes_a_pair_that_only_the_snap_puts_out_of_order():
+    # cells 0..3 on a row, goal on the left, no walls: true detour 0 everywhere. The prediction puts a
+    # detour of 1.4 moves on cell 1 and 0.6 on cell 2: raw, the distances 0, 2.4, 2.6, 3 still rise, but
+    # Eq. 6 snaps the detours to 2 and 0 moves: 0, 3, 2, 3, and cell 1 looks farther than cell 2.
+    manh = np.repeat(np.arange(4, dtype=np.float32), 4)[None, :].repeat(4, 0) / DISTANCE_UNIT
+    target = torch.from_numpy(np.stack([np.zeros_like(manh), manh]))[None]
+    pred = torch.zeros(1, 1, 4, 16)
+    pred[..., 4:8], pred[..., 8:12] = 1.4 / DISTANCE_UNIT, 0.6 / DISTANCE_UNIT
+    raw_total = pred[0, 0, 0, ::4] * DISTANCE_UNIT + torch.arange(4.0)
+    assert bool((raw_total.diff() > 0).all())  # raw: ordered right
+    snapped_total = torch.from_numpy(snap_detour(pred[0, 0, 0, ::4].numpy() * DISTANCE_UNIT)) + torch.arange(4.0)
+    assert not bool((snapped_total.diff() > 0).all())  # snapped: cells 1 and 2 out of order
+    clean = torch.zeros_like(pred)
+    gap = float(distance_loss(pred, target, rank_on="raw+snapped")) - float(distance_loss(clean, target, rank_on="raw+snapped"))
+    raw_gap = float(distance_loss(pred, target)) - float(distance_loss(clean, target))
+    assert gap > raw_gap > 0  # the snapped term sees the swap the raw term barely feels
+    with pytest.raises(ValueError, match="rank_on must be one of raw, raw\\+snapped"):
+        distance_loss(pred, target, rank_on="snapped")
+
+
 def test_ndr_loss_adds_the_distance_term_only_with_its_label():
     logits = torch.zeros(1, 1, 8, 8)
     labels = torch.zeros(1, 1, 8, 8)
@@ -182,6 +215,7 @@ def test_distance_head_needs_grid_mode():
     (["--input-mode", "grid", "--train-only", "distance"], "--train-only distance needs --distance-head"),
     (["--input-mode", "grid", "--distance-decoder", "skips"], "--distance-decoder needs --distance-head"),
     (["--input-mode", "grid", "--distance-head", "--distance-decoder", "unet"], "unknown distance_decoder 'unet'"),
+    (["--input-mode", "grid", "--distance-head", "--distance-rank", "snap"], "--distance-rank must be one of raw, raw+snapped"),
 ])
 def test_train_flags_of_the_distance_head_fail_in_one_line_and_write_nothing(tmp_path, ndrql_exe, args, message):
     from helpers.cli import assert_one_line_error, run_cli

@@ -193,8 +193,13 @@ def snapped_distance(distance: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
     d = np.asarray(distance, dtype=np.float64)
     rows, cols = np.indices(d.shape)
     manhattan = np.abs(rows - goal[0]) + np.abs(cols - goal[1])
-    detour = 2.0 * np.round(np.maximum(d - manhattan, 0.0) / 2.0)
-    return manhattan + detour + TIE_BREAK * np.hypot(rows - goal[0], cols - goal[1])
+    return manhattan + snap_detour(d - manhattan) + TIE_BREAK * np.hypot(rows - goal[0], cols - goal[1])
+
+
+def snap_detour(detour: np.ndarray) -> np.ndarray:
+    """A predicted detour over the Manhattan distance (cells) rounded to the nearest even number of moves,
+    at least 0 (:func:`snapped_distance`)."""
+    return 2.0 * np.round(np.maximum(np.asarray(detour, dtype=np.float64), 0.0) / 2.0)
 
 
 def _check_distance(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -7,6 +7,11 @@ from dataclasses import dataclass, field
 
 from ndrql.limits import SEED_LIMIT
 
+#: What the ranking term of the distance-head loss compares (:func:`ndrql.training.losses.distance_loss`):
+#: the raw predicted distances (v5), or the mean of that and the same loss on the distances as Eq. 6
+#: takes them, the detour snapped to an even number of moves (:func:`ndrql.training.losses.soft_snap`).
+RANK_ON = ("raw", "raw+snapped")
+
 #: (field, lowest, highest) of the numeric training fields; ``None`` = unbounded on that side.
 _RANGES: tuple[tuple[str, float | None, float | None], ...] = (
     ("epochs", 1, 100_000), ("batch_size", 1, 65_536), ("warmup_steps", 0, None), ("seed", 0, SEED_LIMIT - 1),
@@ -43,6 +48,8 @@ def check_train_config(cfg: "TrainConfig") -> None:
         raise ValueError(f"--train-only: unknown part {', '.join(unknown)}; valid: {', '.join(TRAIN_PARTS)}")
     if cfg.distance_decoder and not cfg.distance_head:
         raise ValueError("--distance-decoder needs --distance-head")
+    if cfg.distance_rank not in RANK_ON:
+        raise ValueError(f"--distance-rank must be one of {', '.join(RANK_ON)}, got {str(cfg.distance_rank)[:40]}")
     if "distance" in parts and not cfg.distance_head:
         raise ValueError("--train-only distance needs --distance-head")
 
@@ -115,6 +122,8 @@ class TrainConfig:
     """Also train the goal-distance output (grid mode; a warm start without one initialises it anew)."""
     distance_decoder: str = ""
     """Kind of distance head with --distance-head: coarse (v4) or skips (decoded with the walls at strides 4 and 2); empty: the model preset's."""
+    distance_rank: str = "raw"
+    """Ranking term of the distance-head loss: raw (v5) or raw+snapped (also ranks the detours as Eq. 6 snaps them; training.losses.distance_loss)."""
     train_only: str = ""
     """Train only these parts of the model (comma-separated top-level modules, e.g. distance); the rest keeps its weights and BatchNorm statistics."""
 

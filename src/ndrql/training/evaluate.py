@@ -10,6 +10,8 @@ import torch
 
 from ndrql.dataset.batches import make_batch
 from ndrql.dataset.cache import SplitArrays
+from ndrql.dataset.render import DISTANCE_UNIT
+from ndrql.planning.priors import snap_detour
 from ndrql.training.metrics import f1_per_image
 
 
@@ -136,7 +138,9 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
                       batch_size: int = 16) -> dict[str, float]:
     """Mean region and guideline F1 (percent) on rendered inputs (``(group, Rendered)`` pairs, any sides),
     overall and per group (``region_f1/<group>``); for a model with a distance head also the percentage of
-    neighbouring cells whose goal distances it orders right (``distance_order/all``, :func:`order_accuracy`)."""
+    neighbouring cells whose goal distances it orders right (``distance_order/all``, :func:`order_accuracy`),
+    raw and with the detour snapped as Eq. 6 takes it (``distance_order_snapped/all``,
+    :func:`ndrql.planning.priors.snap_detour`)."""
     from ndrql.dataset.mixture import stack  # lazy: loads scipy
 
     model.eval()
@@ -147,7 +151,7 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     for j, (_, r) in enumerate(items):
         by_side.setdefault(r.obstacles.shape[0], []).append(j)
     order: list[int] = []
-    ordered = [0, 0]
+    ordered, snapped = [0, 0], [0, 0]
     for side in sorted(by_side):
         idx = by_side[side]
         for s in range(0, len(idx), batch_size):
@@ -157,8 +161,11 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
             if d is not None:  # the order of the distances themselves: manhattan + detour
                 for j in range(len(sel)):
                     t, base = dist_t[j, 0].numpy(), dist_t[j, 1].numpy()
-                    got = order_accuracy(d[j] + base, np.where(t >= 0, t + base, -1.0))
+                    truth = np.where(t >= 0, t + base, -1.0)
+                    got = order_accuracy(d[j] + base, truth)
                     ordered = [u + v for u, v in zip(ordered, got)]
+                    got = order_accuracy(snap_detour(DISTANCE_UNIT * d[j]) / DISTANCE_UNIT + base, truth)
+                    snapped = [u + v for u, v in zip(snapped, got)]
             rf.extend(f1_per_image(r >= 0.5, region[:, 0].numpy() > 0.5).tolist())
             gf.extend((f1_per_image(g >= 0.5, guide[:, 0].numpy() > 0.5) if g is not None else np.full(len(sel), np.nan)).tolist())
             order.extend(sel)
@@ -168,6 +175,7 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
            "guideline_f1": float(100 * np.nanmean(gf_a)) if np.isfinite(gf_a).any() else float("nan")}
     if ordered[1]:
         out["distance_order/all"] = 100.0 * ordered[0] / ordered[1]
+        out["distance_order_snapped/all"] = 100.0 * snapped[0] / snapped[1]
     for name in sorted(set(groups)):
         sel = np.array([g == name for g in groups])
         out[f"region_f1/{name}"] = float(100 * rf_a[sel].mean())

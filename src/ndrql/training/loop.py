@@ -70,14 +70,16 @@ def write_metrics_row(path: Path, row: dict) -> None:
 
 
 def train_step(net: nn.Module, opt: torch.optim.Optimizer, batch: tuple[torch.Tensor, torch.Tensor, torch.Tensor], lr: float,
-               precision: D.Precision, scaler: torch.amp.GradScaler | None = None) -> torch.Tensor:
-    """One optimisation step on one batch (``net`` may be DDP-wrapped: its backward all-reduces the gradients)."""
+               precision: D.Precision, scaler: torch.amp.GradScaler | None = None, distance_rank: str = "raw") -> torch.Tensor:
+    """One optimisation step on one batch (``net`` may be DDP-wrapped: its backward all-reduces the gradients);
+    ``distance_rank``: the distance loss's ranking term (:data:`ndrql.training.config.RANK_ON`)."""
     x, region, guide, *dist_target = batch
     for group in opt.param_groups:
         group["lr"] = lr
     with precision.autocast():
         r_logit, g_logit, *dist = net(x.contiguous(memory_format=torch.channels_last))
-    loss = ndr_loss(r_logit, g_logit, region, guide, dist[0] if dist else None, dist_target[0] if dist_target else None)
+    loss = ndr_loss(r_logit, g_logit, region, guide, dist[0] if dist else None, dist_target[0] if dist_target else None,
+                    rank_on=distance_rank)
     opt.zero_grad(set_to_none=True)
     if scaler is not None:
         scaler.scale(loss).backward()
@@ -330,7 +332,8 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
             t0 = time.perf_counter()
             if device.type != "cpu":
                 batch = tuple(t.to(device, non_blocking=True) for t in batch)
-            loss_t = train_step(net, opt, batch, learning_rate(cfg, state["global_step"], total_steps, peak), precision, scaler)
+            loss_t = train_step(net, opt, batch, learning_rate(cfg, state["global_step"], total_steps, peak), precision, scaler,
+                                cfg.distance_rank)
             dt = time.perf_counter() - t0
             loss = float(loss_t)
             state["train_seconds"] += dt

@@ -7,6 +7,7 @@ import torch
 import torch.nn.functional as F
 
 from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL
+from ndrql.training.config import RANK_ON
 
 
 def dice_loss(logits: torch.Tensor, target: torch.Tensor, eps: float = 1.0) -> torch.Tensor:
@@ -30,20 +31,33 @@ ORDER_SCALE = 2.0
 REGION_WEIGHT = 2.0
 
 
+def soft_snap(detour: torch.Tensor) -> torch.Tensor:
+    """A smooth stand-in for :func:`ndrql.planning.priors.snap_detour` (a detour in cells rounded to an
+    even number of moves, at least 0): the staircase ``s(s(q))`` with ``s(q) = q - sin(pi q) / pi`` and
+    ``q = max(detour, 0)``. Exact at every integer, flat at the even ones (where the snap keeps a
+    value), steepest at the odd ones (slope 4, where the snap jumps by 2): 1.2 moves become 1.69,
+    0.8 become 0.31 (the snap: 2 and 0). A ranking loss on it sees, smoothly, the order Eq. 6 will see."""
+    q = detour.clamp(min=0)
+    for _ in range(2):
+        q = q - torch.sin(torch.pi * q) / torch.pi
+    return q
+
+
 def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, region: torch.Tensor, guide: torch.Tensor,
-             distance: torch.Tensor | None = None, distance_target: torch.Tensor | None = None) -> torch.Tensor:
+             distance: torch.Tensor | None = None, distance_target: torch.Tensor | None = None,
+             rank_on: str = "raw") -> torch.Tensor:
     """Sum of BCE + Dice on the region and (when present) the guideline output, plus
-    :func:`distance_loss` when the model predicts a distance and the batch has its label."""
+    :func:`distance_loss` (ranking on ``rank_on``) when the model predicts a distance and the batch has its label."""
     loss = bce_dice(region_logits, region)
     if guide_logits is not None:
         loss = loss + bce_dice(guide_logits, guide)
     if distance is not None and distance_target is not None:
-        loss = loss + distance_loss(distance, distance_target, weight=1.0 + REGION_WEIGHT * region)
+        loss = loss + distance_loss(distance, distance_target, weight=1.0 + REGION_WEIGHT * region, rank_on=rank_on)
     return loss
 
 
 def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL,
-                  weight: torch.Tensor | None = None) -> torch.Tensor:
+                  weight: torch.Tensor | None = None, rank_on: str = "raw") -> torch.Tensor:
     """Distance-head loss. ``pred`` (B, 1, H, W): the detour in units of ``unit`` cells; ``target``
     (B, 2, H, W): the true detour (``< 0`` where unknown) and the Manhattan distance, same units
     (:func:`ndrql.dataset.mixture.stack`); the distance is ``manhattan + detour``.
@@ -54,9 +68,17 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
     one cell apart (``px_per_cell``) along rows and columns: what Eq. 6 compares is neighbours, whose
     true distances differ by one move, so the loss is the logistic loss of the predicted difference
     having the true sign, ``softplus(-ORDER_SCALE * sign * (d_b - d_a))`` with distances in cells.
+    ``rank_on="raw+snapped"`` averages that ranking loss with the same loss on the detours as Eq. 6 takes
+    them (:func:`soft_snap`): the planner rounds each cell's detour to an even number of moves, and two
+    neighbours whose raw distances are ordered right can swap when one rounds up and the other down
+    (v5 on the ``select`` maps at grid 50: 94.9% of neighbours ordered right raw, 92.7% snapped). The
+    raw term stays because the staircase is flat at even detours: alone it could not move a
+    prediction out of a wrong step.
     ``weight`` (B, 1, H, W, optional) weighs the pixels of both terms. 0 (with a gradient) when no
     target is known.
     """
+    if rank_on not in RANK_ON:
+        raise ValueError(f"rank_on must be one of {', '.join(RANK_ON)}, got {rank_on!r}")
     pred = pred.float()
     detour, manh = target[:, :1], target[:, 1:2]
     known = detour >= 0
@@ -65,6 +87,7 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
     w = torch.ones_like(detour) if weight is None else weight.float()
     err = (pred - detour).abs() / (1.0 + detour.clamp(min=0))
     loss = (err * w)[known].sum() / w[known].sum().clamp(min=1e-6)
+    rankings = [pred] if rank_on == "raw" else [pred, soft_snap(unit * pred) / unit]
     k = int(px_per_cell)
     for dim in (-2, -1):
         n = pred.shape[dim] - k
@@ -75,8 +98,9 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
         both = a(known) & b(known) & (true_diff.abs() > 0.5)
         if not bool(both.any()):
             continue
-        pred_diff = unit * ((b(pred) + b(manh)) - (a(pred) + a(manh)))
-        rank = F.softplus(-ORDER_SCALE * torch.sign(true_diff) * pred_diff)
         pw = (a(w) + b(w)) / 2
-        loss = loss + ORDER_WEIGHT * 0.5 * (rank * pw)[both].sum() / pw[both].sum().clamp(min=1e-6)
+        for ranked in rankings:
+            pred_diff = unit * ((b(ranked) + b(manh)) - (a(ranked) + a(manh)))
+            rank = F.softplus(-ORDER_SCALE * torch.sign(true_diff) * pred_diff)
+            loss = loss + ORDER_WEIGHT * 0.5 / len(rankings) * (rank * pw)[both].sum() / pw[both].sum().clamp(min=1e-6)
     return loss

@@ -23,7 +23,8 @@ def _walls() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def distance_model(tmp_path_factory):
-    """A tiny grid-mode model with a distance head (the skips decoder), trained two steps from scratch."""
+    """A tiny grid-mode model with a distance head (the skips decoder), trained two steps from scratch with
+    the snapped ranking loss (v6's)."""
     from ndrql.dataset.generated import generate_set
     from ndrql.synth.generate import SetSpec
     from ndrql.training.config import TrainConfig
@@ -33,10 +34,12 @@ def distance_model(tmp_path_factory):
     generate_set(root / "set", SetSpec(("blocks",), (96,), 40, 1), progress=False, shard_size=20)  # 3% held out: 1
     cfg = TrainConfig(sources=f"{root / 'set'}:1", input_mode="grid", grid_sizes="16", model_overrides={"width": 0.25},
                       batch_size=2, epochs=1, steps_per_epoch=2, warmup_steps=1, bf16=False, threads=1, val_per_source=2,
-                      distance_head=True, distance_decoder="skips")
+                      distance_head=True, distance_decoder="skips", distance_rank="raw+snapped")
     train(cfg, root / "run", progress=False, log=lambda m: None)
     rows = (root / "run" / "metrics.csv").read_text().splitlines()
-    assert "distance_order_all" in rows[0].split(",")  # validation reports how well it orders neighbours
+    header, values = rows[0].split(","), dict(zip(rows[0].split(","), rows[1].split(",")))
+    assert "distance_order_all" in header  # validation reports how well it orders neighbours, raw and snapped
+    assert 0.0 <= float(values["distance_order_snapped_all"]) <= 100.0
     return root / "run" / "last.pt"
 
 

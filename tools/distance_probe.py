@@ -66,7 +66,7 @@ def greedy_route(field: np.ndarray, blocked: np.ndarray, start: tuple[int, int],
     return len(seen) - 1
 
 
-def probe(case, distance: np.ndarray) -> dict[str, float]:
+def probe(case, distance: np.ndarray) -> dict[str, object]:
     """The measures of the module docstring for one map (``distance``: the model's, cells)."""
     blocked, goal = case.blocked, tuple(case.goal_cell)
     truth = oracle_priors(case, distance=True)[2]

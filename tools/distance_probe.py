@@ -27,6 +27,7 @@ from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.priors import snapped_distance
+from ndrql.training.evaluate import order_accuracy
 from win_share_search import cases_of, probe_parser
 
 #: The four moves of the planner (4-connected).
@@ -34,14 +35,9 @@ MOVES = ((-1, 0), (1, 0), (0, -1), (0, 1))
 
 
 def neighbour_order(field: np.ndarray, truth: np.ndarray, ok: np.ndarray) -> tuple[int, int]:
-    """Pairs of neighbouring cells, both ``ok``, that ``field`` orders as ``truth``: (right, total)."""
-    right = total = 0
-    for a, b in (((slice(None, -1), slice(None)), (slice(1, None), slice(None))),
-                 ((slice(None), slice(None, -1)), (slice(None), slice(1, None)))):
-        both = ok[a] & ok[b]
-        right += int((np.sign(field[b] - field[a]) == np.sign(truth[b] - truth[a]))[both].sum())
-        total += int(both.sum())
-    return right, total
+    """Pairs of neighbouring cells, both ``ok``, that ``field`` orders as ``truth``: (right, total)
+    (training validation's :func:`~ndrql.training.evaluate.order_accuracy`, one cell apart)."""
+    return order_accuracy(field, np.where(ok, truth, -1.0), step=1)
 
 
 def lowest_neighbour(field: np.ndarray, blocked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -16,6 +16,8 @@
 #   DISTANCE=1 DECODER=skips INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=8 TAG=general-skips tools/train_general.sh
 # RANKING=raw+snapped also ranks the distance head's detours as Eq. 6 snaps them (--distance-rank; v6 of `general`):
 #   DISTANCE=1 DECODER=skips RANKING=raw+snapped INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=4 LR=5e-4 TAG=general-snap tools/train_general.sh
+# RANKING=raw+snapped+moves also scores each cell's greedy move (training.losses.greedy_move_loss):
+#   DISTANCE=1 DECODER=skips RANKING=raw+snapped+moves INIT=src/ndrql/data/ndr_general.pt COUNT=12000 EPOCHS=3 LR=5e-4 TAG=general-moves tools/train_general.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import torch
@@ -11,7 +13,7 @@ from ndrql.model.checkpoint import save_checkpoint
 from ndrql.model.registry import build_model
 from ndrql.training.evaluate import order_accuracy
 from ndrql.planning.priors import snap_detour
-from ndrql.training.losses import distance_loss, ndr_loss, soft_snap
+from ndrql.training.losses import ORDER_SCALE, distance_loss, greedy_move_loss, ndr_loss, soft_snap
 
 TINY = {"arch": "ndr", "encoding": "point", "backbone": "stdc1", "width": 0.25, "unet_base": 8, "input_mode": "grid"}
 
@@ -150,6 +152,42 @@ def test_snapped_ranking_punishes_a_pair_that_only_the_snap_puts_out_of_order():
         distance_loss(pred, target, rank_on="snapped")
 
 
+def test_greedy_move_loss_equals_the_softmax_over_neighbours_computed_by_hand():
+    # a 3 x 3 open grid, one pixel per cell, goal at the top left: the true distance is the Manhattan one
+    truth = torch.tensor([[0.0, 1, 2], [1, 2, 3], [2, 3, 4]])[None, None]
+    known, weight = torch.ones_like(truth, dtype=torch.bool), torch.ones_like(truth)
+    pred = truth.clone()
+    pred[0, 0, 0, 1] = pred[0, 0, 1, 0] = 9.0  # both truly nearer neighbours of the centre look far
+    # by hand: every cell with a truly nearer and a truly farther known neighbour counts (the goal has
+    # no nearer one, the far corner no farther one): -log of the softmax(-ORDER_SCALE * d) mass on the nearer
+    def nll(nearer: list[float], other: list[float]) -> float:
+        z = [math.exp(-ORDER_SCALE * v) for v in nearer + other]
+        return -math.log(sum(z[:len(nearer)]) / sum(z))
+    cells = [nll([0], [2, 2]), nll([0], [2, 2]),  # (0,1) and (1,0): the goal vs (0,2)/(1,1), (2,0)/(1,1)
+             nll([9], [3]), nll([9], [3]),  # (0,2) and (2,0): the far-looking nearer cell vs (1,2) / (2,1)
+             nll([9, 9], [3, 3]),  # the centre: both nearer neighbours look far
+             nll([2, 2], [4]), nll([2, 2], [4])]  # (1,2) and (2,1); the goal and (2,2) do not count
+    assert float(greedy_move_loss(pred, truth, known, weight, 1)) == pytest.approx(sum(cells) / len(cells), rel=1e-5)
+    assert float(greedy_move_loss(truth, truth, known, weight, 1)) < 0.05  # the truth itself: near 0
+    blocked = known.clone()
+    blocked[0, 0, 0, 1] = False  # a blocked neighbour takes no part in the softmax
+    assert float(greedy_move_loss(pred, truth, blocked, weight, 1)) != float(greedy_move_loss(pred, truth, known, weight, 1))
+    assert float(greedy_move_loss(pred, truth, torch.zeros_like(known), weight, 1)) == 0.0
+
+
+def test_moves_term_is_added_only_with_its_option_and_weighs_the_route():
+    manh = np.repeat(np.arange(4, dtype=np.float32), 4)[None, :].repeat(4, 0) / DISTANCE_UNIT
+    target = torch.from_numpy(np.stack([np.zeros_like(manh), manh]))[None]
+    pred = torch.zeros(1, 1, 4, 16)
+    pred[..., 4:8] = 3.0 / DISTANCE_UNIT  # cell 1 looks farther than cell 2: cell 2's greedy move goes wrong
+    snapped = float(distance_loss(pred, target, rank_on="raw+snapped"))
+    moves = float(distance_loss(pred, target, rank_on="raw+snapped+moves"))
+    assert moves > snapped
+    route = torch.zeros(1, 1, 4, 16)
+    route[..., 8:12] = 1.0  # the guideline runs through cell 2, where the wrong move is
+    assert float(distance_loss(pred, target, rank_on="raw+snapped+moves", route=route)) > moves
+
+
 def test_ndr_loss_adds_the_distance_term_only_with_its_label():
     logits = torch.zeros(1, 1, 8, 8)
     labels = torch.zeros(1, 1, 8, 8)
@@ -215,7 +253,7 @@ def test_distance_head_needs_grid_mode():
     (["--input-mode", "grid", "--train-only", "distance"], "--train-only distance needs --distance-head"),
     (["--input-mode", "grid", "--distance-decoder", "skips"], "--distance-decoder needs --distance-head"),
     (["--input-mode", "grid", "--distance-head", "--distance-decoder", "unet"], "unknown distance_decoder 'unet'"),
-    (["--input-mode", "grid", "--distance-head", "--distance-rank", "snap"], "--distance-rank must be one of raw, raw+snapped"),
+    (["--input-mode", "grid", "--distance-head", "--distance-rank", "snap"], "--distance-rank must be one of raw, raw+snapped, raw+snapped+moves"),
 ])
 def test_train_flags_of_the_distance_head_fail_in_one_line_and_write_nothing(tmp_path, ndrql_exe, args, message):
     from helpers.cli import assert_one_line_error, run_cli

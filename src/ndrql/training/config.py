@@ -9,8 +9,9 @@ from ndrql.limits import SEED_LIMIT
 
 #: What the ranking term of the distance-head loss compares (:func:`ndrql.training.losses.distance_loss`):
 #: the raw predicted distances (v5), or the mean of that and the same loss on the distances as Eq. 6
-#: takes them, the detour snapped to an even number of moves (:func:`ndrql.training.losses.soft_snap`).
-RANK_ON = ("raw", "raw+snapped")
+#: takes them, the detour snapped to an even number of moves (:func:`ndrql.training.losses.soft_snap`);
+#: ``+moves`` adds the greedy move's listwise loss (:func:`ndrql.training.losses.greedy_move_loss`).
+RANK_ON = ("raw", "raw+snapped", "raw+snapped+moves")
 
 #: (field, lowest, highest) of the numeric training fields; ``None`` = unbounded on that side.
 _RANGES: tuple[tuple[str, float | None, float | None], ...] = (
@@ -123,7 +124,7 @@ class TrainConfig:
     distance_decoder: str = ""
     """Kind of distance head with --distance-head: coarse (v4) or skips (decoded with the walls at strides 4 and 2); empty: the model preset's."""
     distance_rank: str = "raw"
-    """Ranking term of the distance-head loss: raw (v5) or raw+snapped (also ranks the detours as Eq. 6 snaps them; training.losses.distance_loss)."""
+    """Ranking term of the distance-head loss: raw (v5), raw+snapped (also ranks the detours as Eq. 6 snaps them; v6) or raw+snapped+moves (also scores each cell's greedy move; training.losses.distance_loss)."""
     train_only: str = ""
     """Train only these parts of the model (comma-separated top-level modules, e.g. distance); the rest keeps its weights and BatchNorm statistics."""
 

@@ -29,6 +29,10 @@ ORDER_WEIGHT = 4.0
 ORDER_SCALE = 2.0
 #: Extra weight of the distance-head loss inside the region label (where Eq. 7's mask keeps the agent).
 REGION_WEIGHT = 2.0
+#: Weight of the greedy-move term (:func:`greedy_move_loss`) with ``rank_on="raw+snapped+moves"``.
+MOVE_WEIGHT = 2.0
+#: Extra weight of the greedy-move term on the guideline label (the route the first episodes follow).
+ROUTE_WEIGHT = 4.0
 
 
 def soft_snap(detour: torch.Tensor) -> torch.Tensor:
@@ -52,12 +56,13 @@ def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, reg
     if guide_logits is not None:
         loss = loss + bce_dice(guide_logits, guide)
     if distance is not None and distance_target is not None:
-        loss = loss + distance_loss(distance, distance_target, weight=1.0 + REGION_WEIGHT * region, rank_on=rank_on)
+        loss = loss + distance_loss(distance, distance_target, weight=1.0 + REGION_WEIGHT * region, rank_on=rank_on,
+                                    route=guide)
     return loss
 
 
 def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL,
-                  weight: torch.Tensor | None = None, rank_on: str = "raw") -> torch.Tensor:
+                  weight: torch.Tensor | None = None, rank_on: str = "raw", route: torch.Tensor | None = None) -> torch.Tensor:
     """Distance-head loss. ``pred`` (B, 1, H, W): the detour in units of ``unit`` cells; ``target``
     (B, 2, H, W): the true detour (``< 0`` where unknown) and the Manhattan distance, same units
     (:func:`ndrql.dataset.mixture.stack`); the distance is ``manhattan + detour``.
@@ -74,7 +79,10 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
     (v5 on the ``select`` maps at grid 50: 94.1% of neighbouring cells ordered right raw, 92.2% snapped,
     ``tools/distance_probe.py``). The raw term stays because the staircase is flat at even detours:
     alone it could not move a prediction out of a wrong step.
-    ``weight`` (B, 1, H, W, optional) weighs the pixels of both terms. 0 (with a gradient) when no
+    ``rank_on="raw+snapped+moves"`` adds :data:`MOVE_WEIGHT` times :func:`greedy_move_loss` on the
+    snapped distances, its pixels weighted ``weight + ROUTE_WEIGHT * route`` (``route``: the guideline
+    label, optional).
+    ``weight`` (B, 1, H, W, optional) weighs the pixels of every term. 0 (with a gradient) when no
     target is known.
     """
     if rank_on not in RANK_ON:
@@ -103,4 +111,44 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
             pred_diff = unit * ((b(ranked) + b(manh)) - (a(ranked) + a(manh)))
             rank = F.softplus(-ORDER_SCALE * torch.sign(true_diff) * pred_diff)
             loss = loss + ORDER_WEIGHT * 0.5 / len(rankings) * (rank * pw)[both].sum() / pw[both].sum().clamp(min=1e-6)
+    if rank_on.endswith("+moves"):
+        mw = w if route is None else w + ROUTE_WEIGHT * route.float()
+        loss = loss + MOVE_WEIGHT * greedy_move_loss(unit * (rankings[-1] + manh), unit * (detour + manh), known, mw, k)
     return loss
+
+
+#: Sentinel logit of a neighbour that is blocked or off the image (finite: no NaN in the gradient).
+_NO_MOVE = -1.0e4
+
+
+def greedy_move_loss(dist: torch.Tensor, true_dist: torch.Tensor, known: torch.Tensor, weight: torch.Tensor,
+                     step: int) -> torch.Tensor:
+    """Listwise loss of the greedy move Eq. 6 makes: at each known pixel, a softmax over its four
+    neighbours ``step`` px away (one planning cell) of ``-ORDER_SCALE * dist``, and the negative log of
+    the probability it puts on the neighbours that are truly one move nearer the goal.
+
+    The pairwise ranking compares a cell with one neighbour; the greedy policy of the initial Q-table
+    compares the neighbours of a cell with each other (two cells apart or diagonal, pairs the ranking
+    never sees), and a single wrong pick on the route costs the first episodes a detour (on maps both
+    NDR-QL and IQL converge in the fewest episodes, that decides which needs fewer steps). ``dist``,
+    ``true_dist`` (B, 1, H, W) in cells, ``known`` where the truth is known (free), ``weight`` per
+    pixel. Pixels with no truly nearer or no other known neighbour do not count. 0 (with a gradient)
+    when none counts.
+    """
+    pad = (step, step, step, step)
+    d = F.pad(dist, pad, value=0.0)
+    t = F.pad(true_dist, pad, value=0.0)
+    kn = F.pad(known.float(), pad, value=0.0) > 0
+    h, w = dist.shape[-2:]
+    shifts = ((0, step), (2 * step, step), (step, 0), (step, 2 * step))
+    nd = torch.cat([d[..., r:r + h, c:c + w] for r, c in shifts], 1)
+    nt = torch.cat([t[..., r:r + h, c:c + w] for r, c in shifts], 1)
+    nk = torch.cat([kn[..., r:r + h, c:c + w] for r, c in shifts], 1)
+    nearer = nk & (nt < true_dist - 0.5)
+    logits = (-ORDER_SCALE * nd).masked_fill(~nk, _NO_MOVE)
+    picked = torch.logsumexp(logits.masked_fill(~nearer, _NO_MOVE), 1, keepdim=True)
+    nll = torch.logsumexp(logits, 1, keepdim=True) - picked
+    counts = known & nearer.any(1, keepdim=True) & (nk & ~nearer).any(1, keepdim=True)
+    if not bool(counts.any()):
+        return dist.sum() * 0.0
+    return (nll * weight)[counts].sum() / weight[counts].sum().clamp(min=1e-6)

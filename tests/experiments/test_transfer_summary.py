@@ -31,9 +31,21 @@ def test_plan_falls_back_to_iql_below_the_threshold_and_the_pooled_figures_match
     assert s["beats_iql"] == pytest.approx(2 / 3)
     assert s["oracle_beats_iql"] == 1.0  # 80 < 400, 100 < 600, 100 < 300
     text = render_tables([good, lost, low], (50,))
-    assert "| -75.0% | -23.1% | 0% |" in text and "*plan*" in text and "| 67% | 100% |" in text
+    # no tie, one clear loss (3000 against IQL's 600) of 3 maps
+    assert s["ties_iql"] == 0.0 and s["loses_to_iql"] == pytest.approx(1 / 3)
+    assert "| -75.0% | -23.1% | 0% |" in text and "*plan*" in text and "| 67% | 0% | 33% | 100% |" in text
     # the pooled row adds the 95% Wilson interval of 2 maps won of 3 (0.208-0.939, by hand)
-    assert s["beats_iql_ci"] == pytest.approx([0.2077, 0.9385], abs=1e-4) and "| 67% (21-94) | 100% |" in text
+    assert s["beats_iql_ci"] == pytest.approx([0.2077, 0.9385], abs=1e-4) and "| 67% (21-94) | 0% | 33% | 100% |" in text
+
+
+def test_a_map_within_half_a_percent_of_iql_is_a_tie_whichever_side_it_falls():
+    # both follow a shortest route from the first episode: 20 x 52 moves plus a few exploration moves
+    above = _record("a", 0.9, ql=[9000], iql=[1043], ndr=[1048], oracle=[1041])  # +0.48%: not beaten, a tie
+    below = _record("b", 0.9, ql=[9000], iql=[1048], ndr=[1043], oracle=[1041])  # -0.48%: beaten, a tie
+    clear = _record("c", 0.9, ql=[9000], iql=[1043], ndr=[1049], oracle=[1041])  # +0.58%: a loss
+    s = summarize([above, below, clear])
+    assert s["beats_iql"] == pytest.approx(1 / 3)
+    assert s["ties_iql"] == pytest.approx(2 / 3) and s["loses_to_iql"] == pytest.approx(1 / 3)
 
 
 def test_row_configs_give_each_row_its_methods_constants():

@@ -192,6 +192,19 @@ def _beats_iql(records: list[dict], row: str) -> float:
     return _wins_over_iql(records, row) / len(records)
 
 
+#: Relative gap in mean steps within which a map counts as a tie with IQL in :func:`_ties_and_losses`.
+TIE = 0.005
+
+
+def _ties_and_losses(records: list[dict], row: str, tie: float = TIE) -> tuple[float, float]:
+    """Shares of the maps on which ``row``'s mean steps are within ``tie`` of IQL's (either side), and more
+    than ``tie`` above them. On a map where both follow a shortest route from the first episode, both
+    need about ``W`` times its length and the exploration moves decide which is lower: *beats IQL*
+    counts such a map either way, these two shares tell it apart from a clear loss."""
+    gap = np.array([np.mean(r["runs"][row]["steps"]) / np.mean(r["runs"]["IQL"]["steps"]) - 1 for r in records])
+    return float(np.mean(np.abs(gap) <= tie)), float(np.mean(gap > tie))
+
+
 def summarize(records: list[dict]) -> dict:
     """Pooled and per-map figures of a group of case records (same seeds in every row)."""
     ok = [r for r in records if not r["skipped"]]
@@ -212,6 +225,8 @@ def summarize(records: list[dict]) -> dict:
         "beats_iql": _beats_iql(ok, "NDR-QL (model)"),
         "beats_iql_ci": list(wilson_interval(_wins_over_iql(ok, "NDR-QL (model)"), len(ok))),
         "oracle_beats_iql": _beats_iql(ok, "NDR-QL (oracle)"),
+        "ties_iql": _ties_and_losses(ok, "NDR-QL (model)")[0],
+        "loses_to_iql": _ties_and_losses(ok, "NDR-QL (model)")[1],
         "path_ratio": float(np.mean(ratios)) if ratios else float("nan"),
         "threshold_below_half": float(np.mean([t is None or t < 0.5 for t in thd])),
         "not_converged": int(sum(not c for r in ok for c in r["runs"]["NDR-QL (model)"]["converged"])),
@@ -232,7 +247,8 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
     """Markdown: one table per grid, a row per family and a pooled row."""
     parts = []
     head = ["family", "maps (finer grid; skipped)", "region F1", "guideline F1", "NDR-QL vs QL", "oracle vs QL", "share of oracle",
-            "NDR-QL vs IQL", "beats IQL", "oracle beats IQL", "path / A*", "Eq. 7 thd < 0.5", "plan vs QL", "plan vs IQL", "plan worse than IQL"]
+            "NDR-QL vs IQL", "beats IQL", f"ties IQL (±{100 * TIE:.1f}%)",
+            "loses to IQL", "oracle beats IQL", "path / A*", "Eq. 7 thd < 0.5", "plan vs QL", "plan vs IQL", "plan worse than IQL"]
     for n in grids:
         at_n = [r for r in records if r["n"] == n]
         rows = []
@@ -244,7 +260,8 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
             rows.append([f"**{fam}**" if fam == "all" else fam, f"{s['maps']} ({s['grown']}; {s['skipped']})", f"{s['region_f1']:.1f}",
                          f"{s['guideline_f1']:.1f}", f"{100 * s['vs_ql']['NDR-QL (model)']:+.1f}%",
                          f"{100 * s['vs_ql']['NDR-QL (oracle)']:+.1f}%", f"{100 * s['share']:.0f}%", f"{100 * s['vs_iql']:+.1f}%",
-                         _share_cell(s, fam == "all"), f"{100 * s['oracle_beats_iql']:.0f}%", f"{s['path_ratio']:.3f}", f"{100 * s['threshold_below_half']:.0f}%",
+                         _share_cell(s, fam == "all"), f"{100 * s['ties_iql']:.0f}%", f"{100 * s['loses_to_iql']:.0f}%",
+                         f"{100 * s['oracle_beats_iql']:.0f}%", f"{s['path_ratio']:.3f}", f"{100 * s['threshold_below_half']:.0f}%",
                          f"{100 * s['plan_vs_ql']:+.1f}%", f"{100 * s['plan_vs_iql']:+.1f}%",
                          f"{100 * s['plan_worse_than_iql']:.0f}%"])
         finer = ", ".join(map(str, larger_sizes(n)))
@@ -254,7 +271,9 @@ def render_tables(records: list[dict], grids: tuple[int, ...]) -> str:
                  f"goal at that level; *worse than IQL*: maps where that costs more steps than IQL (mean over seeds); "
                  f"*oracle beats IQL*: the same count for NDR-QL with the oracle's priors (what a perfect prediction "
                  f"reaches with these constants); in brackets after the pooled *beats IQL*, its 95% Wilson interval "
-                 f"over the maps.")
+                 f"over the maps; *ties IQL*: maps where NDR-QL's mean steps are within {100 * TIE:.1f}% of IQL's (counted "
+                 f"as won or lost in *beats IQL* by a few exploration moves), *loses to IQL*: more than {100 * TIE:.1f}% "
+                 f"above them.")
     return "\n\n".join(parts) + "\n"
 
 

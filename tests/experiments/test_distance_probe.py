@@ -2,25 +2,16 @@
 
 from __future__ import annotations
 
-import importlib
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from helpers.tools import tool_module
 from ndrql.maps.grid import bfs_distances
-
-TOOLS = Path(__file__).resolve().parents[2] / "tools"
 
 
 @pytest.fixture(scope="module")
 def probe():
-    sys.path.insert(0, str(TOOLS))
-    try:
-        yield importlib.import_module("distance_probe")
-    finally:
-        sys.path.remove(str(TOOLS))
+    yield from tool_module("distance_probe")
 
 
 def _grid() -> tuple[np.ndarray, tuple[int, int], np.ndarray]:

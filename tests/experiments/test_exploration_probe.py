@@ -2,22 +2,14 @@
 
 from __future__ import annotations
 
-import importlib
-import sys
-from pathlib import Path
-
 import pytest
 
-TOOLS = Path(__file__).resolve().parents[2] / "tools"
+from helpers.tools import tool_module
 
 
 @pytest.fixture(scope="module")
 def probe():
-    sys.path.insert(0, str(TOOLS))
-    try:
-        yield importlib.import_module("exploration_probe")
-    finally:
-        sys.path.remove(str(TOOLS))
+    yield from tool_module("exploration_probe")
 
 
 def test_outcome_counts_a_near_tie_on_either_side_once_and_a_clear_loss_apart(probe):

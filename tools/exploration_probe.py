@@ -6,7 +6,7 @@ two is lower is then decided by a few epsilon-greedy moves and by any wrong move
 route in the first episode. This probe runs both methods on ``select`` (never the reported set) with
 the preset's constants but each one's epsilon multiplied by every factor of ``--scales``, and prints
 for every pair of factors how many maps NDR-QL wins, ties (mean steps within ``--tie`` of IQL's, the
-transfer report's :data:`~ndrql.experiments.transfer.TIE`) and loses by more:
+transfer report's :func:`~ndrql.experiments.transfer.against_iql`) and loses by more:
 
     python tools/exploration_probe.py --grid 50 --scales 1,0.5,0.25,0.1,0.01   # ~2 min
     python tools/exploration_probe.py --grid 100 --scales 1,0.01               # ~6 min
@@ -19,19 +19,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ndrql.experiments.transfer import TIE, row_configs
+from ndrql.experiments.transfer import TIE, against_iql, row_configs
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.preset import load_preset
 from win_share_search import cases_of, probe_parser, runs
-
-
-def outcome(ndr: np.ndarray, iql: np.ndarray, tie: float = TIE) -> tuple[int, int, int]:
-    """Maps won (fewer mean steps), tied (within ``tie`` relative, either side) and lost by more, from the
-    per-map mean steps of NDR-QL and IQL."""
-    gap = np.asarray(ndr, float) / np.asarray(iql, float) - 1
-    return int((gap < 0).sum()), int((np.abs(gap) <= tie).sum()), int((gap > tie).sum())
 
 
 def main() -> None:
@@ -65,7 +58,7 @@ def main() -> None:
     print("|---:|---:|---:|---:|---:|")
     for s in scales:
         for t in scales:
-            won, tied, lost = outcome(means["NDR-QL", s], means["IQL", t], args.tie)
+            won, tied, lost = against_iql(means["NDR-QL", s], means["IQL", t], args.tie)
             print(f"| {s:g} | {t:g} | {won} | {tied} | {lost} |")
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from ndrql.experiments.transfer import plan_steps, render_tables, row_configs, summarize
+from ndrql.experiments.transfer import against_iql, plan_steps, render_tables, row_configs, summarize
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import load_preset
 
@@ -46,6 +46,13 @@ def test_a_map_within_half_a_percent_of_iql_is_a_tie_whichever_side_it_falls():
     s = summarize([above, below, clear])
     assert s["beats_iql"] == pytest.approx(1 / 3)
     assert s["ties_iql"] == pytest.approx(2 / 3) and s["loses_to_iql"] == pytest.approx(1 / 3)
+
+
+def test_against_iql_counts_won_tied_and_clearly_lost_maps():
+    iql = [1043.0, 1048.0, 1043.0, 2000.0, 1000.0]
+    ndr = [1048.0, 1043.0, 1049.0, 1000.0, 1000.0]  # +0.48% (tie), -0.48% (won, tie), +0.58% (lost), won, equal
+    assert against_iql(ndr, iql) == (2, 3, 1)  # the exact tie counts as tied, not won
+    assert against_iql(ndr, iql, tie=0.0) == (2, 1, 2)  # no tolerance: only the equal map ties
 
 
 def test_row_configs_give_each_row_its_methods_constants():

@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 from importlib import resources
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -196,13 +196,20 @@ def _beats_iql(records: list[dict], row: str) -> float:
 TIE = 0.005
 
 
-def _ties_and_losses(records: list[dict], row: str, tie: float = TIE) -> tuple[float, float]:
-    """Shares of the maps on which ``row``'s mean steps are within ``tie`` of IQL's (either side), and more
-    than ``tie`` above them. On a map where both follow a shortest route from the first episode, both
-    need about ``W`` times its length and the exploration moves decide which is lower: *beats IQL*
-    counts such a map either way, these two shares tell it apart from a clear loss."""
-    gap = np.array([np.mean(r["runs"][row]["steps"]) / np.mean(r["runs"]["IQL"]["steps"]) - 1 for r in records])
-    return float(np.mean(np.abs(gap) <= tie)), float(np.mean(gap > tie))
+def against_iql(ndr: Sequence[float], iql: Sequence[float], tie: float = TIE) -> tuple[int, int, int]:
+    """Maps won (fewer mean steps than IQL), tied (within ``tie`` relative, either side) and lost by more,
+    from per-map mean steps. On a map where both follow a shortest route from the first episode, both
+    need about ``W`` times its length and a few exploration moves decide which is lower: *beats IQL*
+    counts such a map either way, the tie count tells it apart from a clear loss."""
+    gap = np.asarray(ndr, float) / np.asarray(iql, float) - 1
+    return int((gap < 0).sum()), int((np.abs(gap) <= tie).sum()), int((gap > tie).sum())
+
+
+def _ties_and_losses(records: list[dict], row: str) -> tuple[float, float]:
+    """Shares of the maps ``row`` ties with IQL and loses by more (:func:`against_iql`)."""
+    means = [[np.mean(r["runs"][k]["steps"]) for r in records] for k in (row, "IQL")]
+    _, tied, lost = against_iql(*means)
+    return tied / len(records), lost / len(records)
 
 
 def summarize(records: list[dict]) -> dict:
@@ -215,6 +222,7 @@ def summarize(records: list[dict]) -> dict:
     red = {row: 1 - _pooled(ok, row) / ql for row in ROWS}
     ratios = [x for r in ok for x in r["runs"]["NDR-QL (model)"]["ratio"] if x is not None]
     thd = [judged_threshold(r) for r in ok]
+    ties, losses = _ties_and_losses(ok, "NDR-QL (model)")
     return {
         "maps": len(ok), "skipped": len(records) - len(ok),
         "grown": int(sum(r.get("size", r["n"]) != r["n"] for r in ok)),
@@ -225,8 +233,8 @@ def summarize(records: list[dict]) -> dict:
         "beats_iql": _beats_iql(ok, "NDR-QL (model)"),
         "beats_iql_ci": list(wilson_interval(_wins_over_iql(ok, "NDR-QL (model)"), len(ok))),
         "oracle_beats_iql": _beats_iql(ok, "NDR-QL (oracle)"),
-        "ties_iql": _ties_and_losses(ok, "NDR-QL (model)")[0],
-        "loses_to_iql": _ties_and_losses(ok, "NDR-QL (model)")[1],
+        "ties_iql": ties,
+        "loses_to_iql": losses,
         "path_ratio": float(np.mean(ratios)) if ratios else float("nan"),
         "threshold_below_half": float(np.mean([t is None or t < 0.5 for t in thd])),
         "not_converged": int(sum(not c for r in ok for c in r["runs"]["NDR-QL (model)"]["converged"])),

@@ -182,9 +182,14 @@ def plan_steps(record: dict, cut: float = MIN_THRESHOLD) -> list[int]:
     return record["runs"][row]["steps"]
 
 
+def _against_iql(records: list[dict], row: str) -> tuple[int, int, int]:
+    """:func:`against_iql` of ``row``'s and IQL's mean steps per map (means over the seeds)."""
+    return against_iql(*([np.mean(r["runs"][k]["steps"]) for r in records] for k in (row, "IQL")))
+
+
 def _wins_over_iql(records: list[dict], row: str) -> int:
     """Maps on which ``row`` needs fewer steps than IQL (means over the seeds)."""
-    return int(sum(np.mean(r["runs"][row]["steps"]) < np.mean(r["runs"]["IQL"]["steps"]) for r in records))
+    return _against_iql(records, row)[0]
 
 
 def _beats_iql(records: list[dict], row: str) -> float:
@@ -207,8 +212,7 @@ def against_iql(ndr: Sequence[float], iql: Sequence[float], tie: float = TIE) ->
 
 def _ties_and_losses(records: list[dict], row: str) -> tuple[float, float]:
     """Shares of the maps ``row`` ties with IQL and loses by more (:func:`against_iql`)."""
-    means = [[np.mean(r["runs"][k]["steps"]) for r in records] for k in (row, "IQL")]
-    _, tied, lost = against_iql(*means)
+    _, tied, lost = _against_iql(records, row)
     return tied / len(records), lost / len(records)
 
 

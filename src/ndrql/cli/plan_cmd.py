@@ -58,7 +58,8 @@ can take minutes.
 #: Config fields that become flags (``alpha`` -> ``--alpha``), from the frozen dataclasses.
 _QL_FLAGS = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window",
              "reward_collision", "reward_goal", "reward_revisit")
-_PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step")
+_PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step",
+                "region_dilation", "guideline_ties")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -49,6 +49,13 @@ class QLConfig:
         return int(self.max_steps) if self.max_steps is not None else 4 * int(cells)
 
 
+#: Largest :attr:`PriorConfig.region_dilation` (cells): more would turn the region into the whole map.
+MAX_DILATION = 10
+#: Largest :attr:`PriorConfig.guideline_ties`: with the straight line's share (``priors.TIE_BREAK``) it must
+#: stay under one move, so that it orders only moves that are equally far from the goal.
+MAX_TIES = 0.95
+
+
 @dataclass(frozen=True)
 class PriorConfig:
     """Parameters of the priors (docs/method.md, paper Eqs. 2-7)."""
@@ -71,6 +78,12 @@ class PriorConfig:
     """Eq. 7: the adaptive threshold starts here ..."""
     thd_step: float = 0.01
     """... and drops by this much until the region connects start and goal."""
+    region_dilation: int = 0
+    """Eq. 7, beyond the paper: widen the predicted region by this many cells (a 4-connected grey
+    dilation) before it is thresholded; 0 = the paper."""
+    guideline_ties: float = 0.0
+    """Eq. 6 with a predicted distance, beyond the paper: weight (under 1) of the guideline in choosing
+    among equally distant moves; 0 = the straight line alone."""
 
     def __post_init__(self) -> None:
         for name in ("omega_crf", "omega_qi", "thd_start"):
@@ -81,6 +94,11 @@ class PriorConfig:
             raise ValueError(f"thd_step must be > 0, got {self.thd_step}")
         if self.g_row <= 0 or self.g_col <= 0:
             raise ValueError("g_row and g_col must be > 0")
+        if not 0 <= self.region_dilation <= MAX_DILATION or int(self.region_dilation) != self.region_dilation:
+            raise ValueError(f"region_dilation must be a whole number of cells in [0, {MAX_DILATION}], "
+                             f"got {self.region_dilation}")
+        if not 0.0 <= self.guideline_ties <= MAX_TIES:
+            raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
 
 
 def field_docs(cls) -> dict[str, str]:

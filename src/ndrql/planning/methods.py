@@ -138,7 +138,8 @@ def build_priors(
     ``region``/``guideline`` are NDR probabilities at the planning grid's shape; they are required
     only by methods that use them. ``distance`` (cells, the grid's shape): the model's predicted
     distance to the goal, which then replaces the straight line in Eq. 6 (NDR-QI only; D-QI and the
-    rewards keep the straight line).
+    rewards keep the straight line); ``cfg.guideline_ties`` then lets the guideline choose among equally
+    distant moves (:func:`ndrql.planning.priors.snapped_distance`).
     """
     m = get_method(method)
     blocked = np.asarray(blocked, dtype=bool)
@@ -163,7 +164,7 @@ def build_priors(
     thd = None
     if m.n_qi:
         q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only,  # type: ignore[arg-type]
-                           distance=distance)
+                           distance=distance, guideline=guideline)
     elif m.d_qi:
         q0 = P.d_qi(blocked, goal)
     else:

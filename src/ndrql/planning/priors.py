@@ -142,17 +142,22 @@ def ndr_qi(
     thd: float | None = ...,  # type: ignore[assignment]
     mask_only: bool = False,
     distance: np.ndarray | None = None,
+    guideline: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float | None]:
     """Eq. 6, NDR-QI: ``Q(s, a) = omega * MASK(N_r(s')) + (1 - omega) * exp(-dist(s', goal))``.
 
-    ``thd`` defaults to :func:`adaptive_threshold`; when none connects, MASK is 0 everywhere and a
+    ``thd`` defaults to :func:`adaptive_threshold` (of the region widened by ``cfg.region_dilation``
+    cells, :func:`widen_region`); when none connects, MASK is 0 everywhere and a
     :class:`ThresholdWarning` is emitted. ``mask_only``: the mask term alone
     (:func:`ndr_qi_mask_term`). ``distance``: the model's predicted distance to the goal through free
     space per cell, in cells (beyond the paper), taken as ``dist(s', goal)`` after
-    :func:`snapped_distance`; default the straight line, as in the paper. Returns ``(q0, thd)``.
+    :func:`snapped_distance`; default the straight line, as in the paper. ``guideline`` (with
+    ``distance`` and ``cfg.guideline_ties > 0``): equally distant moves are told apart by how near
+    they lie to the predicted route (:func:`route_nearness`) rather than by the straight line alone.
+    Returns ``(q0, thd)``.
     """
     blocked = np.asarray(blocked, dtype=bool)
-    region = _check_field("region", region, blocked.shape)
+    region = widen_region(_check_field("region", region, blocked.shape), cfg.region_dilation)
     if thd is ...:
         thd = adaptive_threshold(region, blocked, start, goal, cfg)
         if thd is None:
@@ -169,7 +174,10 @@ def ndr_qi(
     if distance is None:
         dist = np.hypot(r2 - goal[0], c2 - goal[1])
     else:
-        dist = snapped_distance(_check_distance(distance, blocked.shape), goal)[r2, c2]
+        near = None
+        if guideline is not None and cfg.guideline_ties > 0:
+            near = route_nearness(_check_field("guideline", guideline, blocked.shape))
+        dist = snapped_distance(_check_distance(distance, blocked.shape), goal, near, cfg.guideline_ties)[r2, c2]
     q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-dist)
     return q0, thd
 
@@ -178,9 +186,42 @@ def ndr_qi(
 TIE_BREAK = 0.01
 
 
-def snapped_distance(distance: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
+#: Gaussian blur (cells) of the guideline in :func:`route_nearness`: a few cells either side of the route
+#: lean towards it, so that a move beside the route is still told which way the route lies.
+GUIDELINE_BLUR = 1.5
+
+
+def widen_region(region: np.ndarray, cells: int) -> np.ndarray:
+    """The region widened by ``cells`` (beyond the paper, :attr:`PriorConfig.region_dilation`): each cell
+    takes the highest value within ``cells`` 4-connected moves (a grey dilation by a diamond).
+
+    Eq. 7's mask then leaves the predicted corridor's thresholded edge a little room, so that a move the
+    distance term prefers is not cut off by a cell the threshold just missed. ``cells = 0``: unchanged.
+    """
+    region = np.asarray(region, dtype=np.float64)
+    if not cells:
+        return region
+    from scipy import ndimage  # scipy loads when a region is widened, not when the planners are imported
+
+    return ndimage.grey_dilation(region, footprint=ndimage.iterate_structure(_FOUR, int(cells)))
+
+
+def route_nearness(guideline: np.ndarray) -> np.ndarray:
+    """How near each cell lies to the predicted route, in [0, 1]: the guideline (Eq. 3's probabilities on
+    the planning grid) blurred by :data:`GUIDELINE_BLUR` cells and scaled to a maximum of 1 (all 0 when
+    the guideline is empty)."""
+    from scipy import ndimage  # lazy: as in widen_region
+
+    near = ndimage.gaussian_filter(np.asarray(guideline, dtype=np.float64), GUIDELINE_BLUR)
+    top = float(near.max())
+    return near / top if top > 0 else np.zeros_like(near)
+
+
+def snapped_distance(distance: np.ndarray, goal: tuple[int, int], nearness: np.ndarray | None = None,
+                     weight: float = 0.0) -> np.ndarray:
     """A predicted distance to the goal (cells) as Eq. 6 takes it: snapped to the values a 4-connected
-    distance can take, and with ties broken by the straight line.
+    distance can take, and with ties broken by the straight line (and, given ``nearness`` and a
+    ``weight`` in (0, 0.95], by the route: ``+ weight * (1 - nearness)``).
 
     The moves from a cell to the goal are its Manhattan distance plus an even detour (a grid is
     bipartite), so the predicted detour ``distance - manhattan`` is rounded to the nearest even number
@@ -189,11 +230,21 @@ def snapped_distance(distance: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
     usually are) are told apart by :data:`TIE_BREAK` times their straight-line distance, which prefers
     the move that heads more directly for the goal, as Eq. 5 does. An exact distance (the oracle's)
     keeps its order.
+
+    On a 4-connected grid many routes are equally short, and the straight line picks one of them
+    without looking at the region: where it leads out of the corridor Eq. 7's mask allows, the greedy
+    policy of Eq. 6 is cornered between the two terms (a move the distance wants and the mask forbids).
+    ``nearness`` (:func:`route_nearness`) breaks the ties towards the predicted route instead; two
+    neighbours' snapped values differ by at least one move, and the tie terms by less, so the order of
+    unequal distances never changes.
     """
     d = np.asarray(distance, dtype=np.float64)
     rows, cols = np.indices(d.shape)
     manhattan = np.abs(rows - goal[0]) + np.abs(cols - goal[1])
-    return manhattan + snap_detour(d - manhattan) + TIE_BREAK * np.hypot(rows - goal[0], cols - goal[1])
+    ties = TIE_BREAK * np.hypot(rows - goal[0], cols - goal[1])
+    if nearness is not None and weight > 0:
+        ties = ties + weight * (1.0 - np.asarray(nearness, dtype=np.float64))
+    return manhattan + snap_detour(d - manhattan) + ties
 
 
 def snap_detour(detour: np.ndarray) -> np.ndarray:

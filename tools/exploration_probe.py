@@ -23,8 +23,7 @@ from ndrql.experiments.transfer import TIE, against_iql, row_configs
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights
-from ndrql.planning.preset import load_preset
-from win_share_search import cases_of, probe_parser, runs
+from win_share_search import cases_of, probe_parser, probe_preset, runs
 
 
 def main() -> None:
@@ -36,7 +35,7 @@ def main() -> None:
     if not scales or any(not math.isfinite(s) or s <= 0 for s in scales):
         raise SystemExit(f"--scales must be positive numbers, got {args.scales!r}")
     predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch", symmetries=args.symmetries)
-    preset = load_preset(args.preset)
+    preset = probe_preset(args)
     cases = cases_of(args.set, args.grid, args.per_family, predictor)
     seeds = list(range(args.seeds))
     means: dict[tuple[str, float], np.ndarray] = {}

@@ -25,8 +25,7 @@ from ndrql.experiments.transfer import row_configs
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights
-from ndrql.planning.preset import load_preset
-from win_share_search import cases_of, probe_parser, reference_runs, runs
+from win_share_search import cases_of, probe_parser, probe_preset, reference_runs, runs
 
 #: Rows: which outputs come from the oracle (region, guideline, distance).
 SWAPS = {
@@ -53,7 +52,7 @@ def main() -> None:
         raise SystemExit(f"unknown row(s) {', '.join(unknown)}; valid: {', '.join(SWAPS)}")
 
     predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch", symmetries=args.symmetries)
-    preset = load_preset(args.preset)
+    preset = probe_preset(args)
     cases = cases_of(args.set, args.grid, args.per_family, predictor)
     if any(len(pr) < 3 for _, _, pr in cases):
         raise SystemExit(f"{args.weights} has no distance head: nothing to swap for the oracle's distance")

@@ -25,9 +25,8 @@ from ndrql.model.predict import Predictor
 from ndrql.model.weights import resolve_weights
 from ndrql.planning import priors as P
 from ndrql.planning.methods import Priors, build_priors
-from ndrql.planning.preset import load_preset
 from ndrql.planning.runner import run_plan
-from win_share_search import cases_of, probe_parser, reference_runs
+from win_share_search import cases_of, probe_parser, probe_preset, reference_runs
 
 #: Moves added outside the region, so that a path through it is always preferred.
 OUTSIDE = 100
@@ -49,7 +48,7 @@ def main() -> None:
     args = probe_parser(__doc__, symmetries=1).parse_args()
 
     predictor = Predictor.load(resolve_weights(args.weights), threads=1, backend="torch", symmetries=args.symmetries)
-    preset = load_preset(args.preset)
+    preset = probe_preset(args)
     seeds = list(range(args.seeds))
     cases = cases_of(args.set, args.grid, args.per_family, predictor)
     ref = reference_runs(cases, preset, seeds)

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ndrql.errors import NdrqlError
 from ndrql.experiments.ceiling import prior_arrays
 from ndrql.experiments.transfer import eval_set, eval_spec, grid_case, larger_sizes, model_priors, row_configs
 from ndrql.io import make_folder, write_json
@@ -94,7 +95,22 @@ def probe_parser(doc: str, symmetries: int) -> argparse.ArgumentParser:
     ap.add_argument("--preset", default="general")
     ap.add_argument("--symmetries", type=int, default=symmetries,
                     help="average the model over this many orientations (1, 2, 4, 8)")
+    ap.add_argument("--priors", default="", metavar="K=V[,K=V]",
+                    help="prior constants set on every row of the preset, e.g. guideline_ties=0,region_dilation=0 "
+                    "(the general preset before those two)")
     return ap
+
+
+def probe_preset(args: argparse.Namespace):
+    """The preset of a probe (``--preset``) with ``--priors`` set on every entry."""
+    preset = load_preset(args.preset)
+    pairs = [kv.split("=", 1) for kv in args.priors.split(",") if kv.strip()]
+    if any(len(kv) != 2 for kv in pairs):
+        raise SystemExit(f"--priors takes K=V pairs, got {args.priors!r}")
+    try:
+        return preset.with_overrides(priors={k.strip(): float(v) for k, v in pairs}) if pairs else preset
+    except (TypeError, ValueError, NdrqlError) as exc:
+        raise SystemExit(f"--priors: {exc}") from None
 
 
 def reference_runs(cases, preset, seeds) -> list[np.ndarray]:

@@ -109,6 +109,7 @@ def test_the_general_preset_sets_them_for_ndr_ql_only():
     _, p50 = preset.configs("NDR-QL", grid=50)
     _, p100 = preset.configs("NDR-QL", grid=100)
     assert (p50.region_dilation, p50.guideline_ties) == (1, 0.3)
+    assert type(p50.region_dilation) is int and type(PriorConfig(region_dilation=2.0).region_dilation) is int
     assert (p100.region_dilation, p100.guideline_ties) == (0, 0.3)
     for method in ("IQL", "QL"):
         _, p = preset.configs(method, grid=50)

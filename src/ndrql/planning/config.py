@@ -97,6 +97,7 @@ class PriorConfig:
         if not 0 <= self.region_dilation <= MAX_DILATION or int(self.region_dilation) != self.region_dilation:
             raise ValueError(f"region_dilation must be a whole number of cells in [0, {MAX_DILATION}], "
                              f"got {self.region_dilation}")
+        object.__setattr__(self, "region_dilation", int(self.region_dilation))  # a preset file's 1.0 is 1 cell
         if not 0.0 <= self.guideline_ties <= MAX_TIES:
             raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
 

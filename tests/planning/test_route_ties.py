@@ -116,3 +116,46 @@ def test_the_general_preset_sets_them_for_ndr_ql_only():
         assert (p.region_dilation, p.guideline_ties) == (0, 0.0)
     _, spec = load_preset("spec").configs("NDR-QL")
     assert (spec.region_dilation, spec.guideline_ties) == (0, 0.0)  # the paper's constants stay the paper's
+
+
+def _greedy_route(q0: np.ndarray, blocked: np.ndarray, start, goal) -> list[tuple[int, int]]:
+    """Cells the greedy action of ``q0`` visits from ``start`` until the goal or a cell it has seen."""
+    from ndrql.planning import rules
+
+    nxt, w = rules.next_table(blocked), blocked.shape[1]
+    s, seen, route = start[0] * w + start[1], set(), [tuple(start)]
+    while route[-1] != tuple(goal) and s not in seen:
+        seen.add(s)
+        s = int(nxt[s, int(np.argmax(q0[s]))])
+        route.append(divmod(s, w))
+    return route
+
+
+def test_an_aisle_the_straight_line_prefers_corners_eq6_and_the_route_ties_do_not():
+    """The warehouse case of docs/results.md in miniature: a shelf (row 1, columns 1-5) between two equally
+    short routes from the top right to the bottom left, one along the top aisle and down the left end, one
+    down the right corridor. The region covers the right corridor, the bottom row and one aisle cell
+    beside the corridor; the exact distance ties the two routes."""
+    from ndrql.maps.grid import bfs_distances
+
+    blocked = np.zeros((3, 8), dtype=bool)
+    blocked[1, 1:6] = True
+    start, goal = (0, 7), (2, 0)
+    dist = bfs_distances(blocked, goal).astype(float)
+    assert dist[start] == 9 and dist[0, 6] == dist[1, 7] == 8  # both first moves are on a shortest route
+    region = np.zeros((3, 8))
+    region[:, 6:] = 1.0
+    region[2, :] = 1.0
+    region[0, 5] = 1.0
+    guide = np.zeros((3, 8))
+    guide[:, 7] = 1.0
+    guide[2, :] = 1.0
+    plain = build_priors("NDR-QL", blocked, start, goal, region, guide, distance=dist)
+    route = _greedy_route(plain.q0, blocked, start, goal)
+    # straight-line ties: along the aisle to (0, 5), where the only shorter move leaves the region and the
+    # best action left is a bump into the shelf
+    assert route[:3] == [(0, 7), (0, 6), (0, 5)] and route[-1] == (0, 5) and goal not in route
+    tied = build_priors("NDR-QL", blocked, start, goal, region, guide, PriorConfig(guideline_ties=0.3), distance=dist)
+    route = _greedy_route(tied.q0, blocked, start, goal)
+    assert route[-1] == goal and len(route) - 1 == dist[start]  # down the corridor: a shortest route
+    assert route[1] == (1, 7)

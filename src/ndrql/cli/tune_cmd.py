@@ -15,6 +15,7 @@ from ndrql.limits import MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.methods import get_method
 from ndrql.planning.preset import Preset, load_preset, write_preset
+from ndrql.tuning import space as S
 from ndrql.tuning.objective import tuning_problems
 from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
 from ndrql.tuning.study import TuneConfig, base_score, best_trial, default_storage, finished, open_storage, run_study, study_name
@@ -54,8 +55,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="--maps generated with --export-preset: the grid sizes whose studies the preset collects, "
                    "one entry each (default: 50,100)")
     p.add_argument("--start-from", metavar="PRESET", default="",
-                   help="make trial 1 this preset's constants for the method (spec, tuned, general or a FILE), so the "
-                   "search starts from the best point known (default: none)")
+                   help="make trial 1 this preset's constants for the method (spec, tuned, general or a FILE; of a "
+                   "per-grid preset, the searched grid's entry), so the search starts from the best point known, and "
+                   "hold the preset's constants that no search explores (--guideline-ties, --region-dilation) in every "
+                   "trial and in the export (default: none)")
     p.add_argument("--objective", choices=("pooled", "geomean"),
                    help="minimise the pooled mean of the steps or their geometric mean (default: pooled with "
                    "--maps paper, geomean with --maps generated)")
@@ -84,7 +87,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _tune_config(args: argparse.Namespace, method: str):
+def _tune_config(args: argparse.Namespace, method: str, grid: int):
+    """The search of ``method`` on grid ``grid``; with ``--start-from`` it also holds that preset's constants
+    outside the search space (its route ties) for the method and grid."""
     check_int(args.trials, "--trials", 1, 100_000)
     check_int(args.samples, "--samples", 1, 12_000)
     check_int(args.seeds, "--seeds", 1, MAX_RUNS)
@@ -95,7 +100,12 @@ def _tune_config(args: argparse.Namespace, method: str):
     objective = args.objective or ("geomean" if args.maps == "generated" else "pooled")
     return TuneConfig(method, trials=args.trials, samples=args.samples, seeds=args.seeds, seed=args.seed,
                       order_seed=args.order_seed, chunk=args.chunk, max_episodes=args.max_episodes, objective=objective,
-                      start_from=args.start_from)
+                      start_from=args.start_from, grid=grid, fixed=_fixed(args.start_from, method, grid))
+
+
+def _fixed(start_from: str, method: str, grid: int) -> tuple[tuple[str, float], ...]:
+    """The constants outside the search space that ``start_from`` sets for ``method`` on ``grid`` (none without)."""
+    return S.fixed_priors(load_preset(start_from).configs(method, grid=grid)[1]) if start_from else ()
 
 
 def _grids(args: argparse.Namespace) -> list[int]:
@@ -150,10 +160,10 @@ def run(args: argparse.Namespace) -> int:
         else [get_method(args.method).name]
     if not methods:
         raise NdrqlError("--methods is empty")
-    cfgs = [_tune_config(args, m) for m in methods]
     if args.start_from:
         load_preset(args.start_from)  # an unknown preset is one line now, not after the maps are built
     grids = _grids(args)
+    cfgs = [_tune_config(args, m, grids[0]) for m in methods]
     if args.export_preset:
         check_outputs(args.export_preset)
     _need_optuna()
@@ -196,7 +206,8 @@ def _export_grids(args, cfgs, grids, storage, log) -> int:
     entries, metas, wins = {}, {}, []
     for n in grids:
         problems, digest = _problems(args, n, log)
-        settings, check, meta = _collect(args, cfgs, problems, storage, digest, log)
+        at_n = [_tune_config(args, c.method, n) for c in cfgs]  # fixed constants and trial 1 are per grid
+        settings, check, meta = _collect(args, at_n, problems, storage, digest, log)
         entry = tuned_preset(settings, check, meta)
         entries[n], metas[str(n)] = dict(entry.methods), dict(entry.meta)
         wins.append(entry.plan_default)
@@ -244,7 +255,7 @@ def _collect(args, cfgs, problems, storage, digest, log):
         except KeyError:
             raise NdrqlError(f"no study {name} for {cfg.method} in {storage}: run ndrql tune --method "
                              f"{cfg.method} with the same settings first") from None
-        settings[cfg.method], bt = best_setting(study, cfg.method)
+        settings[cfg.method], bt = best_setting(study, cfg.method, cfg.base_configs()[1])
         studies[cfg.method] = {"study": name, "finished_trials": finished(study), "best_trial": bt.number if bt else None,
                                "best_steps": bt.value if bt else None, "baseline": study.user_attrs.get("baseline")}
         log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}")

@@ -37,11 +37,12 @@ def trial_rows(study: Any) -> list[dict[str, Any]]:
     return rows
 
 
-def best_setting(study: Any, method: str) -> tuple[MethodSetting, Any]:
-    """The best feasible trial's constants as a :class:`MethodSetting` (SPEC if no trial beat it)."""
+def best_setting(study: Any, method: str, fixed: PriorConfig = PriorConfig()) -> tuple[MethodSetting, Any]:
+    """The best feasible trial's constants as a :class:`MethodSetting` (SPEC if no trial beat it), on top of
+    ``fixed`` (the search's constants outside its space, :attr:`~ndrql.tuning.study.TuneConfig.fixed`)."""
     bt = best_trial(study)
     params = dict(bt.params) if bt is not None else {}
-    ql, pc = S.configs_from_params(params)
+    ql, pc = S.configs_from_params(params, QLConfig(), fixed)
     return MethodSetting(ql, pc), bt
 
 
@@ -50,7 +51,7 @@ def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Pat
     import warnings
 
     folder = make_folder(Path(out_dir) / cfg.method)
-    setting, bt = best_setting(study, cfg.method)
+    setting, bt = best_setting(study, cfg.method, cfg.base_configs()[1])
     base = study.user_attrs.get("baseline", {})
     from optuna.trial import TrialState
 

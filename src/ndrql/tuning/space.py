@@ -58,6 +58,18 @@ THD_START = Param("thd_start", 0.5, 0.99, False, "priors", ("thd_start",), "firs
 THD_STEP = Param("thd_step", 0.005, 0.1, True, "priors", ("thd_step",), "threshold decrement (Eq. 7)")
 
 
+#: Prior constants a preset may set that no search explores (beyond the paper: Eq. 6's route ties and Eq. 7's
+#: widened region). A search that starts from a preset holds them at its values (:func:`fixed_priors`), so a
+#: re-searched preset keeps them.
+FIXED_PRIORS = ("region_dilation", "guideline_ties")
+
+
+def fixed_priors(priors: PriorConfig) -> tuple[tuple[str, float], ...]:
+    """The :data:`FIXED_PRIORS` of ``priors`` that differ from the defaults, as ``(name, value)`` pairs."""
+    spec = PriorConfig()
+    return tuple((k, float(getattr(priors, k))) for k in FIXED_PRIORS if getattr(priors, k) != getattr(spec, k))
+
+
 def search_space(method: str | Method) -> tuple[Param, ...]:
     """The constants searched for ``method`` (module docstring), in a fixed order."""
     m = get_method(method)

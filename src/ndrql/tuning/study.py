@@ -86,6 +86,12 @@ class TuneConfig:
     """What is minimised: ``pooled`` steps (the paper's measure) or their ``geomean`` (every map alike)."""
     start_from: str = ""
     """A preset (name or file) whose constants for the method are trial 1 (after the SPEC point); ``""``: none."""
+    grid: int | None = None
+    """Planning-grid size of the problems (``--maps generated``): which entry of a per-grid ``start_from`` preset
+    trial 1 takes; ``None``: its smallest size's."""
+    fixed: tuple[tuple[str, float], ...] = ()
+    """Prior constants outside the search space held at these values in every trial and in what is exported
+    (:data:`ndrql.tuning.space.FIXED_PRIORS`; the CLI takes them from ``start_from``); empty: the SPEC's."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "method", get_method(self.method).name)
@@ -98,6 +104,13 @@ class TuneConfig:
             raise NdrqlError("prune_factor must be >= 1 and ratio_margin >= 0")
         if self.objective not in OBJECTIVES:
             raise NdrqlError(f"objective must be one of {', '.join(OBJECTIVES)}, got {self.objective!r}")
+        unknown = [k for k, _ in self.fixed if k not in S.FIXED_PRIORS]
+        if unknown:
+            raise NdrqlError(f"{unknown[0]} is searched or not a constant; fixed constants: {', '.join(S.FIXED_PRIORS)}")
+        try:
+            PriorConfig(**dict(self.fixed))
+        except ValueError as exc:
+            raise NdrqlError(f"bad fixed constant: {exc}") from None
         if self.grace <= self.heartbeat:
             raise NdrqlError("the grace period must be longer than the heartbeat interval")
 
@@ -106,8 +119,8 @@ class TuneConfig:
         return list(range(self.seeds))
 
     def base_configs(self) -> tuple[QLConfig, PriorConfig]:
-        """The SPEC constants with the search's episode cap."""
-        return QLConfig(max_episodes=self.max_episodes), PriorConfig()
+        """The SPEC constants with the search's episode cap and the :attr:`fixed` ones."""
+        return QLConfig(max_episodes=self.max_episodes), PriorConfig(**dict(self.fixed))
 
 
 def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str | None) -> str:
@@ -116,6 +129,8 @@ def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str
              cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest]
     if cfg.objective != "pooled" or cfg.start_from:  # names of the studies searched before these existed stay valid
         parts += [cfg.objective, cfg.start_from]
+    if cfg.fixed:  # likewise: a search without fixed constants keeps its name
+        parts += [sorted(cfg.fixed)]
     blob = json.dumps(parts, sort_keys=True)
     return f"{cfg.method}-{data_digest(blob)[:10]}"
 
@@ -312,7 +327,7 @@ def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str,
 
 def start_params(cfg: TuneConfig) -> dict[str, float]:
     """The searched constants of ``cfg.method`` in preset ``cfg.start_from``, clipped into the search space."""
-    ql, pc = load_preset(cfg.start_from).configs(cfg.method)
+    ql, pc = load_preset(cfg.start_from).configs(cfg.method, grid=cfg.grid)
     params = S.params_of(cfg.method, ql, pc)
     bounds = {p.name: (p.low, p.high) for p in S.search_space(cfg.method)}
     return {k: min(max(v, bounds[k][0]), bounds[k][1]) for k, v in params.items()}

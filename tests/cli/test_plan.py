@@ -93,6 +93,9 @@ def test_not_converged_is_reported(ndrql_exe, room_npy, tmp_path):
         (["--method", "NDR-QL", "--weights", "/nonexistent/ndr.pt"], "missing model weights: /nonexistent/ndr.pt"),
         (["--seeds", "0"], "--seeds must be an integer in 1..10,000, got 0"),
         (["--gamma", "1.5"], "gamma"),
+        (["--guideline-ties", "2"], "guideline_ties must be in [0, 0.95]"),
+        (["--region-dilation", "20"], "region_dilation must be a whole number of cells in [0, 10]"),
+        (["--region-dilation", "1.5"], "--region-dilation: invalid int value"),
         (["--method", "N-C", "--prior-from", "missing.npz"], "prior file not found"),
     ],
 )

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 from typing import NoReturn
 
@@ -77,6 +78,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: A value list that starts with a minus sign, such as a world point ``-1.925,4.625`` (argparse takes any
+#: other token starting with ``-`` for a flag and says "expected one argument").
+_NEGATIVE_LIST = re.compile(r"^-(\d|\.\d)[\d.eE+-]*(,\s*[-+]?[\d.eE+-]+)+$")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``--flag -1.9,4.6`` as ``--flag=-1.9,4.6``, so that coordinates are taken as users type them."""
+    out: list[str] = []
+    for tok in argv:
+        if out and _NEGATIVE_LIST.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
 def _format_warning(message: object, category: type, filename: str, lineno: int, line: str | None = None) -> str:
     return f"ndrql: warning: {one_line(message)}\n"
 
@@ -87,13 +104,15 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
     parser = build_parser()
-    args, extra = parser.parse_known_args(argv)
+    args, extra = parser.parse_known_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     if extra:  # the subcommand's parser reports flags it does not know, with its own usage
         chosen = _chosen_parser(parser, args)
         chosen.error(f"unrecognized arguments: {' '.join(extra)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    if args.command in COMPILING_COMMANDS:
+        _compile_notice()
     try:
         code = int(args.func(args) or 0)
         sys.stdout.flush()
@@ -120,6 +139,19 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("ndrql: interrupted", file=sys.stderr)
         return 130
+
+
+#: Subcommands that run the compiled planners; on the first run after install they say that they compile.
+COMPILING_COMMANDS = frozenset({"plan", "demo"})
+
+
+def _compile_notice() -> None:
+    """One stderr line when this run has to compile the planners (the first after install), else nothing."""
+    from ndrql.planning.kernel import compile_notice  # lazy: loads numba, which these commands need anyway
+
+    notice = compile_notice()
+    if notice:
+        print(f"ndrql: {notice}", file=sys.stderr, flush=True)
 
 
 def _chosen_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:

@@ -98,6 +98,15 @@ def astar4(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> AS
     return _best_first(blocked, start, goal, _MOVES4, _priority4, corner_cutting=True, name="4-connected")
 
 
+def kernel_map(obstacles: np.ndarray) -> np.ndarray:
+    """``obstacles`` as the compiled kernels take it: a C-contiguous, read-only bool view (no copy when it
+    already is one). Numba compiles one machine-code version per array type, and the writeable flag is
+    part of the type: passing every map in one form means one compile on a fresh install, not two."""
+    out = np.ascontiguousarray(obstacles, dtype=bool).view()
+    out.setflags(write=False)
+    return out
+
+
 def shortest_path8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> AStarResult:
     """Shortest 8-connected path with octile costs and no corner cutting, compiled (numba).
 
@@ -112,7 +121,7 @@ def _search8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], cor
     # Imported here, not at the top: ``import ndrql.maps`` must not import numba (start-up time).
     from ndrql.maps.astar_kernel import astar8_kernel  # lazy: loads numba
 
-    blocked = np.ascontiguousarray(blocked, dtype=bool)
+    blocked = kernel_map(blocked)
     h, w = blocked.shape
     s = _check_point(blocked, start, "start")
     g = _check_point(blocked, goal, "goal")

@@ -31,6 +31,7 @@ import numba as nb
 import numpy as np
 
 from ndrql.errors import PointError
+from ndrql.maps.astar import kernel_map
 
 Point = Sequence[float]
 
@@ -182,7 +183,7 @@ def segment_free(obstacles: np.ndarray, p0: Point, p1: Point) -> bool:
     """Whether no pixel of the segment's supercover is an obstacle or off the map."""
     r0, c0 = _xy(p0)
     r1, c1 = _xy(p1)
-    blocked, _, _ = _first_blocked(np.asarray(obstacles, dtype=np.bool_), r0, c0, r1, c1)
+    blocked, _, _ = _first_blocked(kernel_map(obstacles), r0, c0, r1, c1)
     return not blocked
 
 
@@ -192,7 +193,7 @@ def polyline_collisions(obstacles: np.ndarray, points: Sequence[Point] | np.ndar
     The first blocked pixel is the first pixel of the supercover, in travel order, that is an
     obstacle or off the map (it may then lie outside the map).
     """
-    obstacles = np.asarray(obstacles, dtype=np.bool_)
+    obstacles = kernel_map(obstacles)
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     out: list[tuple[int, tuple[int, int]]] = []
     for i in range(len(pts) - 1):
@@ -211,7 +212,7 @@ def shortcut(obstacles: np.ndarray, points: Sequence[Point] | np.ndarray) -> np.
     the input did not have: on a collision-free input every output segment is free. The output is
     never longer than the input (triangle inequality) and has the dtype of the input points.
     """
-    obstacles = np.asarray(obstacles, dtype=np.bool_)
+    obstacles = kernel_map(obstacles)
     pts = np.asarray(points)
     if pts.ndim != 2 or pts.shape[1] != 2:
         pts = pts.reshape(-1, 2)

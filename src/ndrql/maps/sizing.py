@@ -28,6 +28,7 @@ from typing import Sequence
 import numpy as np
 
 from ndrql.errors import NoPathError
+from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.astar import shortest_path8
 from ndrql.maps.grid import Cell, nearest_free_bfs
 from ndrql.maps.lines import segment_free
@@ -69,6 +70,9 @@ class SizeChoice:
     """False when no size up to the limit kept the route within the tolerance (the closest connected one is used)."""
     tolerance: float = AUTO_TOLERANCE
     """The tolerance the sizes were held to."""
+    own_pixels: bool = False
+    """True when no size up to the limit connected start and goal and the grid is the map's own pixels
+    (one pixel per cell, beyond the limit but within :data:`~ndrql.limits.MAX_GRID_SIZE`)."""
 
     @property
     def chosen(self) -> SizeTrial:
@@ -89,13 +93,19 @@ def full_route(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int]
 
 
 def connected4(blocked: np.ndarray, a: Cell, b: Cell) -> bool:
-    """Whether free cells ``a`` and ``b`` are 4-connected through free cells (``scipy.ndimage.label``)."""
-    from scipy import ndimage
+    """Whether free cells ``a`` and ``b`` are 4-connected through free cells.
 
+    Asked of the compiled A* (:func:`~ndrql.maps.astar.shortest_path8`): 8-connected moves without corner
+    cutting join exactly the cells that 4-connected moves join, and the search is already loaded for the
+    size search, where a connected-component labelling would import scipy (about 0.2 s) for one answer.
+    """
     if blocked[tuple(a)] or blocked[tuple(b)]:
         return False
-    labels, _ = ndimage.label(~np.asarray(blocked, dtype=bool))  # default structure: 4-connected
-    return bool(labels[tuple(a)] == labels[tuple(b)])
+    try:
+        shortest_path8(blocked, a, b)
+    except NoPathError:
+        return False
+    return True
 
 
 def place_point(free_check: np.ndarray, blocked: np.ndarray, point: Sequence[int], size: int,
@@ -140,9 +150,12 @@ def try_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int], 
     """Build the safe grid of ``size`` on ``free_check`` (obstacles already inflated) and measure its route."""
     shape = free_check.shape
     blocked = conservative_grid(free_check, size)
-    s_cell, _ = place_point(free_check, blocked, start, size)
-    g_cell, _ = place_point(free_check, blocked, goal, size)
     cell_px = cell_size_px(shape, size)
+    try:
+        s_cell, _ = place_point(free_check, blocked, start, size)
+        g_cell, _ = place_point(free_check, blocked, goal, size)
+    except NoPathError:  # every cell blocked at this size (corridors narrower than a cell): finer sizes may open
+        return SizeTrial(size=int(size), shape=blocked.shape, cell_px=cell_px, grid_length=None, ratio=None)
     length = None
     if s_cell != g_cell:
         length = grid_route_length(blocked, s_cell, g_cell, cell_px, start, goal,
@@ -169,13 +182,16 @@ def ladder(shape: Sequence[int], max_size: int) -> tuple[int, ...]:
 
 
 def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int], full_length: float,
-                max_size: int, tolerance: float = AUTO_TOLERANCE) -> SizeChoice:
+                max_size: int, tolerance: float = AUTO_TOLERANCE, resolution: float | None = None) -> SizeChoice:
     """The smallest ladder size whose grid keeps start and goal connected with a route within ``tolerance``.
 
     ``free_check``: the full-resolution map after inflation (``True`` = obstacle); ``full_length``: its
     shortest route in pixels (:func:`~ndrql.maps.astar.shortest_path8` cost). When no size is within
-    the tolerance, the connected size with the best ratio is chosen (``within_tolerance=False``); when
-    none is connected, :class:`NoPathError` says where the bottleneck is and what to do.
+    the tolerance, the connected size with the best ratio is chosen (``within_tolerance=False``). When
+    none is connected, the map's own pixels are the grid (one pixel per cell: every connection of the
+    map survives) if the map's longer side is within :data:`~ndrql.limits.MAX_GRID_SIZE`
+    (``own_pixels=True``); else :class:`NoPathError` says where the narrowest passage is, how wide, in
+    pixels and metres (``resolution``, metres per pixel), and what to pass.
     """
     trials: list[SizeTrial] = []
     sizes = ladder(free_check.shape, max_size)
@@ -194,7 +210,14 @@ def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int
         best = min(connected, key=lambda t: (t.ratio, t.size))
         return SizeChoice(size=best.size, full_length=full_length, trials=tuple(trials), within_tolerance=False,
                           tolerance=tolerance)
-    raise NoPathError(bottleneck_message(free_check, start, goal, trials))
+    own = max(free_check.shape)
+    if sizes[-1] < own <= MAX_GRID_SIZE:  # one pixel per cell: the grid is the map, so it connects what the map does
+        t = try_size(free_check, start, goal, own, full_length)
+        trials.append(t)
+        if t.ratio is not None:
+            return SizeChoice(size=own, full_length=full_length, trials=tuple(trials),
+                              within_tolerance=t.ratio <= 1.0 + tolerance, tolerance=tolerance, own_pixels=True)
+    raise NoPathError(bottleneck_message(free_check, start, goal, trials, resolution))
 
 
 def narrowest_passage(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int],
@@ -239,9 +262,20 @@ def narrowest_passage(free_check: np.ndarray, start: Sequence[int], goal: Sequen
     return (int(pts[k, 0]), int(pts[k, 1])), max(1.0, 2.0 * t - 1.0)
 
 
+def _metres(px: float, resolution: float | None, what: str = "") -> str:
+    return f"{px:.3g} px{what}" + (f" = {px * resolution:.2g} m" if resolution is not None else "")
+
+
+def size_to_open(longest: int, width_px: float) -> int:
+    """Cells on the longer side at which a passage ``width_px`` pixels wide surely stays open on the safe
+    grid: a whole cell fits inside it wherever the cell borders fall, i.e. cells of at most half its width."""
+    return int(math.ceil(2.0 * longest / max(1.0, width_px)))
+
+
 def bottleneck_message(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int],
-                       trials: Sequence[SizeTrial]) -> str:
-    """Why no safe grid connects start and goal: the narrowest passage on the map's own route and the finest cells."""
+                       trials: Sequence[SizeTrial], resolution: float | None = None) -> str:
+    """Why no safe grid connects start and goal: the narrowest passage on the map's own route (where, how wide
+    in pixels and metres), the finest cells tried, and the size that would keep it open."""
     finest = trials[-1] if trials else None
     try:
         shortest_path8(free_check, start, goal)
@@ -249,9 +283,12 @@ def bottleneck_message(free_check: np.ndarray, start: Sequence[int], goal: Seque
         return (f"start {tuple(start)} and goal {tuple(goal)} are not connected on the map itself "
                 f"(after inflating obstacles by the robot radius)")
     (r, c), width = narrowest_passage(free_check, start, goal, near=finest.cell_px if finest else 0.0)
-    grids = (f"on no safe grid up to {finest.size} cells: the passage at pixel ({r}, {c}) is about {width:.0f} px "
-             f"wide and the finest grid has {finest.cell_px:.1f} px cells" if finest else
-             f"on no safe grid: the passage at pixel ({r}, {c}) is about {width:.0f} px wide")
-    return (f"start and goal are connected on the map but {grids}; crop the map around start and goal, raise "
-            f"the grid size limit, use a smaller --robot-radius, or --grid area (the paper's rule, which may cut "
-            f"through thin walls)")
+    where = f"the passage at pixel ({r}, {c}) is about {_metres(width, resolution)} wide"
+    grids = (f"on no safe grid up to {finest.size} cells: {where} and the finest grid has "
+             f"{_metres(finest.cell_px, resolution, ' cells')}" if finest else f"on no safe grid: {where}")
+    need = size_to_open(max(free_check.shape), width)
+    what = (f"--max-size {need} --size {need} keeps it open" if need <= MAX_GRID_SIZE else
+            f"a grid that keeps it open needs {need} cells, more than the limit {MAX_GRID_SIZE}: crop the map around "
+            f"start and goal")
+    return (f"start and goal are connected on the map but {grids}; {what} (or a smaller --robot-radius, or --grid "
+            f"area, the paper's rule, which may cut through thin walls)")

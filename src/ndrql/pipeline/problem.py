@@ -237,9 +237,13 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
             from ndrql.maps.sizing import choose_size, full_route  # lazy: loads numba
 
             route = full_route(check_map, start, goal, radius_px)
-            auto = choose_size(check_map, start, goal, route.cost, settings.max_size, settings.tolerance)
+            auto = choose_size(check_map, start, goal, route.cost, settings.max_size, settings.tolerance,
+                               grid_map.resolution)
             size = auto.size
-            if not auto.within_tolerance:
+            if auto.own_pixels:
+                warnings.warn(f"no safe grid up to {settings.max_size} cells connects start and goal; planning on the "
+                              f"map's own pixels ({size} cells on the longer side)", UserWarning, stacklevel=2)
+            elif not auto.within_tolerance:
                 t = auto.chosen
                 warnings.warn(f"no safe grid up to {settings.max_size} cells keeps the route within "
                               f"{settings.tolerance:.0%} of the map's own ({_units(auto.full_length, grid_map.resolution)}); "

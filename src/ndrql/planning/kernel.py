@@ -179,3 +179,35 @@ def warm_up() -> None:
     blocked = np.zeros((1, 2), dtype=bool)
     train(rules.next_table(blocked), 0, 1, np.zeros(2), np.zeros((2, 4)), 0, 0.1, 0.95, 0, 8, 1, 1,
           -10.0, 40.0, -5.0)
+
+
+def _dispatchers() -> list:
+    """The compiled functions a plan runs: the map's A* and line tests, and Q-learning."""
+    from ndrql.maps import astar_kernel, lines  # lazy: loads numba (this module already has)
+
+    return [astar_kernel.astar8_kernel, lines._first_blocked, lines._shortcut, train]
+
+
+def _index_path(dispatcher) -> str | None:
+    """Where numba keeps the index of ``dispatcher``'s cached machine code (None: not cached on disk)."""
+    cache = getattr(dispatcher, "_cache", None)
+    cache_file = getattr(cache, "_cache_file", None)
+    return getattr(cache_file, "_index_path", None)
+
+
+def compile_notice() -> str | None:
+    """One line saying that this run compiles the kernels, why, for how long and where they are kept; None
+    when numba's disk cache already holds them (every run after the first).
+
+    numba caches machine code beside the installed sources (``__pycache__``), or, when that folder is
+    read-only (a system-wide install), under the user's cache folder (``~/.cache/numba``;
+    ``NUMBA_CACHE_DIR`` moves it). The first run after an install or an upgrade compiles once.
+    """
+    import os
+
+    missing = [p for p in map(_index_path, _dispatchers()) if p is not None and not os.path.exists(p)]
+    if not missing:
+        return None
+    where = os.path.dirname(missing[0])
+    return (f"compiling the planners' machine code (numba) on this first run after install: about 10-20 s, "
+            f"once; later runs load it from {where}")

@@ -59,15 +59,17 @@ class _Parser(argparse.ArgumentParser):
         return plain(super().format_help())
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the full ``ndrql`` parser with every subcommand registered."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """Build the ``ndrql`` parser with every subcommand registered, or only ``command``'s when its module is
+    ``<command>_cmd`` (start-up time: ``ndrql plan`` need not import the training and tuning commands)."""
     parser = _Parser(
         prog="ndrql",
         description="Learning-guided grid path planning (NDR-QL): NDR model, Q-learning planners, A*.",
     )
     parser.add_argument("--version", action="version", version=f"ndrql {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in SUBCOMMANDS:
+    only = f"{command}_cmd" if command else None
+    for name in (only,) if only in SUBCOMMANDS else SUBCOMMANDS:
         try:
             module = importlib.import_module(f"ndrql.cli.{name}")  # lazy: subcommands by name
         except ModuleNotFoundError as exc:  # a subcommand under construction must not break the others
@@ -103,8 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     import warnings
 
     warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
-    parser = build_parser()
-    args, extra = parser.parse_known_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
+    parser = build_parser(argv[0] if argv else None)
+    args, extra = parser.parse_known_args(argv)
     if extra:  # the subcommand's parser reports flags it does not know, with its own usage
         chosen = _chosen_parser(parser, args)
         chosen.error(f"unrecognized arguments: {' '.join(extra)}")

@@ -20,6 +20,7 @@ from ndrql.dataset.layout import load_sample
 from ndrql.errors import DatasetError, NdrqlError, PointError
 from ndrql.io import check_writable, json_text, save_figure as io_save_figure, write_json as io_write_json
 from ndrql.limits import check_finite, check_int
+from ndrql.maps.bundled import bundled_sample
 from ndrql.maps.grid import Cell, GridMap
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
 from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
@@ -104,6 +105,9 @@ def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = F
     if not map_required:
         parser.add_argument("--sample", metavar="DATASET_DIR:SPLIT:INDEX",
                             help="a dataset sample instead of MAP (split: train|seen|unseen); supplies start and goal")
+        parser.add_argument("--example", action="store_true",
+                            help="the bundled 201x201 example map instead of MAP, with its recorded start and goal "
+                                 "(--start/--goal override them); prints where the map is installed")
     parser.add_argument("--invert", action="store_true", help="images: light pixels are obstacles")
     parser.add_argument("--threshold", type=float, default=128, metavar="V",
                         help="images: gray value below which a pixel is dark (default: 128)")
@@ -139,16 +143,32 @@ def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
     default of 4096 x 4096) is refused before it is decoded.
     """
     sample = getattr(args, "sample", None)
+    if getattr(args, "example", False):
+        use_example(args, bool(sample))
     if sample and args.map:
         raise NdrqlError("give either MAP or --sample, not both")
     if sample:
         return load_sample_problem(sample)
     if not args.map:
-        raise NdrqlError("no map given: pass MAP or --sample DATASET_DIR:SPLIT:INDEX")
+        raise NdrqlError("no map given: pass MAP, --example (the bundled map) or --sample DATASET_DIR:SPLIT:INDEX")
 
     max_pixels = check_int(getattr(args, "max_pixels", MAX_MAP_PIXELS), "--max-pixels", 1)
     check_finite(args.threshold, "--threshold")
     return load_map(args.map, invert=args.invert, threshold=args.threshold, crop=args.crop, max_pixels=max_pixels)
+
+
+def use_example(args: argparse.Namespace, sample: bool) -> None:
+    """``--example``: ``args.map`` becomes the bundled map's installed path and its recorded start and goal
+    fill ``--start``/``--goal`` when neither they nor world points are given; one stderr line says where."""
+    if args.map or sample:
+        raise NdrqlError("give one of MAP, --sample and --example")
+    ex = bundled_sample()
+    args.map = ex.path
+    for name, point in (("start", ex.start), ("goal", ex.goal)):
+        if hasattr(args, name) and not getattr(args, name) and not getattr(args, f"{name}_world", None):
+            setattr(args, name, f"{point[0]},{point[1]}")
+    print(f"ndrql: example map {ex.path} ({ex.grid_map.height}x{ex.grid_map.width}), start {ex.start[0]},{ex.start[1]}, "
+          f"goal {ex.goal[0]},{ex.goal[1]} (row, col)", file=sys.stderr)
 
 
 def resolve_problem(args: argparse.Namespace) -> Problem:

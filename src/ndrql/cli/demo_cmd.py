@@ -8,6 +8,7 @@ look needs: ``compare.png`` (each method's path, the NDR overlay, convergence st
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from ndrql.api import PlanSettings, solve
@@ -17,6 +18,7 @@ from ndrql.cli.plan_cmd import _save, _short, _summary
 from ndrql.io import write_text
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.maps.bundled import bundled_sample
+from ndrql.planning.preset import plan_default_preset
 from ndrql.planning.results import summarize
 from ndrql.viz.plan import compare_figure, plan_figure
 
@@ -35,8 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=10, metavar="N", help="seeds 0..N-1 for every method (default: 10)")
     add_weights_argument(p)
     p.add_argument("--workers", type=int, default=None, metavar="N", help="parallel workers (default: all cores)")
-    p.add_argument("--preset", default="spec", metavar="NAME", help="constants per method: spec (the paper's; "
-                   "default), tuned (searched on validation maps with ndrql tune) or a preset FILE")
+    p.add_argument("--preset", default=None, metavar="NAME", help="constants per method: general, spec (the "
+                   "paper's), tuned (searched on validation maps with ndrql tune) or a preset FILE (default: what "
+                   "ndrql plan uses with the weights)")
     p.set_defaults(func=run)
 
 
@@ -45,7 +48,7 @@ def table_markdown(report: Any) -> list[str]:
     def f(v: Any, nd: int = 0) -> str:
         return "-" if v is None else f"{v:,.{nd}f}"
 
-    lines = ["| method | converged | steps, mean | steps, median | steps, 95% CI | episodes, mean | path / A* |",
+    lines = ["| method | converged | steps, mean | steps, median | steps, 95% CI (geometric) | episodes, mean | path / A* |",
              "|---|---:|---:|---:|---:|---:|---:|"]
     for m in report.methods:
         rs = report.runs(m)
@@ -53,7 +56,10 @@ def table_markdown(report: Any) -> list[str]:
         st = summarize([r.convergence_steps for r in conv])
         ep = summarize([r.convergence_episode for r in conv])
         ra = summarize([r.length_ratio for r in conv])
-        ci = f"{f(st['ci95_low'])} - {f(st['ci95_high'])}" if st["ci95_low"] is not None else "-"
+        # the interval of the mean of log steps, turned back into steps: always positive, as steps are
+        log = summarize([math.log(r.convergence_steps) for r in conv if r.convergence_steps and r.convergence_steps > 0])
+        ci = (f"{f(math.exp(log['ci95_low']))} - {f(math.exp(log['ci95_high']))}"
+              if log["ci95_low"] is not None and math.isfinite(log["ci95_low"]) else "-")
         lines.append(f"| {m} | {len(conv)}/{len(rs)} | {f(st['mean'])} | {f(st['median'])} | {ci} | "
                      f"{f(ep['mean'])} | {f(ra['mean'], 3)} |")
     return lines
@@ -67,10 +73,11 @@ def run(args: argparse.Namespace) -> int:
         check_int(args.workers, "--workers", 1, MAX_WORKERS)
     sample = bundled_sample()
     out = Path(args.out)
+    preset = args.preset or plan_default_preset(args.weights)
     with warnings_to_stderr():
         report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
-                       workers=args.workers, info={"source": sample.description}, preset=args.preset,
-                       settings=PlanSettings.paper(), progress=True)  # a dataset map: the paper's 50x50 area grid
+                       workers=args.workers, info={"source": sample.description}, preset=preset,
+                       settings=PlanSettings(), progress=True)  # as `ndrql plan` runs on a user's map: the safe grid
     pg = report.grid
     print(f"demo map: {sample.description}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "
@@ -79,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     table = table_markdown(report)
     head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.description}); seeds 0..{args.seeds - 1}; "
             f"A* optimum {report.astar_length} moves; NDR-QI threshold {report.thresholds.get('NDR-QL')}; "
-            f"constants: preset {args.preset}.")
+            f"constants: preset {preset}.")
     written = [
         _save(compare_figure(report), str(out / "compare.png")),
         _save(plan_figure(report, method="NDR-QL"), str(out / "ndr-ql.png")),

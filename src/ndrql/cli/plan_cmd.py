@@ -13,7 +13,7 @@ from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
 from ndrql.errors import NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
-from ndrql.limits import MAX_WORKERS, check_int, check_seeds
+from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
@@ -106,10 +106,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "(default: IQL for a map file with one method, none for --sample and --compare; with --preset spec the "
                    "general model does better with none: docs/results.md#transfer)")
     g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
-                   "(ROS maps), instead of --start; write --start-world=-1.5,2 when x is negative")
+                   "(ROS maps), instead of --start; negative values as typed: --start-world -1.5,2")
     g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
     g.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
                    "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
+    g.add_argument("--path-spacing", type=float, default=None, metavar="M",
+                   help="--path-out: at most M metres between poses (default: the map's resolution, a pose per map "
+                        "cell as Nav2's planners publish; 0: only the path's corners)")
     p.add_argument("--max-pixels", type=int, default=settings.max_map_pixels, metavar="N",
                    help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
     p.add_argument("--threads", type=int, default=settings.threads, metavar="N",
@@ -251,6 +254,8 @@ def run(args: argparse.Namespace) -> int:
         if not has_world_frame(grid_map):
             raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
                              "(a ROS map_server .yaml); use --json for the path in pixels")
+        if args.path_spacing is not None:
+            check_finite(args.path_spacing, "--path-spacing", 0.0)
     predictions = None
     if args.prior_from == "oracle":
         predictions = "oracle"
@@ -288,7 +293,8 @@ def run(args: argparse.Namespace) -> int:
         fig = plan_figure(report, dpi=dpi) if len(methods) == 1 else compare_figure(report, dpi=dpi)
         echo(f"wrote {_save(fig, args.png)}")
     if args.path_out:
-        echo(f"wrote {write_path(args.path_out, report.results[0])}")
+        spacing = grid_map.resolution if args.path_spacing is None else args.path_spacing
+        echo(f"wrote {write_path(args.path_out, report.results[0], spacing)}")
     return 0
 
 
@@ -310,11 +316,12 @@ def _xyyaw(point: Any) -> Any:
     return None if point is None else tuple(v for v in point if v is not None)
 
 
-def write_path(path: str, run: Any) -> Any:
-    """Write ``run``'s final path as a nav_msgs/Path (YAML for ``.yaml``/``.yml``, else JSON)."""
+def write_path(path: str, run: Any, spacing: float = 0.0) -> Any:
+    """Write ``run``'s final path as a nav_msgs/Path (YAML for ``.yaml``/``.yml``, else JSON), poses at most
+    ``spacing`` metres apart (0: the path's corners)."""
     if run.route is None or run.route.poses is None:
         raise NdrqlError(f"{run.method} seed {run.seed} found no path to write to {path}")
-    msg = nav_path(run.route.poses)
+    msg = nav_path(run.route.poses, spacing=spacing)
     if path.lower().endswith((".yaml", ".yml")):
         import yaml
 

@@ -110,12 +110,35 @@ def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
 
 
-def nav_path(poses: np.ndarray, frame_id: str = MAP_FRAME, digits: int = 4) -> dict[str, Any]:
+def densify(poses: np.ndarray, spacing: float) -> np.ndarray:
+    """``(x, y, yaw)`` poses with points added along each segment so that consecutive poses are at most
+    ``spacing`` apart (metres), evenly spread over the segment; an added pose faces along its segment, the
+    given poses keep their yaws. ``spacing <= 0`` returns the poses as they are.
+
+    Path followers (Nav2's controllers) expect a pose about every map cell, as Nav2's planners publish;
+    the learned path, shortcut by line of sight, has only its corners (a few metres apart).
+    """
+    pts = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    if not spacing > 0 or len(pts) < 2:
+        return pts.copy()
+    rows = [pts[:1]]
+    for a, b in zip(pts[:-1], pts[1:]):
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        n = max(1, int(math.ceil(math.hypot(dx, dy) / spacing - 1e-9)))
+        t = np.arange(1, n + 1, dtype=np.float64)[:, None] / n
+        seg = np.hstack([a[:2] + t * (b[:2] - a[:2]), np.full((n, 1), math.atan2(dy, dx))])
+        seg[-1, 2] = b[2]
+        rows.append(seg)
+    return np.vstack(rows)
+
+
+def nav_path(poses: np.ndarray, frame_id: str = MAP_FRAME, digits: int = 4, spacing: float = 0.0) -> dict[str, Any]:
     """A ``nav_msgs/msg/Path`` as plain data (header with ``frame_id``, zero stamp; one ``PoseStamped``
-    per ``(x, y, yaw)`` row of ``poses``), ready for YAML/JSON and ``ros2 topic pub``."""
+    per ``(x, y, yaw)`` row of ``poses``, :func:`densify`-ed to at most ``spacing`` metres apart when
+    ``spacing > 0``), ready for YAML/JSON and ``ros2 topic pub``."""
     stamp = {"sec": 0, "nanosec": 0}
     out = []
-    for x, y, yaw in np.asarray(poses, dtype=np.float64).reshape(-1, 3):
+    for x, y, yaw in densify(poses, spacing):
         qx, qy, qz, qw = yaw_quaternion(float(yaw))
         out.append({
             "header": {"stamp": dict(stamp), "frame_id": frame_id},

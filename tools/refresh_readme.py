@@ -18,10 +18,12 @@ import sys
 import textwrap
 from pathlib import Path
 
+from ndrql.version import DOCS_URL
+
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 EXE = str(Path(sys.executable).with_name("ndrql"))
-PLAN = ["plan", "src/ndrql/data/sample_map.png", "--start", "25,179", "--goal", "167,5", "--png", "out/plan.png"]
+PLAN = ["plan", "--example", "--png", "out/plan.png"]
 
 
 def run(args: list[str]) -> str:
@@ -62,7 +64,7 @@ def main() -> int:
         f"On this map NDR-QL needs {mean['NDR-QL'] / mean['QL']:.2f}x the convergence steps of QL and "
         f"{mean['NDR-QL'] / mean['IQL']:.2f}x those of IQL (mean path / A\\*: NDR-QL {ratio['NDR-QL']:.3f}, "
         f"QL {ratio['QL']:.3f}, IQL {ratio['IQL']:.3f}). One map and one set of weights: see "
-        f"[docs/results.md](docs/results.md) for many maps.", 100, break_on_hyphens=False, break_long_words=False)
+        f"[docs/results.md]({DOCS_URL}/results.md) for many maps.", 100, break_on_hyphens=False, break_long_words=False)
     demo = (f"Weights of commit {commit}; seeds {data['seeds'][0]}..{data['seeds'][-1]}, A\\* optimum "
             f"{data['astar_length']} moves, NDR-QI threshold {data['ndr_qi_threshold']['NDR-QL']:.2f} "
             f"(`out/demo/table.md`):\n\n{table}\n\n{summary}\n")

@@ -13,6 +13,7 @@ from PIL import Image
 
 from helpers import REPO_ROOT
 from helpers.cli import run_cli
+from ndrql.version import PROJECT_URL
 
 README = (REPO_ROOT / "README.md").read_text(encoding="utf-8")
 
@@ -31,10 +32,17 @@ def test_readme_starts_with_the_two_commands():
 
 
 def test_readme_links_and_picture():
-    for target in ("docs/results.md", "docs/performance.md", "docs/cli.md", "docs/demo.png"):
-        assert f"]({target})" in README, target
+    # absolute addresses: the README is also the package's description on the index, where a link
+    # relative to the repository leads nowhere
+    for target in ("docs/results.md", "docs/performance.md", "docs/cli.md"):
+        assert f"]({PROJECT_URL}/blob/main/{target})" in README, target
+    assert f"]({PROJECT_URL.replace('github.com', 'raw.githubusercontent.com')}/main/docs/demo.png)" in README
     for target in ("docs/performance.md", "docs/cli.md", "docs/demo.png"):
         assert (REPO_ROOT / target).is_file(), target
+    relative = [t for t in re.findall(r"\]\(([^)\s]+)\)", README) if not re.match(r"[a-z]+://", t)]
+    assert not relative, f"links relative to the repository: {relative}"
+    for page in re.findall(rf"\]\({re.escape(PROJECT_URL)}/blob/main/([^)#\s]+)", README):
+        assert (REPO_ROOT / page).exists(), f"the README links to {page}, which the repository lacks"
     with Image.open(REPO_ROOT / "docs" / "demo.png") as im:
         assert im.format == "PNG"
     assert (REPO_ROOT / "docs" / "demo.png").stat().st_size < 300_000

@@ -86,7 +86,8 @@ def load_sample_problem(spec: str) -> Problem:
     """Map, start and goal of a dataset sample given as ``DATASET_DIR:SPLIT:INDEX``."""
     root, split, index = parse_sample_spec(spec)
     if not root.is_dir():
-        raise DatasetError(f"dataset directory not found: {root}")
+        raise DatasetError(f"dataset directory not found: {root} (get it with git clone "
+                           f"https://github.com/JimOriginal/path-planning-dataset)")
     sample = load_sample(root, split, index)
     source = f"{root}:{split}:{index}"
     grid_map = GridMap(sample.map, source=source)

@@ -30,8 +30,9 @@ DESCRIPTION = ("Plan a path on a map (image, ROS map_server YAML, MovingAI .map 
                "and the time of each stage. Start and goal map to planning cells as for `astar`.")
 
 EXAMPLES = """examples:
+  ndrql plan --example                                                       # the bundled map, from any folder
   ndrql plan map.png --start 25,179 --goal 167,5 --png out/plan.png --json out/plan.json
-  ndrql plan --sample path-planning-dataset:seen:0                          # start and goal from the sample
+  ndrql plan --sample path-planning-dataset:seen:0    # a dataset sample (git clone https://github.com/JimOriginal/path-planning-dataset)
   ndrql plan office.yaml --start 120,80 --goal 30,200                        # ROS map_server map
   ndrql plan arena.map --scen arena.map.scen --index 3                       # MovingAI map + scenario 3
   ndrql plan arena.map --scen arena.map.scen --all --jsonl arena.jsonl       # every scenario vs its optimal length
@@ -48,7 +49,7 @@ weights), predict, priors, learn; start-up (torch import, loading the compiled k
 
 planning grid: on a map file the safe grid (square cells, a cell blocked when any of its pixels is an
 obstacle after inflating obstacles by --robot-radius, --size auto: the coarsest grid whose route is
-within 8%% of the map's own shortest route); with --sample the paper's 50x50 area grid (--grid area).
+within 8% of the map's own shortest route); with --sample the paper's 50x50 area grid (--grid area).
 Every learned path is checked on the full map: a path that crosses an obstacle is reported
 ("path collides", JSON "collisions", red marks in the figure) and not called a success (exit
 status 0). Q-learning's episodes are capped at 4 x cells moves, so grids above 256 cells per side

@@ -11,13 +11,21 @@ import argparse
 import re
 from typing import Any, Sequence
 
+from ndrql.version import DOCS_URL
+
 _ROLE = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj):`~?([^`<]+?)`")
 _LITERAL = re.compile(r"``([^`]+)``")
 _BLOCK = re.compile(r"(\S)::(\s*\n)")
 
 
+#: A page of the repository's docs folder named in help text (``docs/method.md``, ``docs/results.md#transfer``).
+_DOCS_PAGE = re.compile(r"(?<![\w/.])docs/([\w-]+\.md(?:#[\w-]+)?)")
+
+
 def plain(text: str) -> str:
-    """``text`` without reST markup: roles become their name, ````x```` becomes ``x``, ``Example::`` ``Example:``."""
+    """``text`` without reST markup: roles become their name, ````x```` becomes ``x``, ``Example::`` ``Example:``;
+    a ``docs/PAGE.md`` becomes its address online (:data:`~ndrql.version.DOCS_URL`: a pip install has no docs folder)."""
+    text = _DOCS_PAGE.sub(lambda m: f"{DOCS_URL}/{m.group(1)}", text)
     text = _ROLE.sub(lambda m: m.group(1).rsplit(".", 1)[-1], text)
     text = _LITERAL.sub(r"\1", text)
     text = _BLOCK.sub(r"\1:\2", text)

@@ -123,15 +123,17 @@ def test_no_grid_fits_names_the_bottleneck():
         ndrql.solve(m, (100, 100), (1100, 100), "QL", 1, workers=1, settings=PlanSettings(max_size=128))
 
 
-def test_a_diagonal_corridor_that_no_grid_keeps_names_its_bottleneck():
-    # a 3 px band along the diagonal: its widest pixels touch only at corners, which no move may cut
+def test_a_diagonal_corridor_that_no_grid_keeps_is_planned_on_the_maps_own_pixels():
+    # a 3 px band along the diagonal: its widest pixels touch only at corners, which no move may cut;
+    # no grid up to 128 cells keeps it, the map's own pixels (240 cells, within the hard limit) do
     n = 240
     r, c = np.mgrid[:n, :n]
     m = np.abs(r - c) > 1
     m[:20, :20] = m[-20:, -20:] = False
-    with pytest.raises(NoPathError, match=r"connected on the map but on no safe grid up to 128 cells: the passage at "
-                                          r"pixel \(\d+, \d+\) is about 1 px wide"):
-        ndrql.solve(m, (5, 5), (n - 5, n - 5), "QL", 1, workers=1, settings=PlanSettings(max_size=128))
+    with pytest.warns(UserWarning, match="planning on the map's own pixels \\(240 cells"):
+        report = ndrql.solve(m, (5, 5), (n - 5, n - 5), "QL", 1, workers=1, settings=PlanSettings(max_size=128))
+    assert report.setup.auto.own_pixels and report.grid.shape == (n, n)
+    assert report.results[0].success and not polyline_collisions(m, report.results[0].route.pixels)
 
 
 def test_inflation_closes_a_gap_narrower_than_the_robot():

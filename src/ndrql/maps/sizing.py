@@ -71,8 +71,8 @@ class SizeChoice:
     tolerance: float = AUTO_TOLERANCE
     """The tolerance the sizes were held to."""
     own_pixels: bool = False
-    """True when no size up to the limit connected start and goal and the grid is the map's own pixels
-    (one pixel per cell, beyond the limit but within :data:`~ndrql.limits.MAX_GRID_SIZE`)."""
+    """True when no size up to the limit kept the route within the tolerance and the grid is the map's own
+    pixels (one pixel per cell, beyond the limit but within :data:`~ndrql.limits.MAX_GRID_SIZE`)."""
 
     @property
     def chosen(self) -> SizeTrial:
@@ -187,11 +187,11 @@ def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int
 
     ``free_check``: the full-resolution map after inflation (``True`` = obstacle); ``full_length``: its
     shortest route in pixels (:func:`~ndrql.maps.astar.shortest_path8` cost). When no size is within
-    the tolerance, the connected size with the best ratio is chosen (``within_tolerance=False``). When
-    none is connected, the map's own pixels are the grid (one pixel per cell: every connection of the
-    map survives) if the map's longer side is within :data:`~ndrql.limits.MAX_GRID_SIZE`
-    (``own_pixels=True``); else :class:`NoPathError` says where the narrowest passage is, how wide, in
-    pixels and metres (``resolution``, metres per pixel), and what to pass.
+    the tolerance, the map's own pixels are tried next (one pixel per cell: every connection of the map
+    survives) if the map's longer side is beyond ``max_size`` but within :data:`~ndrql.limits.MAX_GRID_SIZE`
+    (``own_pixels=True``); failing that, the connected size with the best ratio is chosen
+    (``within_tolerance=False``). When none is connected, :class:`NoPathError` says where the narrowest
+    passage is, how wide, in pixels and metres (``resolution``, metres per pixel), and what to pass.
     """
     trials: list[SizeTrial] = []
     sizes = ladder(free_check.shape, max_size)
@@ -205,18 +205,18 @@ def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int
         if t.ratio is not None and t.ratio <= 1.0 + tolerance:
             return SizeChoice(size=size, full_length=full_length, trials=tuple(trials), within_tolerance=True,
                               tolerance=tolerance)
-    connected = [t for t in trials if t.ratio is not None]
-    if connected:
-        best = min(connected, key=lambda t: (t.ratio, t.size))
-        return SizeChoice(size=best.size, full_length=full_length, trials=tuple(trials), within_tolerance=False,
-                          tolerance=tolerance)
     own = max(free_check.shape)
     if sizes[-1] < own <= MAX_GRID_SIZE:  # one pixel per cell: the grid is the map, so it connects what the map does
         t = try_size(free_check, start, goal, own, full_length)
         trials.append(t)
-        if t.ratio is not None:
-            return SizeChoice(size=own, full_length=full_length, trials=tuple(trials),
-                              within_tolerance=t.ratio <= 1.0 + tolerance, tolerance=tolerance, own_pixels=True)
+        if t.ratio is not None and t.ratio <= 1.0 + tolerance:
+            return SizeChoice(size=own, full_length=full_length, trials=tuple(trials), within_tolerance=True,
+                              tolerance=tolerance, own_pixels=True)
+    connected = [t for t in trials if t.ratio is not None]
+    if connected:
+        best = min(connected, key=lambda t: (t.ratio, t.size))
+        return SizeChoice(size=best.size, full_length=full_length, trials=tuple(trials), within_tolerance=False,
+                          tolerance=tolerance, own_pixels=best.size == own > sizes[-1])
     raise NoPathError(bottleneck_message(free_check, start, goal, trials, resolution))
 
 
@@ -262,8 +262,8 @@ def narrowest_passage(free_check: np.ndarray, start: Sequence[int], goal: Sequen
     return (int(pts[k, 0]), int(pts[k, 1])), max(1.0, 2.0 * t - 1.0)
 
 
-def _metres(px: float, resolution: float | None, what: str = "") -> str:
-    return f"{px:.3g} px{what}" + (f" = {px * resolution:.2g} m" if resolution is not None else "")
+def _metres(px: float, resolution: float | None, what: str = "", digits: int = 0) -> str:
+    return f"{px:.{digits}f} px{what}" + (f" = {px * resolution:.2g} m" if resolution is not None else "")
 
 
 def size_to_open(longest: int, width_px: float) -> int:
@@ -285,7 +285,7 @@ def bottleneck_message(free_check: np.ndarray, start: Sequence[int], goal: Seque
     (r, c), width = narrowest_passage(free_check, start, goal, near=finest.cell_px if finest else 0.0)
     where = f"the passage at pixel ({r}, {c}) is about {_metres(width, resolution)} wide"
     grids = (f"on no safe grid up to {finest.size} cells: {where} and the finest grid has "
-             f"{_metres(finest.cell_px, resolution, ' cells')}" if finest else f"on no safe grid: {where}")
+             f"{_metres(finest.cell_px, resolution, ' cells', 1)}" if finest else f"on no safe grid: {where}")
     need = size_to_open(max(free_check.shape), width)
     what = (f"--max-size {need} --size {need} keeps it open" if need <= MAX_GRID_SIZE else
             f"a grid that keeps it open needs {need} cells, more than the limit {MAX_GRID_SIZE}: crop the map around "

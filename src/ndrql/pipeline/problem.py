@@ -241,8 +241,9 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
                                grid_map.resolution)
             size = auto.size
             if auto.own_pixels:
-                warnings.warn(f"no safe grid up to {settings.max_size} cells connects start and goal; planning on the "
-                              f"map's own pixels ({size} cells on the longer side)", UserWarning, stacklevel=2)
+                warnings.warn(f"no safe grid up to {settings.max_size} cells keeps start and goal connected within "
+                              f"{settings.tolerance:.0%} of the map's own route; planning on the map's own pixels "
+                              f"({size} cells on the longer side)", UserWarning, stacklevel=2)
             elif not auto.within_tolerance:
                 t = auto.chosen
                 warnings.warn(f"no safe grid up to {settings.max_size} cells keeps the route within "

@@ -102,8 +102,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="shortcut the learned path by line of sight on the full map (default: on for a map file, "
                    "off for --sample)")
     g.add_argument("--fallback", metavar="NAME|none", default=None,
-                   help="when the model's prediction is uninformative (no region threshold >= 0.5 joins start and "
-                   "goal, or the guideline lies mostly on obstacles), plan with this method instead of the NDR one "
+                   help="when the model's prediction is uninformative (its region joins start and goal at no Eq. 7 "
+                   "threshold, or the guideline lies mostly on obstacles), plan with this method instead of the NDR one "
                    "(default: IQL for a map file with one method, none for --sample and --compare; with --preset spec the "
                    "general model does better with none: docs/results.md#transfer)")
     g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "

@@ -20,8 +20,11 @@ ORDER = (0, 4, 2, 6, 1, 3, 5, 7)
 #: Counts of orientations a prediction may average over.
 COUNTS = (1, 2, 4, 8)
 
-#: What ``ndrql plan`` and ``ndrql predict`` average over by default (docs/results.md#symmetry).
-DEFAULT_COUNT = 4
+#: What ``ndrql plan`` and ``ndrql predict`` average over by default: the plain forward. Measured as
+#: ``plan`` runs (size auto, the ``general`` preset) on 36 + 24 generated development maps
+#: (``studies/plan_defaults``): one orientation wins as many maps against IQL as four and needs fewer
+#: steps, at a quarter of the forward pass's cost (docs/performance.md#latency-budget-of-ndrql-plan).
+DEFAULT_COUNT = 1
 
 Runner = Callable[[np.ndarray], tuple]
 

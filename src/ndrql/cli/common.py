@@ -9,6 +9,7 @@ source pixels, and a description for reports). Every bad input raises an
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 from contextlib import contextmanager
@@ -164,7 +165,8 @@ def use_example(args: argparse.Namespace, sample: bool) -> None:
     if args.map or sample:
         raise NdrqlError("give one of MAP, --sample and --example")
     ex = bundled_sample()
-    args.map = ex.path
+    rel = os.path.relpath(ex.path) if Path(ex.path).resolve().is_relative_to(Path.cwd().resolve()) else ex.path
+    args.map = rel  # as a user would type it from here: reports name the map as given
     for name, point in (("start", ex.start), ("goal", ex.goal)):
         if hasattr(args, name) and not getattr(args, name) and not getattr(args, f"{name}_world", None):
             setattr(args, name, f"{point[0]},{point[1]}")

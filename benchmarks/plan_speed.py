@@ -82,7 +82,7 @@ def plan_runs(extra: list[str], repeat: int, tmp: Path) -> dict:
         st_w.append(data["timings"]["wall"])
         st_c.append(data["timings"]["cpu"])
         run = data["runs"][0]
-        ratio.append(run["route"]["length_px"] / data["planning_grid"]["auto"]["full_length_px"])
+        ratio.append(run["route"]["length_px"]["final"] / data["planning_grid"]["auto"]["full_length_px"])
     return {"wall": med(walls), "cpu": med(cpus), "path_ratio": med(ratio), "method": run["method"],
             "size": data["planning_grid"]["size"], "threshold": data["prediction_quality"]["threshold"],
             "stages_wall": {k: med([s.get(k, 0.0) for s in st_w]) for k in STAGES},

@@ -13,6 +13,7 @@ import ndrql.env  # noqa: F401  (registers the ids)
 from ndrql.env import RANDOM_ENV_ID, GoalGridPathEnv, grid_problem
 from ndrql.env.observe import distance_channel
 from ndrql.errors import NdrqlError
+from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.maps.grid import bfs_distances
 from ndrql.planning.priors import d_crf
 
@@ -171,7 +172,7 @@ def test_ndr_prior_from_the_shipped_model(model_weights):
 @pytest.mark.parametrize("symmetries", [4, 1])
 def test_ndr_prior_of_a_grid_mode_model_is_predicted_on_the_envs_own_grid(model_weights, symmetries):
     """The default (general, grid-mode) model sees the env's planning grid at 4 px per cell, as in ndrql plan
-    (averaged over plan's 4 orientations unless told otherwise): the prior channels are the 4x4 means of its
+    (one forward pass, plan's default, or averaged over orientations when told): the prior channels are the 4x4 means of its
     prediction for exactly that grid, start and goal, and the distance channel its distance head's."""
     from ndrql.dataset.render import cell_means
     from ndrql.model.predict import load_predictor
@@ -179,7 +180,7 @@ def test_ndr_prior_of_a_grid_mode_model_is_predicted_on_the_envs_own_grid(model_
     predictor = load_predictor(model_weights, symmetries=symmetries)
     if predictor.input_mode != "grid":
         pytest.skip(f"{model_weights} holds a map-mode model")
-    kwargs = {} if symmetries == 4 else {"symmetries": symmetries}
+    kwargs = {} if symmetries == DEFAULT_COUNT else {"symmetries": symmetries}
     env = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights, prior_distance=True, **kwargs)
     obs, info = env.reset(seed=3)
     blocked = obs["image"][0, :20, :20].astype(bool)
@@ -191,9 +192,9 @@ def test_ndr_prior_of_a_grid_mode_model_is_predicted_on_the_envs_own_grid(model_
     assert np.allclose(obs["image"][4, :h, :w], cell_means(r, blocked.shape), atol=1e-6)
     assert np.allclose(obs["image"][5, :h, :w], cell_means(g, blocked.shape), atol=1e-6)
     assert np.allclose(obs["image"][6, :h, :w], distance_channel(cell_means(d, blocked.shape), 20), atol=1e-6)
-    if symmetries == 1:
-        averaged = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights).reset(seed=3)[0]["image"][4]
-        assert not np.allclose(averaged[:h, :w], obs["image"][4, :h, :w], atol=1e-4)  # the default averages
+    if symmetries == 4:
+        plain = GoalGridPathEnv(size=20, prior="ndr", weights=model_weights).reset(seed=3)[0]["image"][4]
+        assert not np.allclose(plain[:h, :w], obs["image"][4, :h, :w], atol=1e-4)  # the default is one forward pass
 
 
 def test_distance_prior_of_a_model_without_distance_head_is_one_clear_error():

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import ndrql
+from ndrql.planning.priors import ThresholdWarning
 from ndrql.maps.grid import PlanningGrid
 from ndrql.pipeline.predictions import prediction_quality
 from ndrql.pipeline.settings import PlanSettings
@@ -41,8 +42,11 @@ def test_quality_of_hand_made_predictions():
 
     q = prediction_quality(area_downscale(region), guide, m, grid, PriorConfig())
     assert q["informative"] and q["threshold"] == pytest.approx(0.89) and q["guideline_on_obstacles"] == 0.0
-    q = prediction_quality(np.full((50, 50), 0.3), guide, m, grid, PriorConfig())  # never above 0.3
-    assert not q["informative"] and "no region threshold >= 0.5" in q["reasons"][0]
+    q = prediction_quality(np.full((50, 50), 0.3), guide, m, grid, PriorConfig())  # never above 0.3: a low threshold
+    assert q["informative"] and q["threshold"] == pytest.approx(0.29)  # is no reason (studies/plan_defaults)
+    q = prediction_quality(np.zeros((50, 50)), guide, m, grid, PriorConfig())  # joins start and goal at no threshold
+    assert not q["informative"] and q["threshold"] is None
+    assert q["reasons"][0] == "no region threshold connects start and goal (Eq. 7 threshold none)"
     through_wall = np.zeros(m.shape)
     through_wall[97:103, 0:100] = 1.0  # rows 98..101 are wall: 4 of 6 rows on obstacles
     q = prediction_quality(area_downscale(region), through_wall, m, grid, PriorConfig())
@@ -52,17 +56,19 @@ def test_quality_of_hand_made_predictions():
 
 def test_fallback_runs_iql_and_says_so():
     m = corridor_map()
-    flat = (np.full(m.shape, 0.2), np.full(m.shape, 0.2))
+    flat = (np.zeros(m.shape), np.full(m.shape, 0.2))  # a region that joins start and goal at no threshold
     report = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1)
     assert report.methods == ("IQL",) and report.results[0].method == "IQL"
     assert report.info["fallback"]["requested"] == ["NDR-QL"] and report.info["fallback"]["ran"] == "IQL"
     assert report.to_dict()["prediction_quality"]["informative"] is False
-    kept = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1,
-                       settings=PlanSettings(fallback=None))
+    with pytest.warns(ThresholdWarning, match="no threshold"):  # the model's priors kept, and the mask is empty
+        kept = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1,
+                           settings=PlanSettings(fallback=None))
     assert kept.methods == ("NDR-QL",) and "fallback" not in kept.info
     good = ndrql.solve(m, (20, 170), (180, 170), "NDR-QL", 1, predictions=good_prediction(m), workers=1)
     assert good.methods == ("NDR-QL",) and good.info["prediction_quality"]["informative"]
-    both = ndrql.solve(m, (20, 20), (180, 20), ["IQL", "NDR-QL"], 1, predictions=flat, workers=1)
+    with pytest.warns(ThresholdWarning, match="no threshold"):
+        both = ndrql.solve(m, (20, 20), (180, 20), ["IQL", "NDR-QL"], 1, predictions=flat, workers=1)
     assert both.methods == ("IQL", "NDR-QL")  # a comparison that runs the fallback anyway keeps every method
 
 
@@ -77,7 +83,7 @@ def test_fallback_setting_is_checked():
 def test_cli_prints_one_line_and_the_json_says_which_ran(ndrql_exe, tmp_path):
     m = corridor_map()
     np.save(tmp_path / "m.npy", m)
-    np.savez(tmp_path / "flat.npz", region=np.full(m.shape, 0.2), guideline=np.full(m.shape, 0.2))
+    np.savez(tmp_path / "flat.npz", region=np.zeros(m.shape), guideline=np.full(m.shape, 0.2))  # joins nothing
     base = ["plan", str(tmp_path / "m.npy"), "--start", "20,20", "--goal", "180,20", "--prior-from",
             str(tmp_path / "flat.npz"), "--json", str(tmp_path / "p.json")]
     r = run_cli(ndrql_exe, *base)

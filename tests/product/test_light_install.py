@@ -87,8 +87,7 @@ def test_plan_runs_without_torch(ndrql_exe, no_torch, tmp_path, weights):
                           "--json", str(tmp_path / "r.json")], capture_output=True, text=True, env=no_torch, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert out.stderr == ""
-    turns = "" if weights == "paper" else ", averaged over 4 orientations of the grid"  # the grid-mode model only
-    assert f"ndr_{'default' if weights == 'paper' else weights}.pt (onnx{turns})" in out.stdout
+    assert f"ndr_{'default' if weights == 'paper' else weights}.pt (onnx)" in out.stdout  # one forward pass by default
     record = json.loads((tmp_path / "r.json").read_text())
     assert record["backend"] == "onnx" and record["runs"][0]["success"]
     assert not torch_tried(no_torch), "something on the plan path imported torch"

@@ -98,3 +98,31 @@ def test_the_first_run_says_once_that_it_compiles(ndrql_exe, model_weights, tmp_
     assert len(notice) == 1 and str(tmp_path / "numba") in notice[0], first.stderr
     second = run_cli(ndrql_exe, "plan", "--example", "--method", "QL", cwd=tmp_path, env=env)
     assert second.returncode == 0 and "compiling" not in second.stderr, second.stderr
+
+
+def test_geometric_ci_of_steps_never_goes_below_zero():
+    from ndrql.planning.results import geometric_ci, summarize
+
+    assert summarize([1, 1_000_000])["ci95_low"] < 0  # the arithmetic interval of two skewed counts does
+    low, high = geometric_ci([1, 1_000_000])
+    assert 0 < low < 1_000 < high
+    assert geometric_ci([400, 400]) == pytest.approx((400, 400))
+    assert geometric_ci([5]) is None and geometric_ci([None, 0, 7]) is None
+
+
+@pytest.mark.slow
+def test_demo_plans_as_plan_does_without_collisions_and_with_the_models_priors(ndrql_exe, model_weights, tmp_path):
+    r = run_cli(ndrql_exe, "demo", "--seeds", "2", "--out", tmp_path / "demo", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "prediction: informative" in r.stdout and "fell back" not in r.stdout
+    for m in ("QL", "IQL", "NDR-QL"):
+        assert f"{m}: 2 of 2 paths collision-free" in r.stdout, r.stdout
+    rows = {line.split()[0]: line for line in r.stdout.splitlines() if re.match(r"(QL|IQL|NDR-QL) +2/2 ", line)}
+    for line in rows.values():
+        low = re.search(r"\[([\d,]+), ([\d,]+)\]", line)
+        assert low and int(low.group(1).replace(",", "")) > 0, line
+    table = (tmp_path / "demo" / "table.md").read_text()
+    for m in ("QL", "IQL", "NDR-QL"):
+        ci = next(line for line in table.splitlines() if line.startswith(f"| {m} |")).split("|")[5]
+        low, high = (int(v.replace(",", "")) for v in ci.split(" - "))
+        assert 0 < low <= high, ci

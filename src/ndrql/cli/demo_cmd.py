@@ -8,7 +8,6 @@ look needs: ``compare.png`` (each method's path, the NDR overlay, convergence st
 from __future__ import annotations
 
 import argparse
-import math
 from typing import Any
 
 from ndrql.api import PlanSettings, solve
@@ -19,7 +18,7 @@ from ndrql.io import write_text
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.maps.bundled import bundled_sample
 from ndrql.planning.preset import plan_default_preset
-from ndrql.planning.results import summarize
+from ndrql.planning.results import geometric_ci, summarize
 from ndrql.viz.plan import compare_figure, plan_figure
 
 DEMO_METHODS = ("QL", "IQL", "NDR-QL")
@@ -56,10 +55,8 @@ def table_markdown(report: Any) -> list[str]:
         st = summarize([r.convergence_steps for r in conv])
         ep = summarize([r.convergence_episode for r in conv])
         ra = summarize([r.length_ratio for r in conv])
-        # the interval of the mean of log steps, turned back into steps: always positive, as steps are
-        log = summarize([math.log(r.convergence_steps) for r in conv if r.convergence_steps and r.convergence_steps > 0])
-        ci = (f"{f(math.exp(log['ci95_low']))} - {f(math.exp(log['ci95_high']))}"
-              if log["ci95_low"] is not None and math.isfinite(log["ci95_low"]) else "-")
+        gci = geometric_ci([r.convergence_steps for r in conv])  # never below zero, as steps are not
+        ci = f"{f(gci[0])} - {f(gci[1])}" if gci is not None else "-"
         lines.append(f"| {m} | {len(conv)}/{len(rs)} | {f(st['mean'])} | {f(st['median'])} | {ci} | "
                      f"{f(ep['mean'])} | {f(ra['mean'], 3)} |")
     return lines

@@ -6,7 +6,7 @@ from typing import Any
 
 from ndrql.api import WORK_STAGES
 from ndrql.cli.text import text_table
-from ndrql.planning.results import summarize
+from ndrql.planning.results import geometric_ci, summarize
 
 
 def fmt(v: Any, nd: int = 0) -> str:
@@ -27,7 +27,7 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
     Columns are as wide as their widest cell (:func:`ndrql.cli.text.text_table`); a note under the
     table says what ``short/long`` means.
     """
-    header = ("method", "conv", "steps mean", "median", "95% CI", "episodes", "path/A*", "short/long")
+    header = ("method", "conv", "steps mean", "median", "95% CI (geo.)", "episodes", "path/A*", "short/long")
     rows = []
     for m in methods:
         rs = [r for r in results if r.method == m]
@@ -37,11 +37,12 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
         ratio = summarize([r.length_ratio for r in conv])
         short = summarize([r.shortest_success_length for r in conv])
         long_ = summarize([r.longest_success_length for r in conv])
-        ci = f"[{fmt(st['ci95_low'])}, {fmt(st['ci95_high'])}]" if st["ci95_low"] is not None else "-"
+        gci = geometric_ci([r.convergence_steps for r in conv])  # steps are skewed and never negative
+        ci = f"[{fmt(gci[0])}, {fmt(gci[1])}]" if gci is not None else "-"
         rows.append((m, f"{len(conv)}/{len(rs)}", fmt(st["mean"]), fmt(st["median"]), ci, fmt(ep["mean"]),
                      fmt(ratio["mean"], 3), fmt(short["mean"]) + "/" + fmt(long_["mean"])))
-    note = ("short/long: moves of the shortest and the longest training episode that reached the goal "
-            "before convergence (means over the converged runs)")
+    note = ("95% CI (geo.): of the geometric mean of the steps; short/long: moves of the shortest and the longest "
+            "training episode that reached the goal before convergence (means over the converged runs)")
     return text_table(header, rows) + [note]
 
 

@@ -96,6 +96,17 @@ class PlanResult:
         return a == b
 
 
+def geometric_ci(values: list[float | int | None]) -> tuple[float, float] | None:
+    """A 95% interval of the geometric mean of positive counts (steps): :func:`summarize`'s interval of the
+    mean of their logs, turned back. Never below zero, as steps are not, and fit to their skew; ``None``
+    for fewer than two positive values."""
+    logs = [math.log(v) for v in values if v is not None and v > 0]
+    st = summarize(logs)
+    if st["ci95_low"] is None or not math.isfinite(st["ci95_low"]):
+        return None
+    return math.exp(st["ci95_low"]), math.exp(st["ci95_high"])
+
+
 def summarize(values: list[float | int | None]) -> dict[str, float | int | None]:
     """Mean, median and a 95% confidence interval of the mean (Student t) over non-``None`` values."""
     vals = np.asarray([v for v in values if v is not None], dtype=np.float64)

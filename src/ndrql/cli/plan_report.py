@@ -41,8 +41,8 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
         ci = f"[{fmt(gci[0])}, {fmt(gci[1])}]" if gci is not None else "-"
         rows.append((m, f"{len(conv)}/{len(rs)}", fmt(st["mean"]), fmt(st["median"]), ci, fmt(ep["mean"]),
                      fmt(ratio["mean"], 3), fmt(short["mean"]) + "/" + fmt(long_["mean"])))
-    note = ("95% CI (geo.): of the geometric mean of the steps; short/long: moves of the shortest and the longest "
-            "training episode that reached the goal before convergence (means over the converged runs)")
+    note = ("short/long: moves of the shortest and the longest training episode that reached the goal "
+            "before convergence (means over the converged runs); 95% CI (geo.): of the geometric mean of the steps")
     return text_table(header, rows) + [note]
 
 

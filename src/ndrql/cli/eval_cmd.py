@@ -49,7 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="score the model (--weights) or the oracle's arrays on the safe --grid (seen/unseen; named "
                    "'oracle priors' in the output) (default: model)")
     add_symmetries_argument(p, "a grid-mode model's predictions averaged over N orientations of the grid "
-                               "(ndrql plan uses 4; the F1 tables of docs/results.md use 1; ignored for map-mode models)", 1)
+                               "(ndrql plan uses 1 unless told; the F1 tables of docs/results.md use 1; ignored for map-mode models)", 1)
     p.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
     p.add_argument("--json", metavar="FILE", help="also write the numbers as JSON")
     p.set_defaults(func=run)

@@ -30,7 +30,8 @@ import numpy as np
 
 from ndrql.errors import NdrqlError
 from ndrql.experiments.ceiling import prior_arrays
-from ndrql.experiments.transfer import eval_set, eval_spec, grid_case, larger_sizes, model_priors, row_configs
+from ndrql.experiments.eval_sets import eval_set, eval_spec
+from ndrql.experiments.transfer import grid_case, larger_sizes, model_priors, row_configs
 from ndrql.io import make_folder, write_json
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT

@@ -58,6 +58,13 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
     return None
 
 
+def larger_sizes(n: int) -> tuple[int, ...]:
+    """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to ``min(2n, 128)``."""
+    from ndrql.maps.sizing import SIZE_LADDER  # lazy: loads numba
+
+    return tuple(s for s in SIZE_LADDER if n < s <= min(2 * n, 128))
+
+
 def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, ...]:
     """Region and guideline of the oracle on the grid; with ``distance`` also the exact goal distance per
     cell (4-connected moves; cells that cannot reach the goal get the largest distance plus one), the

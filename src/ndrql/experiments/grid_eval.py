@@ -31,9 +31,9 @@ from ndrql.dataset.batches import make_batch
 from ndrql.dataset.cache import SplitArrays
 from ndrql.dataset.mixture import stack
 from ndrql.dataset.render import Rendered, render_grid
-from ndrql.experiments.transfer import larger_sizes
 from ndrql.model.symmetry import averaged
 from ndrql.dataset.render import to_map_pixels
+from ndrql.experiments.ceiling import larger_sizes
 from ndrql.training.evaluate import EvalResult, predict_batch
 from ndrql.training.metrics import f1_per_image
 

@@ -149,3 +149,10 @@ def test_the_recorded_digests_are_what_the_generator_draws_today():
         assert set_record(gs) == {k: v for k, v in data["sets"][name].items() if k != "role"}
         verify_seal(name, gs)
     assert json.dumps(data)  # the file is plain JSON
+
+
+def test_train_refuses_a_source_drawn_from_an_evaluation_seed_in_one_line(ndrql_exe, tmp_path):
+    root = generate_set(tmp_path / "dev", SetSpec(("blocks",), (96,), 2, 900_997), progress=False, purpose="evaluation")
+    r = run_cli(ndrql_exe, "train", "--sources", f"paper:1,{root}:3", "--run-dir", tmp_path / "run", cwd=tmp_path)
+    assert_one_line_error(r, "an evaluation seed: it cannot be a training source")
+    assert not (tmp_path / "run").exists()

@@ -80,8 +80,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "the paper's grid, sizes other than 50 into results/scale-g<N> (default: 50)")
     p.add_argument("--prior-from", choices=PRIOR_SOURCES, default="model",
                    help="table3/scale: priors of the NDR-QL row, from the model (--weights; the table adds a row with "
-                   "the oracle's priors and the model's share of its reduction) or the oracle (the grid's own shortest "
-                   "path: a diagnostic, default --out results/<target>-oracle) (default: model)")
+                   "the oracle's priors and the model's share of its reduction) or the oracle (an 8-connected shortest "
+                   "path of the grid with shortcuts, drawn as the labels are: a diagnostic, default --out results/<target>-oracle) (default: model)")
     p.add_argument("--per-family", type=int, default=None, metavar="N",
                    help="transfer: at most N maps per family of the evaluation set (default: all)")
     p.add_argument("--eval-set", default=None, metavar="NAME",

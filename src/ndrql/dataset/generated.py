@@ -101,13 +101,23 @@ def check_purpose(seed: int, purpose: str) -> None:
         raise NdrqlError(f"evaluation sets take seeds {DEVELOPMENT_SEEDS.start}..{SEALED_SEEDS.stop - 1:,}, got {seed}")
 
 
+def check_training_seed_of(root: str | Path, seed: int) -> None:
+    """Refuse to train on the generated set at ``root`` drawn with ``seed`` if that is an evaluation seed."""
+    try:
+        check_purpose(seed, "training")
+    except NdrqlError:
+        raise NdrqlError(f"{root} was drawn with seed {seed}, an evaluation seed: it cannot be a "
+                         f"training source (training seeds are 0..{DEVELOPMENT_SEEDS.start - 1:,})") from None
+
+
 def check_training_set(gs: "GeneratedSet") -> None:
     """Refuse to train on a generated set drawn from an evaluation seed (:func:`check_purpose`)."""
-    try:
-        check_purpose(gs.spec.seed, "training")
-    except NdrqlError:
-        raise NdrqlError(f"{gs.root} was drawn with seed {gs.spec.seed}, an evaluation seed: it cannot be a "
-                         f"training source (training seeds are 0..{DEVELOPMENT_SEEDS.start - 1:,})") from None
+    check_training_seed_of(gs.root, gs.spec.seed)
+
+
+def check_training_dir(root: str | Path) -> None:
+    """:func:`check_training_set` from the manifest alone (before any shard is read)."""
+    check_training_seed_of(root, int(read_manifest(root)["spec"]["seed"]))
 
 
 def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bool = True,

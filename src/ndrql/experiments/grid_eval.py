@@ -7,7 +7,7 @@ the paper's test splits is measured
 - against the **dataset's labels** at 201 px: each map pixel takes the mean probability of its
   planning cell (exact 4x4 means), thresholded at 0.5, as the planner uses it; comparable with the
   paper model's F1, though a 4.02 px cell can never draw the dataset's 2 px guideline exactly;
-- against the **grid's labels**: the planning grid's own shortest path drawn like the dataset's labels
+- against the **grid's labels**: an 8-connected shortest path of the planning grid with shortcuts, drawn like the dataset's labels
   (the oracle arrays; what the model was trained to predict).
 
 A sample whose start and goal do not connect on the grid of ``n`` cells is rendered at the next size of

@@ -147,9 +147,23 @@ class Evaluation:
     def not_converged(self) -> int:
         return sum(1 for v in self.runs.values() for r in v if not r[0])
 
+    def map_ratios(self) -> list[float]:
+        """Per problem: mean greedy path / A* over its converged runs (``inf`` for a problem none converged on)."""
+        return [float(np.mean(c)) if (c := [r[2] for r in v if r[0]]) else math.inf for v in self.runs.values()]
+
+    def path_quality(self) -> dict[str, float]:
+        """Greedy path / A* per problem (:meth:`map_ratios`): ``p95_map`` (the value at or above 95% of the
+        problems, no interpolation: a problem without a converged run is infinite) and ``worst_map`` over the
+        problems; ``worst_run``: the longest single converged run."""
+        m = self.map_ratios()
+        runs = [r[2] for v in self.runs.values() for r in v if r[0]]
+        p95 = float(np.percentile(m, 95, method="higher")) if m else math.nan
+        return {"p95_map": p95, "worst_map": max(m, default=math.nan),
+                "worst_run": max(runs, default=math.nan)}
+
     def summary(self) -> dict[str, Any]:
         return {"steps": self.steps, "geomean": self.geomean, "ratio": self.ratio, "not_converged": self.not_converged,
-                "runs": self.n_runs, "problems": len(self.runs)}
+                "runs": self.n_runs, "problems": len(self.runs), **self.path_quality()}
 
 
 def chunks(problems: Sequence[Problem], size: int) -> list[list[Problem]]:

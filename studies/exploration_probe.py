@@ -8,8 +8,8 @@ the preset's constants but each one's epsilon multiplied by every factor of ``--
 for every pair of factors how many maps NDR-QL wins, ties (mean steps within ``--tie`` of IQL's, the
 transfer report's :func:`~ndrql.experiments.transfer_report.against_iql`) and loses by more:
 
-    python tools/exploration_probe.py --grid 50 --scales 1,0.5,0.25,0.1,0.01   # ~2 min
-    python tools/exploration_probe.py --grid 100 --scales 1,0.01               # ~6 min
+    python studies/exploration_probe.py --grid 50 --scales 1,0.5,0.25,0.1,0.01   # ~2 min
+    python studies/exploration_probe.py --grid 100 --scales 1,0.01               # ~6 min
 """
 
 from __future__ import annotations

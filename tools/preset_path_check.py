@@ -19,7 +19,6 @@ import argparse
 import json
 import sys
 
-from ndrql.errors import NdrqlError
 from ndrql.experiments.tune_maps import generated_problems
 from ndrql.io import file_digest, write_json
 from ndrql.model.weights import resolve_weights
@@ -43,6 +42,11 @@ def measure(preset: Preset, problems, seeds: list[int], grid: int | None) -> dic
     return out
 
 
+def _refuse(message: str) -> int:
+    print(f"preset_path_check: error: {message}", file=sys.stderr)
+    return 2
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("preset", choices=("general", "tuned"), help="the shipped preset to measure")
@@ -57,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
             search = meta["grids"][str(n)]["search"]
             problems, _, _ = generated_problems(search["samples"], n, "general")
             if [p.key for p in problems] != search["problems"]:
-                raise NdrqlError(f"grid {n}: the tune set's problems differ from the search's")
+                return _refuse(f"grid {n}: the tune set's problems differ from the search's")
             grids[str(n)] = measure(preset, problems, meta["grids"][str(n)]["check_seeds"], n)
         record = {"weights_sha256_16": file_digest(weights)[:16], "grids": grids}
     else:
@@ -67,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         search = meta["search"]
         problems, _, _ = tuning_problems(resolve_root(args.data), search["samples"], search["order_seed"], None)
         if [p.key for p in problems] != search["problems"]:
-            raise NdrqlError("the validation problems differ from the search's")
+            return _refuse("the validation problems differ from the search's")
         record = {"weights_sha256_16": file_digest(weights)[:16], "grids": {"50": measure(preset, problems,
                                                                                          meta["check_seeds"], None)}}
     record["bound"] = PATH_BOUND
@@ -82,8 +86,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except NdrqlError as exc:
-        print(f"preset_path_check: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    sys.exit(main())

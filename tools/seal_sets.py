@@ -19,7 +19,6 @@ import json
 import sys
 
 from ndrql.dataset.generated import GeneratedSet, build_shard, check_purpose
-from ndrql.errors import NdrqlError
 from ndrql.experiments.eval_sets import digests_path, eval_set, registry, set_record
 from ndrql.io import write_json
 from ndrql.synth.families import family_names
@@ -40,6 +39,11 @@ def training_record(seed: int, sizes: tuple[int, ...], count: int) -> dict:
     return set_record(gs)
 
 
+def _refuse(message: str) -> int:
+    print(f"seal_sets: error: {message}", file=sys.stderr)
+    return 2
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--training-count", type=int, default=240, help="samples hashed per training set (default: 240)")
@@ -56,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
             changed = True
             print(f"{name}: recorded {len(rec['maps'])} maps")
         elif {k: old[k] for k in rec} != rec:
-            raise NdrqlError(f"{name}: the maps differ from the recorded digests (a set is drawn once; register a new one)")
+            return _refuse(f"{name}: the maps differ from the recorded digests (a set is drawn once; register a new one)")
         else:
             print(f"{name}: matches its record")
     for label, (seed, sizes) in TRAINING_SETS.items():
@@ -68,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
             changed = True
             print(f"{label}: recorded {count} samples")
         elif old != rec:
-            raise NdrqlError(f"{label}: the training maps differ from the recorded digests")
+            return _refuse(f"{label}: the training maps differ from the recorded digests")
         else:
             print(f"{label}: matches its record")
     if changed and not args.check:
@@ -78,8 +82,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except NdrqlError as exc:
-        print(f"seal_sets: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    sys.exit(main())

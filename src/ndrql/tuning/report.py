@@ -98,13 +98,15 @@ def paired_ratio_difference(spec: Evaluation, tuned: Evaluation) -> tuple[float,
     return float(d.mean()), se, int(d.size)
 
 
-PATH_BOUND = 1.5
+PATH_BOUND = 2.0
 """Most greedy path / A* that searched constants may reach on the worst map of the set they were searched on
-(the mean over the check seeds on that map). Why 1.5: the paper's own constants reach about that on the
-worst map of the ``tune`` set (QL 1.53 at grid 50, docs/results.md#path-quality), so a search may not buy
-steps with paths longer than the paper's Q-learning ever gives; and a route half as long again as the
-grid's shortest is visibly wrong to a user of ``plan``, who sees it drawn. The paper's constants (the
-``spec`` entries) are the reproduction, not a choice, and are reported whatever their worst map."""
+(the mean over the check seeds on that map). Why 2.0: Q-learning's convergence test (the same greedy path
+for 20 episodes) does not make the path optimal, and the paper's own constants already reach about 1.5-1.6
+on the worst map of the ``tune`` set (QL 1.53, IQL 1.57 at grid 50: docs/results.md#path-quality), so a
+bound at that level would reject a search for noise on one map; a route twice as long as the grid's
+shortest is wrong by any user's standard, and that is what a search may not buy fewer steps with (the
+near-greedy IQL constants of the ``general`` preset before this bound reached 3.8 on one map). The paper's
+constants (the ``spec`` entries) are the reproduction, not a choice: reported whatever their worst map."""
 
 
 def path_verdict(record: dict, preset: Preset | None = None) -> list[str]:

@@ -39,6 +39,11 @@ def _timed(fn):
     return time.process_time() - t0, out
 
 
+def _x(ratio: float) -> str:
+    """A ratio to A*: one decimal under 10, whole numbers above."""
+    return f"{ratio:.1f}x" if ratio < 10 else f"{ratio:,.0f}x"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--grids", default="32,64,128,256", help="planning grid sizes (cells per side)")
@@ -101,8 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for n, k, med, iok, nok in rows:
         a = med["A*"]
-        print(f"| {n} | {k} | {1000 * a:.2f} ms | {1000 * med['IQL']:.0f} ms | {1000 * med['NDR-QL']:.0f} ms | "
-              f"{1000 * med['model']:.0f} ms | {med['IQL'] / a:,.0f}x | {med['NDR-QL'] / a:,.0f}x | {med['model'] / a:,.0f}x | "
+        print(f"| {n} | {k} | {1000 * a:.2f} ms | {1000 * med['IQL']:.1f} ms | {1000 * med['NDR-QL']:.0f} ms | "
+              f"{1000 * med['model']:.0f} ms | {_x(med['IQL'] / a)} | {_x(med['NDR-QL'] / a)} | {_x(med['model'] / a)} | "
               f"{iok}/{k}, {nok}/{k} |")
     return 0
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import replace
 
 import numpy as np
 
@@ -59,14 +60,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--preset", default="general")
     ap.add_argument("--study", action="append", default=[])
     ap.add_argument("--top", type=int, default=5)
+    ap.add_argument("--also", action="append", default=[], help="another preset whose entry for the method is a candidate")
+    ap.add_argument("--epsilons", default="", help="also the preset's entry for --grid with each of these epsilons "
+                    "(comma-separated): how much exploration keeps the worst map within the bound")
+    ap.add_argument("--no-spec", action="store_true", help="leave the spec constants out (slow for QL)")
     ap.add_argument("--out")
     args = ap.parse_args(argv)
     preset = load_preset(args.preset)
     meta = preset.meta["grids"][str(args.grid)]
     probs = problems(meta["search"]["problems"], args.grid)
     seeds = meta["check_seeds"]
-    cands = [("spec", QLConfig(), PriorConfig())]
+    cands = [] if args.no_spec else [("spec", QLConfig(), PriorConfig())]
     cands += [(f"{args.preset} grid {n}", *preset.configs(args.method, grid=n)) for n in sorted(preset.grids)]
+    cands += [(name, *load_preset(name).configs(args.method, grid=args.grid)) for name in args.also]
+    base_ql, base_pc = preset.configs(args.method, grid=args.grid)
+    cands += [(f"{args.preset} grid {args.grid}, epsilon {e}", replace(base_ql, epsilon=float(e)), base_pc)
+              for e in args.epsilons.split(",") if e.strip()]
     for db in args.study:
         for label, params in study_tops(db, args.method, args.top):
             cands.append((label, *S.configs_from_params(params)))

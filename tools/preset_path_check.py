@@ -1,7 +1,7 @@
 """Measure and record the path quality of a shipped preset on its own tuning set.
 
 No preset ships whose learned greedy grid path exceeds the grid optimum by more than
-:data:`ndrql.tuning.report.PATH_BOUND` on the worst map of its tuning set (the mean over the check
+:data:`ndrql.tuning.objective.PATH_BOUND` on the worst map of its tuning set (the mean over the check
 seeds of greedy path / A* on that map). ``ndrql tune --export-preset`` applies the bound to what it
 exports; this tool measures a preset that exists: each method's constants, per grid size, on the
 problems its search used (``general``: the ``tune`` set with the shipped general weights; ``tuned``:
@@ -24,7 +24,8 @@ from ndrql.io import file_digest, write_json
 from ndrql.model.weights import resolve_weights
 from ndrql.planning.preset import Preset, builtin_path, load_preset
 from ndrql.tuning.objective import evaluate, tuning_problems
-from ndrql.tuning.report import PATH_BOUND, path_verdict
+from ndrql.tuning.objective import PATH_BOUND
+from ndrql.tuning.report import path_verdict
 
 
 def measure(preset: Preset, problems, seeds: list[int], grid: int | None) -> dict[str, dict]:

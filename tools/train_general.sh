@@ -25,7 +25,7 @@ cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
 CACHE=${NDRQL_CACHE:-$HOME/.cache/ndrql}
 DATA=${DATA:-../shared/data/path-planning-dataset}
-MODE=${MODE:-grid}                 # what the model sees (docs/results.md#ceiling): grid or map
+MODE=${MODE:-grid}                 # what the model sees (docs/history.md#ceiling): grid or map
 GRIDS=${GRIDS:-40,50,64,80,100,128}
 COUNT=${COUNT:-20000}
 SIZES=${SIZES:-201,401,801}

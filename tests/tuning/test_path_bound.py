@@ -10,8 +10,8 @@ import pytest
 
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import builtin_path, load_preset
-from ndrql.tuning.objective import Evaluation
-from ndrql.tuning.report import PATH_BOUND, check_presets, path_verdict
+from ndrql.tuning.objective import PATH_BOUND, Evaluation
+from ndrql.tuning.report import check_presets, path_verdict
 
 
 def test_path_quality_by_hand():
@@ -75,3 +75,15 @@ def test_every_shipped_preset_keeps_its_worst_map_within_the_bound(name):
         assert set(rec["grids"][n]) == set(methods)
     assert path_verdict(rec, preset) == [], path_verdict(rec, preset)
     assert rec["bound"] == PATH_BOUND
+
+
+def test_a_search_counts_a_trial_over_the_bound_as_infeasible():
+    from ndrql.tuning.study import CONSTRAINTS, _constraint_values
+
+    ev = Evaluation()
+    ev.add("a", [(True, 100, 1.0), (True, 100, 1.1)])
+    ev.add("b", [(True, 100, PATH_BOUND + 0.5), (True, 100, PATH_BOUND + 0.3)])  # worst map: bound + 0.4
+    c = _constraint_values(ev, {"ratio": 10.0, "not_converged": 0})
+    assert set(c) == set(CONSTRAINTS) and c["c_worst_map"] == pytest.approx(0.4) and c["c_ratio"] < 0
+    ev.runs["b"] = [(True, 100, 1.2)]
+    assert _constraint_values(ev, {"ratio": 10.0, "not_converged": 0})["c_worst_map"] == pytest.approx(1.2 - PATH_BOUND)

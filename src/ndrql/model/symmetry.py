@@ -20,7 +20,7 @@ ORDER = (0, 4, 2, 6, 1, 3, 5, 7)
 #: Counts of orientations a prediction may average over.
 COUNTS = (1, 2, 4, 8)
 
-#: What ``ndrql plan`` and ``ndrql predict`` average over by default (docs/results.md#symmetry).
+#: What ``ndrql plan`` and ``ndrql predict`` average over by default (docs/history.md#symmetry).
 DEFAULT_COUNT = 4
 
 Runner = Callable[[np.ndarray], tuple]

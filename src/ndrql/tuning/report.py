@@ -24,7 +24,7 @@ from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import MethodSetting, Preset, configs_dict
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
-from ndrql.tuning.objective import Evaluation, evaluate
+from ndrql.tuning.objective import PATH_BOUND, Evaluation, evaluate
 from ndrql.tuning.study import TuneConfig, base_score, best_trial, objective_label
 
 
@@ -96,17 +96,6 @@ def paired_ratio_difference(spec: Evaluation, tuned: Evaluation) -> tuple[float,
     d = np.asarray(diffs, dtype=np.float64)
     se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else math.inf
     return float(d.mean()), se, int(d.size)
-
-
-PATH_BOUND = 2.0
-"""Most greedy path / A* that searched constants may reach on the worst map of the set they were searched on
-(the mean over the check seeds on that map). Why 2.0: Q-learning's convergence test (the same greedy path
-for 20 episodes) does not make the path optimal, and the paper's own constants already reach about 1.5-1.6
-on the worst map of the ``tune`` set (QL 1.53, IQL 1.57 at grid 50: docs/results.md#path-quality), so a
-bound at that level would reject a search for noise on one map; a route twice as long as the grid's
-shortest is wrong by any user's standard, and that is what a search may not buy fewer steps with (the
-near-greedy IQL constants of the ``general`` preset before this bound reached 3.8 on one map). The paper's
-constants (the ``spec`` entries) are the reproduction, not a choice: reported whatever their worst map."""
 
 
 def path_verdict(record: dict, preset: Preset | None = None) -> list[str]:

@@ -93,7 +93,7 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     env = {**os.environ, "NDRQL_CACHE": str(tmp_path / "cache")}
     out = run_cli(ndrql_exe, "reproduce", "transfer", "--eval-set", "transfer-small", "--grids", "32", "--seeds", "2",
                   "--per-family", "1", "--workers", "1", "--executor", "serial", "--no-progress",
-                  "--preset", "spec,tuned", "--out", str(tmp_path / "tr"), env=env)
+                  "--preset", "spec,tuned", "--no-learned-distance", "--out", str(tmp_path / "tr"), env=env)
     assert out.returncode == 0, out.stderr
     # each preset into its own folder; with tuned, every row runs its method's constants
     tuned = json.loads((tmp_path / "tr-tuned" / "summary.json").read_text())
@@ -109,6 +109,7 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     assert (tmp_path / "tr" / "transfer_predictions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     summary = json.loads((tmp_path / "tr" / "summary.json").read_text())
     assert summary["preset"] == "spec" and "the paper's constants" in text
+    assert summary["learned_distance"] is False and "Eq. 6 on the straight line, the paper's" in text
     assert all(c == {"ql": vars(QLConfig()), "priors": vars(PriorConfig())} for row, c in summary["constants"]["32"].items()
                if row != "QL (tuned)")  # the tuned QL row takes searched constants whatever the preset
     done = [r for r in summary["records"] if not r["skipped"]]

@@ -163,12 +163,13 @@ class Evaluation:
         return [float(np.mean(c)) if (c := [r[2] for r in v if r[0]]) else math.inf for v in self.runs.values()]
 
     def path_quality(self) -> dict[str, float]:
-        """Greedy path / A* per problem (:meth:`map_ratios`): ``p95_map`` (the value at or above 95% of the
-        problems, no interpolation: a problem without a converged run is infinite) and ``worst_map`` over the
-        problems; ``worst_run``: the longest single converged run."""
+        """Greedy path / A* per problem (:meth:`map_ratios`): ``p95_map`` (numpy's linear interpolation; with a
+        problem on which no run converged, an infinite ratio, the value at or above 95% of the problems) and
+        ``worst_map`` over the problems; ``worst_run``: the longest single converged run."""
         m = self.map_ratios()
         runs = [r[2] for v in self.runs.values() for r in v if r[0]]
-        p95 = float(np.percentile(m, 95, method="higher")) if m else math.nan
+        finite = bool(m) and all(math.isfinite(x) for x in m)  # interpolation between infinities is undefined
+        p95 = float(np.percentile(m, 95, method="linear" if finite else "higher")) if m else math.nan
         return {"p95_map": p95, "worst_map": max(m, default=math.nan),
                 "worst_run": max(runs, default=math.nan)}
 

@@ -41,7 +41,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--method", required=True, choices=("QL", "O-QL", "IQL"))
     ap.add_argument("--grid", type=int, required=True)
-    ap.add_argument("--study", required=True, help="the search's sqlite file")
+    ap.add_argument("--study", help="the search's sqlite file: its best trial is the candidate")
+    ap.add_argument("--set-priors", default="", help="instead of a study: the preset's entry with these prior "
+                    "constants, e.g. 'r_max=5,G=10' (G sets g_row and g_col)")
     ap.add_argument("--preset", default="general")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--seed0", type=int, default=100, help="first seed (fresh: the searches used 0..4, their checks 5..9)")
@@ -49,7 +51,11 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     preset = load_preset(args.preset)
     ql0, pc0 = preset.configs(args.method, grid=args.grid)
-    name, trials, number, value, params = best_constants(args.study, args.method)
+    if args.study:
+        name, trials, number, value, params = best_constants(args.study, args.method)
+    else:
+        params = {k: float(v) for k, v in (kv.split("=") for kv in args.set_priors.split(","))}
+        name, trials, number, value = f"{args.preset} grid {args.grid} with {args.set_priors}", 0, None, None
     ql1, pc1 = S.configs_from_params(params, ql0, pc0)
     gs = eval_set(eval_spec("select"), progress=False)
     seeds = list(range(args.seed0, args.seed0 + args.seeds))

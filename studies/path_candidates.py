@@ -63,6 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--also", action="append", default=[], help="another preset whose entry for the method is a candidate")
     ap.add_argument("--epsilons", default="", help="also the preset's entry for --grid with each of these epsilons "
                     "(comma-separated): how much exploration keeps the worst map within the bound")
+    ap.add_argument("--scan", default="", help="also the preset's entry for --grid with D-CRF's r_max and G set to "
+                    "each pair of these lists, e.g. 'r_max=5,10,20;G=10,20,46' (a grid scan under the bound)")
     ap.add_argument("--no-spec", action="store_true", help="leave the spec constants out (slow for QL)")
     ap.add_argument("--out")
     args = ap.parse_args(argv)
@@ -76,6 +78,12 @@ def main(argv: list[str] | None = None) -> int:
     base_ql, base_pc = preset.configs(args.method, grid=args.grid)
     cands += [(f"{args.preset} grid {args.grid}, epsilon {e}", replace(base_ql, epsilon=float(e)), base_pc)
               for e in args.epsilons.split(",") if e.strip()]
+    if args.scan:
+        lists = dict(part.split("=") for part in args.scan.split(";"))
+        for r in lists["r_max"].split(","):
+            for g in lists["G"].split(","):
+                cands.append((f"{args.preset} grid {args.grid}, r_max {r}, G {g}", base_ql,
+                              replace(base_pc, r_max=float(r), g_row=float(g), g_col=float(g))))
     for db in args.study:
         for label, params in study_tops(db, args.method, args.top):
             cands.append((label, *S.configs_from_params(params)))
@@ -84,7 +92,8 @@ def main(argv: list[str] | None = None) -> int:
         ev, _ = evaluate(probs, args.method, seeds, ql, pc)
         s = ev.summary()
         row = {"candidate": label, "geomean": s["geomean"], "mean": s["ratio"], "p95_map": s["p95_map"],
-               "worst_map": s["worst_map"], "not_converged": s["not_converged"],
+               "worst_map": s["worst_map"], "worst_run": s["worst_run"], "not_converged": s["not_converged"],
+               "runs": s["runs"],
                "ql": vars(ql), "priors": {k: getattr(pc, k) for k in ("r_max", "g_row", "g_col")}}
         rows.append(row)
         print(f"{label}: geomean {s['geomean']:,.0f}, path mean {s['ratio']:.3f}, p95 {s['p95_map']:.3f}, "

@@ -28,11 +28,12 @@ from ndrql.tuning.objective import PATH_BOUND
 from ndrql.tuning.report import path_verdict
 
 
-def measure(preset: Preset, problems, seeds: list[int], grid: int | None) -> dict[str, dict]:
-    """Per method of the preset: mean greedy path / A*, its 95th percentile and worst over maps, the worst run."""
+def measure(preset: Preset, problems, seeds: list[int], grid: int | None, only: list[str] | None = None) -> dict[str, dict]:
+    """Per method of the preset (or of ``only``): mean greedy path / A*, its 95th percentile and worst over
+    maps, the worst run."""
     out = {}
     methods = preset.grids[grid] if grid is not None else preset.methods
-    for m in methods:
+    for m in [m for m in methods if only is None or m in only]:
         ql, pc = preset.configs(m, grid=grid)
         ev, _ = evaluate(problems, m, seeds, ql, pc)
         s = ev.summary()
@@ -52,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("preset", choices=("general", "tuned"), help="the shipped preset to measure")
     ap.add_argument("--data", help="dataset root (tuned: the paper's validation maps)")
+    ap.add_argument("--methods", help="general: measure only these methods (comma-separated) and keep the record's "
+                    "other entries (after a change of one method's constants)")
     args = ap.parse_args(argv)
     preset = load_preset(args.preset)
     meta = dict(preset.meta)
@@ -63,7 +66,9 @@ def main(argv: list[str] | None = None) -> int:
             problems, _, _ = generated_problems(search["samples"], n, "general")
             if [p.key for p in problems] != search["problems"]:
                 return _refuse(f"grid {n}: the tune set's problems differ from the search's")
-            grids[str(n)] = measure(preset, problems, meta["grids"][str(n)]["check_seeds"], n)
+            only = args.methods.split(",") if args.methods else None
+            old = meta.get("path_quality", {}).get("grids", {}).get(str(n), {}) if only else {}
+            grids[str(n)] = {**old, **measure(preset, problems, meta["grids"][str(n)]["check_seeds"], n, only)}
         record = {"weights_sha256_16": file_digest(weights)[:16], "grids": grids}
     else:
         from ndrql.dataset.layout import resolve_root

@@ -11,17 +11,15 @@
   as trial 0, the same for every method. With ``start_from``, trial 1 is that preset's constants for
   the method (e.g. a search on other maps), so the search starts from the best point known.
 - **Objective**: pooled convergence steps, or their geometric mean (``objective``; for maps of many
-  sizes and families, :mod:`ndrql.tuning.objective`), minimised, under three
-  constraints (Optuna's constrained TPE): the mean greedy path / A* is no worse than with the SPEC
-  constants, no more runs fail to converge than with them, and on the worst map the greedy path / A*
-  (mean over the seeds) is within :data:`~ndrql.tuning.objective.PATH_BOUND`. During a search a run may take at
-  most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not converge within
-  that is pruned on the spot (it already breaks the second constraint). After each chunk of maps
+  sizes and families, :mod:`ndrql.tuning.objective`), minimised, under three constraints (Optuna's
+  constrained TPE): the mean greedy path / A* no worse than the SPEC constants', no more runs unconverged,
+  and the worst map's greedy path / A* (mean over seeds) within :data:`~ndrql.tuning.objective.PATH_BOUND`.
+  A run may take at most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not
+  converge within that is pruned on the spot (it breaks the second constraint). After each chunk of maps
   (from the ``prune_warmup``-th on) a trial is also pruned when it is hopeless: its running mean of
   steps is more than ``prune_factor`` times the best feasible trial's at the same point, or its
   running greedy path / A* is more than ``ratio_margin`` above the SPEC point's at the same point.
-  (A median pruner does not fit a constrained search: fast trials with bad paths drag the median
-  below every feasible trial.)
+  (A median pruner does not fit a constrained search: fast trials with bad paths drag it down.)
 - **Name**: the study's name holds the method and a digest of everything that defines the
   objective (maps, seeds, caps, search space), so changing any of them starts a new study.
 """
@@ -202,9 +200,7 @@ def _has_set_constraint() -> bool:
     return hasattr(optuna.trial.Trial, "set_constraint")
 
 
-#: The constraints of a trial (each feasible at <= 0): mean path no worse than spec's, no more runs unconverged,
-#: and the worst map's path within :data:`~ndrql.tuning.objective.PATH_BOUND` (a study without that value,
-#: searched before it existed, reads it as met).
+#: A trial's constraints, each met at <= 0 (module docstring; a trial from before ``c_worst_map`` reads it as met).
 CONSTRAINTS = ("c_ratio", "c_not_converged", "c_worst_map")
 
 
@@ -224,11 +220,9 @@ def open_study(cfg: TuneConfig, name: str, storage: Any) -> Any:
 
 
 def _constraint_values(ev: Evaluation, baseline: dict[str, Any]) -> dict[str, float]:
-    ratio = ev.ratio if math.isfinite(ev.ratio) else 1e9
-    worst = ev.path_quality()["worst_map"]
-    return {"c_ratio": ratio - float(baseline["ratio"]),
-            "c_not_converged": float(ev.not_converged - int(baseline["not_converged"])),
-            "c_worst_map": (worst if math.isfinite(worst) else 1e9) - PATH_BOUND}
+    ratio, worst = (x if math.isfinite(x) else 1e9 for x in (ev.ratio, ev.path_quality()["worst_map"]))
+    return {"c_ratio": ratio - float(baseline["ratio"]), "c_worst_map": worst - PATH_BOUND,
+            "c_not_converged": float(ev.not_converged - int(baseline["not_converged"]))}
 
 
 def _set_constraints(trial: Any, values: dict[str, float]) -> None:

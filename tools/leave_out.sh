@@ -1,11 +1,19 @@
 #!/usr/bin/env bash
-# Leave-families-out transfer (docs/results.md#transfer): one reference run on all 12 families and
+# Leave-families-out transfer (docs/history.md#leave-families-out): one reference run on all 12 families and
 # one run per group of 3 families left out, all with the same short budget, warm-started from the
 # paper model on the same generated set (tools/train_general.sh); then each model plans the held-out
 # evaluation set (`ndrql reproduce transfer`), so a family's drop is (excluded run) - (reference run)
 # on that family. Resumable: run it again after an interruption.
 #
 #   tools/leave_out.sh                 # 5 runs x EPOCHS x STEPS, then 5 transfer reports
+#
+# Leave relatives out: a family's close relatives share its structure, so leaving one out alone
+# overstates transfer. Relatives (docs/map-engine.md): traps (bugtrap, bugtraps); walls with openings
+# (gaps, gaps_blocks, narrow_passage); scattered obstacles (blocks, scatter); buildings (rooms, office,
+# ros_scan); lattices of corridors (maze, warehouse). One run per group:
+#   GROUPS_="none bugtrap,bugtraps gaps,gaps_blocks,narrow_passage blocks,scatter rooms,office,ros_scan maze,warehouse" \
+#     OUT=results/leave-relatives-out tools/leave_out.sh
+# The transfer reports run on the development set `transfer` (docs/results.md#evaluation-sets-and-how-often-they-were-read).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}

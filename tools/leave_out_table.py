@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from ndrql.experiments.report import md_table
-from ndrql.experiments.transfer import summarize
+from ndrql.experiments.transfer_report import MODEL, summarize
 
 REFERENCE = "lofo-none"
 
@@ -48,12 +48,20 @@ def _split(text: str) -> list[str]:
     return out
 
 
+def _pct(s: dict, key: str) -> str:
+    return f"{100 * (s['rows'][MODEL][key]['ratio'] - 1):+.1f}%"
+
+
+def _wins(s: dict) -> str:
+    return f"{100 * s['rows'][MODEL]['against_iql']['win_share']:.0f}%"
+
+
 def table(out: Path) -> str:
     ref = load(out / REFERENCE)
     runs = excluded_by(out)
     grids = sorted({r["n"] for r in ref})
     head = ["family", "left out in", "grid", "maps", "region F1 (all / without)", "share of oracle (all / without)",
-            "NDR-QL vs QL (all / without)", "beats IQL (all / without)"]
+            "NDR-QL vs QL, geomean (all / without)", "clear wins over IQL (all / without)"]
     rows = []
     for fam in sorted(runs):
         other = load(out / runs[fam])
@@ -66,8 +74,8 @@ def table(out: Path) -> str:
             rows.append([fam, runs[fam].removeprefix("lofo-"), str(n), str(a["maps"]),
                          f"{a['region_f1']:.1f} / {b['region_f1']:.1f} ({b['region_f1'] - a['region_f1']:+.1f})",
                          f"{100 * a['share']:.0f}% / {100 * b['share']:.0f}% ({100 * (b['share'] - a['share']):+.0f} pt)",
-                         f"{100 * a['vs_ql']['NDR-QL (model)']:+.1f}% / {100 * b['vs_ql']['NDR-QL (model)']:+.1f}%",
-                         f"{100 * a['beats_iql']:.0f}% / {100 * b['beats_iql']:.0f}%"])
+                         f"{_pct(a, 'vs_ql')} / {_pct(b, 'vs_ql')}",
+                         f"{_wins(a)} / {_wins(b)}"])
     return md_table(head, rows) + "\n"
 
 

@@ -6,8 +6,10 @@
 #   tools/train_general.sh                       # defaults below; state under $NDRQL_CACHE
 #   EPOCHS=4 STEPS=500 tools/train_general.sh    # a shorter schedule
 #
-# Seeds of training sets stay below 900000: the evaluation sets (src/ndrql/experiments/transfer_sets.json)
-# use 900000 and above. EXCLUDE=maze,office trains on the same generated set without those families
+# SEED is the seed of the generated training maps: 0..899999 (ndrql.limits.TRAINING_SEEDS; `ndrql data
+# generate` and `ndrql train` refuse the evaluation seeds above). TRAIN_SEED is the training run's own
+# seed (initialisation of new heads, batch order, augmentation): variance over training, e.g.
+#   EPOCHS=2 STEPS=1000 TRAIN_SEED=1 TAG=var-s1 tools/train_general.sh EXCLUDE=maze,office trains on the same generated set without those families
 # (leave-families-out runs: `ndrql train --exclude-families`). INIT= warm-starts from other weights
 # (e.g. src/ndrql/data/ndr_general.pt to continue the shipped model); EXTRA=DIR:W adds a source.
 # DISTANCE=1 trains only a goal-distance head on the fixed trunk of INIT (--distance-head --train-only distance):
@@ -23,11 +25,12 @@ cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
 CACHE=${NDRQL_CACHE:-$HOME/.cache/ndrql}
 DATA=${DATA:-../shared/data/path-planning-dataset}
-MODE=${MODE:-grid}                 # what the model sees (docs/results.md#ceiling): grid or map
+MODE=${MODE:-grid}                 # what the model sees (docs/history.md#ceiling): grid or map
 GRIDS=${GRIDS:-40,50,64,80,100,128}
 COUNT=${COUNT:-20000}
 SIZES=${SIZES:-201,401,801}
 SEED=${SEED:-1}
+TRAIN_SEED=${TRAIN_SEED:-0}
 EPOCHS=${EPOCHS:-10}
 STEPS=${STEPS:-1000}
 LR=${LR:-1e-3}
@@ -53,5 +56,5 @@ HEAD=()
 [ -n "$DISTANCE" ] && HEAD=(--distance-head --train-only distance ${DECODER:+--distance-decoder "$DECODER"} ${RANKING:+--distance-rank "$RANKING"})
 exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3${EXTRA:+,$EXTRA}" --input-mode "$MODE" --grid-sizes "$GRIDS" \
     --exclude-families "$EXCLUDE" --init-weights "$INIT" --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
-    --warmup-steps 100 --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
+    --warmup-steps 100 --seed "$TRAIN_SEED" --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
     --no-progress --run-dir "$RUN" "${HEAD[@]}" "${RESUME[@]}"

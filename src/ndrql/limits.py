@@ -13,8 +13,8 @@ import math
 
 from ndrql.errors import brief
 
-__all__ = ["MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "check_finite", "check_int",
-           "check_seeds"]
+__all__ = ["DEVELOPMENT_SEEDS", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEALED_SEEDS", "SEED_LIMIT",
+           "TRAINING_SEEDS", "check_finite", "check_int", "check_seeds", "check_training_seed", "seed_role"]
 
 SEED_LIMIT = 2**63
 """Seeds are ``0 <= seed < 2**63``: numpy, torch and the planning kernel all take them as 64-bit integers."""
@@ -26,6 +26,36 @@ MAX_THREADS = 1024
 """Most threads for a forward pass or training."""
 MAX_GRID_SIZE = 1024
 """Largest planning grid for A* and ``map info`` (cells on a side; Q-learning has its own, smaller limit)."""
+
+#: Seeds of generated maps, by what the maps are for (the one home of these ranges). A set of generated
+#: maps takes one seed; sample ``i`` depends only on ``(seed, i)``, so sets with seeds in different
+#: ranges never share a draw.
+TRAINING_SEEDS = range(0, 900_000)
+"""Training sets and any other data a model or a preset learns from (``ndrql data generate``, ``ndrql train``)."""
+DEVELOPMENT_SEEDS = range(900_000, 950_000)
+"""Development evaluation sets (``transfer``, ``select``, ``tune``, ...): used to choose, so never the release's evidence."""
+SEALED_SEEDS = range(950_000, 1_000_000)
+"""Sealed evaluation sets: evaluated only by ``ndrql reproduce release``, which counts every run in its ledger."""
+
+
+def seed_role(seed: int) -> str:
+    """What generated maps of ``seed`` are for: ``training``, ``development``, ``sealed`` or ``unassigned``
+    (1,000,000 and above: no set of the project uses them)."""
+    for name, seeds in (("training", TRAINING_SEEDS), ("development", DEVELOPMENT_SEEDS), ("sealed", SEALED_SEEDS)):
+        if seed in seeds:
+            return name
+    return "unassigned"
+
+
+def check_training_seed(seed: object, name: str = "--seed") -> int:
+    """``seed`` if it is a training seed (:data:`TRAINING_SEEDS`), else ``ValueError`` naming the evaluation
+    range it falls in: maps drawn from an evaluation seed would be trained on and then evaluated."""
+    check_int(seed, name, 0, SEED_LIMIT - 1)
+    if seed not in TRAINING_SEEDS:
+        role = seed_role(seed)  # type: ignore[arg-type]
+        why = f"{role} evaluation sets use it" if role != "unassigned" else "seeds from 1,000,000 up are unassigned"
+        raise ValueError(f"{name} {seed} is not a training seed (0..{TRAINING_SEEDS.stop - 1:,}): {why}")
+    return seed  # type: ignore[return-value]
 
 
 def check_int(value: object, name: str, lo: int, hi: int | None = None) -> int:

@@ -93,25 +93,29 @@ def test_reproduce_transfer_end_to_end(tmp_path, ndrql_exe, monkeypatch):
     env = {**os.environ, "NDRQL_CACHE": str(tmp_path / "cache")}
     out = run_cli(ndrql_exe, "reproduce", "transfer", "--eval-set", "transfer-small", "--grids", "32", "--seeds", "2",
                   "--per-family", "1", "--workers", "1", "--executor", "serial", "--no-progress",
-                  "--preset", "spec,tuned", "--out", str(tmp_path / "tr"), env=env)
+                  "--preset", "spec,tuned", "--no-learned-distance", "--out", str(tmp_path / "tr"), env=env)
     assert out.returncode == 0, out.stderr
     # each preset into its own folder; with tuned, every row runs its method's constants
     tuned = json.loads((tmp_path / "tr-tuned" / "summary.json").read_text())
     assert tuned["preset"] == "tuned" and "constants of preset 'tuned'" in (tmp_path / "tr-tuned" / "transfer.md").read_text()
     at32 = tuned["constants"]["32"]  # the constants of each grid size the report planned on
-    assert at32["QL"]["ql"] == vars(load_preset("tuned").configs("QL")[0])
+    assert at32["QL (tuned)"]["ql"] == vars(load_preset("tuned").configs("QL")[0])  # grid 32: the nearest, 50
+    assert at32["QL"]["ql"] == vars(QLConfig())  # the paper's QL whatever the preset
     assert at32["NDR-QL (oracle)"] == at32["NDR-QL (model)"] != at32["QL"]
+    assert at32["IQL (BFS distance)"] == at32["IQL"]
     text = (tmp_path / "tr" / "transfer.md").read_text()
     assert "| **all** |" in text and "share of oracle" in text and "Planning grid 32" in text
     assert "![predictions](transfer_predictions.png)" in text
     assert (tmp_path / "tr" / "transfer_predictions.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     summary = json.loads((tmp_path / "tr" / "summary.json").read_text())
     assert summary["preset"] == "spec" and "the paper's constants" in text
-    assert all(c == {"ql": vars(QLConfig()), "priors": vars(PriorConfig())} for c in summary["constants"]["32"].values())
+    assert summary["learned_distance"] is False and "Eq. 6 on the straight line, the paper's" in text
+    assert all(c == {"ql": vars(QLConfig()), "priors": vars(PriorConfig())} for row, c in summary["constants"]["32"].items()
+               if row != "QL (tuned)")  # the tuned QL row takes searched constants whatever the preset
     done = [r for r in summary["records"] if not r["skipped"]]
     assert done and all(len(r["runs"]["QL"]["steps"]) == 2 for r in done)
     # the share divides reductions of the same runs: recompute it from the records
-    from ndrql.experiments.transfer import summarize
+    from ndrql.experiments.transfer_report import summarize
 
     s = summarize(summary["records"])
     ql = sum(sum(r["runs"]["QL"]["steps"]) for r in done)

@@ -3,8 +3,8 @@
 F1 as in the paper (docs/method.md): threshold 0.5, pixel-wise per image, mean over the split, also per category.
 On UNSEEN the 300 NARROW PASSAGE region labels are broken upstream; the main column uses the labels
 regenerated from the guideline, and an extra column scores against the original (upstream) labels.
-With --prior-from oracle the oracle's arrays (the safe planning grid's own shortest path drawn like the
-dataset's labels) are scored in place of a model, as a grid-mode model is: the best a prediction on
+With --prior-from oracle the oracle's arrays (an 8-connected shortest path of the safe planning grid with
+shortcuts, drawn like the dataset's labels) are scored in place of a model, as a grid-mode model is: the best a prediction on
 that grid can score against the dataset's labels (a diagnostic, not a model).
 """
 
@@ -139,8 +139,8 @@ def _eval_oracle(args: argparse.Namespace, root) -> int:
     ge = evaluate_oracle(data, indices, n=args.grid, batch_size=min(args.batch_size, 16), progress=True)
     rows = category_rows(ge.dataset, CATEGORIES[args.split], grid=(ge.grid_region_f1, ge.grid_guideline_f1))
     title = (f"{args.split} ({len(indices)} samples, oracle priors); the oracle's arrays on the safe {args.grid}x{args.grid} "
-             f"grid (larger where start and goal need it: {int((ge.sizes > args.grid).sum())} maps): the grid's own shortest "
-             "path drawn like the dataset's labels, each map pixel scored with its cell's mean")
+             f"grid (larger where start and goal need it: {int((ge.sizes > args.grid).sum())} maps): an 8-connected shortest "
+             "path of the grid with shortcuts, drawn like the dataset's labels, each map pixel scored with its cell's mean")
     table = markdown_table(rows, title, args.split == "unseen")
     print(table)
     if args.markdown:

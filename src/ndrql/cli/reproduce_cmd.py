@@ -20,7 +20,7 @@ from ndrql.planning.preset import builtin_path, load_preset
 from ndrql.synth.oracle import PRIOR_SOURCES
 from ndrql.workers import ray_available
 
-TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "all")
+TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "release", "all")
 
 EXAMPLES = """examples:
   ndrql reproduce table3                       # 8 fixed maps x QL, O-QL, IQL, NDR-QL x 10 seeds -> results/table3/
@@ -30,7 +30,9 @@ EXAMPLES = """examples:
   ndrql reproduce table4 --run --epochs 2      # trains every Table 4 variant (resumable), then evaluates them
   ndrql reproduce sizing                       # validation F1 per training hour by width and precision
   ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
-  ndrql reproduce transfer --grids 50,100      # held-out generated maps of every family: model vs oracle vs QL/IQL
+  ndrql reproduce transfer --grids 50,100      # the development set of generated maps: every row, every family
+  ndrql reproduce transfer --preset spec --no-learned-distance   # the paper's Eq. 6 (straight line) with the general weights
+  ndrql reproduce release                      # the sealed sets, once per release (counted in docs/release/ledger.json)
   ndrql reproduce scale --grids 50,100         # also on the 100x100 grid -> results/scale-g100/
   ndrql reproduce table3 --prior-from oracle   # NDR-QL with the oracle's priors (a diagnostic) -> results/table3-oracle/
   ndrql reproduce dynamic
@@ -78,19 +80,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "the paper's grid, sizes other than 50 into results/scale-g<N> (default: 50)")
     p.add_argument("--prior-from", choices=PRIOR_SOURCES, default="model",
                    help="table3/scale: priors of the NDR-QL row, from the model (--weights; the table adds a row with "
-                   "the oracle's priors and the model's share of its reduction) or the oracle (the grid's own shortest "
-                   "path: a diagnostic, default --out results/<target>-oracle) (default: model)")
+                   "the oracle's priors and the model's share of its reduction) or the oracle (an 8-connected shortest "
+                   "path of the grid with shortcuts, drawn as the labels are: a diagnostic, default --out results/<target>-oracle) (default: model)")
     p.add_argument("--per-family", type=int, default=None, metavar="N",
                    help="transfer: at most N maps per family of the evaluation set (default: all)")
-    p.add_argument("--eval-set", default="transfer", metavar="NAME",
-                   help="transfer: evaluation set of transfer_sets.json (default: transfer)")
+    p.add_argument("--eval-set", default=None, metavar="NAME",
+                   help="transfer: a development set of transfer_sets.json (default: transfer, the development report; sealed "
+                   "sets are refused: only the release target reads them); release: sealed sets, comma-separated "
+                   "(default: every sealed set)")
+    p.add_argument("--learned-distance", action=argparse.BooleanOptionalAction, default=True,
+                   help="transfer: Eq. 6 on the model's learned distance when the weights have a distance head; "
+                   "--no-learned-distance: the straight line, the paper's Eq. 6 (default: on)")
+    p.add_argument("--ledger", metavar="FILE", default="docs/release/ledger.json",
+                   help="release: the ledger that counts every evaluation of a sealed set, updated before the sets "
+                   "are read (default: docs/release/ledger.json of the checkout it runs in)")
+    p.add_argument("--allow-dirty", action="store_true",
+                   help="release: run with uncommitted changes (the ledger records the commit as -dirty)")
     add_symmetries_argument(p, "a grid-mode model's prediction (--weights general) is averaged over N orientations of "
                             "the grid, as ndrql plan does (1, 2, 4, 8; the paper's model is never averaged)", DEFAULT_COUNT)
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
                    "separated by commas, each run into its own folder and compared side by side (default: spec,tuned "
-                   "for table2, table3 and scale; spec for dynamic and transfer); flags below override a preset's values")
+                   "for table2, table3 and scale; spec for dynamic and transfer; general for release, with --weights "
+                   "general); flags below override a preset's values")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
@@ -137,12 +150,33 @@ def _presets(args: argparse.Namespace, target: str) -> list:
     names = args.preset
     if names is None:
         names = "spec,tuned" if target in ("table2", "table3", "scale") and builtin_path("tuned").is_file() else "spec"
+        names = "general" if target == "release" else names
     ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
     pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
     out = [load_preset(n.strip()).with_overrides(ql, pri) for n in names.split(",") if n.strip()]
     if not out:
         raise NdrqlError("--preset is empty; give spec, tuned or a preset file")
     return out
+
+
+def _release(args: argparse.Namespace, opts, out: Path, log) -> str:
+    """``reproduce release``: every sealed set (or ``--eval-set``'s), one preset, counted in the ledger."""
+    from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
+    from ndrql.experiments.eval_sets import sealed_names  # lazy: loads scipy
+    from ndrql.experiments.release import check_sealed_names, release  # lazy: loads scipy and tqdm
+
+    names = check_sealed_names([n.strip() for n in args.eval_set.split(",") if n.strip()] if args.eval_set
+                               else sealed_names())
+    if args.per_family is not None:
+        raise NdrqlError("--per-family does not apply to release: a sealed set is evaluated whole")
+    presets = _presets(args, "release")
+    if len(presets) != 1:
+        raise NdrqlError("release takes one --preset")
+    paths = release(out, names, ledger=args.ledger, allow_dirty=args.allow_dirty, weights=args.weights or "general",
+                    preset=presets[0], grids=parse_sizes(args.grids or "50,100"), seeds=args.seeds, seed0=args.seed,
+                    workers=args.workers, executor=args.executor, progress=not args.no_progress,
+                    command=opts.command, log=log)
+    return ", ".join(str(x) for x in paths)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -185,15 +219,21 @@ def run(args: argparse.Namespace) -> int:
             from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
             from ndrql.experiments.transfer import transfer  # lazy: loads scipy and tqdm
 
+            from ndrql.experiments.eval_sets import eval_spec  # lazy: loads scipy
+
+            set_name = args.eval_set or "transfer"
+            eval_spec(set_name)  # an unknown or sealed set is one line now, before the model loads
             if args.per_family is not None:
                 check_int(args.per_family, "--per-family", 1)
             grids = parse_sizes(args.grids or "50,100")
             paths = run_presets(target, lambda o, d: transfer(
-                d, weights=args.weights, set_name=args.eval_set, grids=grids, seeds=args.seeds, seed0=args.seed,
+                d, weights=args.weights, set_name=set_name, grids=grids, seeds=args.seeds, seed0=args.seed,
                 per_family=args.per_family, workers=args.workers, executor=args.executor, progress=not args.no_progress,
-                command=opts.command, log=log, preset=o.preset, symmetries=args.symmetries), opts, out,
-                _presets(args, target), log=log)
+                command=opts.command, log=log, preset=o.preset, symmetries=args.symmetries,
+                learned_distance=args.learned_distance), opts, out, _presets(args, target), log=log)
             path = ", ".join(str(x) for x in paths)
+        elif target == "release":
+            path = _release(args, opts, out, log)
         elif target == "sizing":
             from ndrql.experiments.sizing import sizing  # lazy: loads torch
 

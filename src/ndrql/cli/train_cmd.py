@@ -56,6 +56,13 @@ def run(args: argparse.Namespace) -> int:
     from ndrql.dataset.mixture import parse_families  # lazy: loads scipy
 
     parse_families(cfg.exclude_families)  # an unknown family: the same
+    if cfg.sources:
+        from ndrql.dataset.generated import check_training_dir  # lazy: loads scipy
+        from ndrql.dataset.mixture import parse_sources  # lazy: loads scipy
+
+        for src in parse_sources(cfg.sources):  # a set drawn from an evaluation seed: one line before any work
+            if src.name != "paper":
+                check_training_dir(src.name)
     run_dir = args.run_dir or default_run_dir(cfg.model)
     if args.resume and not (run_dir / "last.pt").is_file():  # the loop says the same; here before the data loads
         raise CheckpointError(f"--resume: there is no {run_dir / 'last.pt'} to continue; drop --resume to start a new run")

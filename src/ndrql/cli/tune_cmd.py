@@ -49,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="paper: the model's validation split of the paper's TRAIN maps on 50x50 grids (default); "
                    "generated: the held-out generated set 'tune' on the safe grid of --grid cells")
     p.add_argument("--eval-set", metavar="NAME", default="tune", help="--maps generated: the versioned set of generated "
-                   "maps to search on (default: tune; the reported 'transfer' and the 'select' sets are refused)")
+                   "maps to search on (default: tune; the development report 'transfer', the 'select' set and every sealed set "
+                   "are refused)")
     p.add_argument("--grid", type=int, default=50, metavar="N", help="--maps generated: planning grid size (default: 50)")
     p.add_argument("--grids", metavar="LIST", default="50,100",
                    help="--maps generated with --export-preset: the grid sizes whose studies the preset collects, "
@@ -162,6 +163,10 @@ def run(args: argparse.Namespace) -> int:
         raise NdrqlError("--methods is empty")
     if args.start_from:
         load_preset(args.start_from)  # an unknown preset is one line now, not after the maps are built
+    if args.maps == "generated":
+        from ndrql.experiments.eval_sets import tuning_spec  # lazy: loads scipy
+
+        tuning_spec(args.eval_set)  # a sealed set, or one that reports or checks, is one line now
     grids = _grids(args)
     cfgs = [_tune_config(args, m, grids[0]) for m in methods]
     if args.export_preset:

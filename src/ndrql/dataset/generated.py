@@ -24,6 +24,7 @@ import numpy as np
 
 from ndrql.errors import DatasetError, NdrqlError
 from ndrql.io import save_npz, write_json
+from ndrql.limits import DEVELOPMENT_SEEDS, SEALED_SEEDS, check_training_seed
 from ndrql.synth.generate import RawSample, SetSpec, generate_sample
 from ndrql.workers import process_pool
 
@@ -81,15 +82,57 @@ def read_manifest(root: str | Path) -> dict:
     return data
 
 
+#: What a generated set is for: its seed must be in the matching range of :mod:`ndrql.limits`.
+PURPOSES = ("training", "evaluation")
+
+
+def check_purpose(seed: int, purpose: str) -> None:
+    """Refuse a set seed outside the range of ``purpose``: ``training`` takes :data:`~ndrql.limits.TRAINING_SEEDS`
+    only (maps a model or preset learns from never come from an evaluation seed), ``evaluation`` the
+    development or sealed ranges (the registry of evaluation sets, ``ndrql.experiments.eval_sets``)."""
+    if purpose not in PURPOSES:
+        raise ValueError(f"purpose must be one of {', '.join(PURPOSES)}, got {purpose!r}")
+    if purpose == "training":
+        try:
+            check_training_seed(seed, "--seed")
+        except ValueError as exc:
+            raise NdrqlError(str(exc)) from None
+    elif seed not in DEVELOPMENT_SEEDS and seed not in SEALED_SEEDS:
+        raise NdrqlError(f"evaluation sets take seeds {DEVELOPMENT_SEEDS.start}..{SEALED_SEEDS.stop - 1:,}, got {seed}")
+
+
+def check_training_seed_of(root: str | Path, seed: int) -> None:
+    """Refuse to train on the generated set at ``root`` drawn with ``seed`` if that is an evaluation seed."""
+    try:
+        check_purpose(seed, "training")
+    except NdrqlError:
+        raise NdrqlError(f"{root} was drawn with seed {seed}, an evaluation seed: it cannot be a "
+                         f"training source (training seeds are 0..{DEVELOPMENT_SEEDS.start - 1:,})") from None
+
+
+def check_training_set(gs: "GeneratedSet") -> None:
+    """Refuse to train on a generated set drawn from an evaluation seed (:func:`check_purpose`)."""
+    check_training_seed_of(gs.root, gs.spec.seed)
+
+
+def check_training_dir(root: str | Path) -> None:
+    """:func:`check_training_set` from the manifest alone (before any shard is read)."""
+    check_training_seed_of(root, int(read_manifest(root)["spec"]["seed"]))
+
+
 def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bool = True,
-                 shard_size: int = SHARD_SIZE, log: Callable[[str], None] | None = None) -> Path:
+                 shard_size: int = SHARD_SIZE, log: Callable[[str], None] | None = None,
+                 purpose: str = "training") -> Path:
     """Write (or complete) the set ``spec`` under ``root``; returns ``root``.
 
     An existing set with another spec is refused, never mixed or replaced. Missing shards are
     written; existing ones are kept (each shard is written atomically, so none is ever partial).
+    ``purpose``: ``training`` (``ndrql data generate``) refuses a seed outside the training range,
+    ``evaluation`` (the registry's sets) one outside the evaluation ranges (:func:`check_purpose`).
     """
     from tqdm import tqdm
 
+    check_purpose(spec.seed, purpose)
     root = Path(root)
     if root.exists() and not root.is_dir():
         raise NdrqlError(f"--out {root} exists and is not a directory")

@@ -23,7 +23,7 @@ import numpy as np
 from ndrql.dataset.batches import transform_array, transform_point
 from ndrql.dataset.cache import SplitArrays, unpack
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.generated import GeneratedSet
+from ndrql.dataset.generated import GeneratedSet, check_training_set
 from ndrql.dataset.render import DISTANCE_UNIT, Rendered, input_side, manhattan_pixels, render
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
@@ -110,6 +110,7 @@ def generated_source(spec: SourceSpec, val_fraction: float = VAL_FRACTION, exclu
     """A generated set; its last ``val_fraction`` of samples is the validation part. Samples of the
     families in ``exclude`` are in neither part (leave-families-out training)."""
     gs = GeneratedSet.load(Path(spec.name))
+    check_training_set(gs)
     n = len(gs)
     n_val = max(1, int(round(val_fraction * n))) if n > 1 else 0
     if exclude:

@@ -2,8 +2,8 @@
 
 For each held-out map and planning-grid size ``n`` the planner solves the conservative grid
 (:func:`ndrql.maps.safe.conservative_grid`). On it run, with the same seeds: QL, IQL, NDR-QL with the
-model's region and guideline, and NDR-QL with the *oracle's* (the grid's own shortest path drawn
-as the dataset draws its labels, :func:`ndrql.synth.oracle.oracle_prediction`). The model's share
+model's region and guideline, and NDR-QL with the *oracle's* (an 8-connected shortest path of the grid
+with line-of-sight shortcuts, drawn as the dataset draws its labels, :func:`ndrql.synth.oracle.oracle_prediction`). The model's share
 of the oracle's reduction is ``(1 - NDR/QL) / (1 - oracle/QL)`` on pooled steps, computed from the
 same runs as the rows it divides. Runs that do not converge count with the steps they used.
 """
@@ -56,6 +56,13 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
         if cells is not None:
             return GridCase(name, group, obstacles, start, goal, size, blocked, *cells)
     return None
+
+
+def larger_sizes(n: int) -> tuple[int, ...]:
+    """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to ``min(2n, 128)``."""
+    from ndrql.maps.sizing import SIZE_LADDER  # lazy: loads numba
+
+    return tuple(s for s in SIZE_LADDER if n < s <= min(2 * n, 128))
 
 
 def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, ...]:

@@ -1,13 +1,13 @@
 """F1 of a ``grid``-mode model on the paper's splits, scored two ways.
 
 A grid-mode model never sees the 201 px map: it sees the safe planning grid of ``n`` cells (50 for
-the paper's setting) at 4 px per cell and predicts there (``docs/results.md#ceiling``). So its F1 on
+the paper's setting) at 4 px per cell and predicts there (``docs/history.md#ceiling``). So its F1 on
 the paper's test splits is measured
 
 - against the **dataset's labels** at 201 px: each map pixel takes the mean probability of its
   planning cell (exact 4x4 means), thresholded at 0.5, as the planner uses it; comparable with the
   paper model's F1, though a 4.02 px cell can never draw the dataset's 2 px guideline exactly;
-- against the **grid's labels**: the planning grid's own shortest path drawn like the dataset's labels
+- against the **grid's labels**: an 8-connected shortest path of the planning grid with shortcuts, drawn like the dataset's labels
   (the oracle arrays; what the model was trained to predict).
 
 A sample whose start and goal do not connect on the grid of ``n`` cells is rendered at the next size of
@@ -31,9 +31,9 @@ from ndrql.dataset.batches import make_batch
 from ndrql.dataset.cache import SplitArrays
 from ndrql.dataset.mixture import stack
 from ndrql.dataset.render import Rendered, render_grid
-from ndrql.experiments.transfer import larger_sizes
 from ndrql.model.symmetry import averaged
 from ndrql.dataset.render import to_map_pixels
+from ndrql.experiments.ceiling import larger_sizes
 from ndrql.training.evaluate import EvalResult, predict_batch
 from ndrql.training.metrics import f1_per_image
 

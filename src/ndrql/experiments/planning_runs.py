@@ -77,7 +77,7 @@ class SweepOptions:
     preset: Any = None
     """A :class:`~ndrql.planning.preset.Preset` giving each row its constants (``None``: ``ql`` and ``priors``)."""
     prior_from: str = "model"
-    """Priors of the NDR rows: ``model`` (``weights``) or ``oracle`` (the grid's own shortest path; a diagnostic)."""
+    """Priors of the NDR rows: ``model`` (``weights``) or ``oracle`` (an 8-connected shortest path of the grid with shortcuts, drawn as the labels are; a diagnostic)."""
     symmetries: int = DEFAULT_SYMMETRIES
     """A grid-mode model's prediction is averaged over this many orientations of the grid, as ``ndrql plan`` does
     (map-mode models, the paper's, are never averaged)."""

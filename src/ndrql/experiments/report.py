@@ -111,7 +111,7 @@ def planning_header(title: str, opts: Any, info: dict, predictions: Any, extra: 
              f"PriorConfig {asdict(opts.priors)}."]
     if getattr(predictions, "prior_from", None) == "oracle":
         lines += ["", f"NDR priors: **{predictions.weights}** in place of a model: region and guideline drawn from each "
-                  "planning grid's own shortest path as the dataset draws its labels (a diagnostic, not a method)."]
+                  "planning grid's 8-connected shortest path with line-of-sight shortcuts, as the dataset draws its labels (a diagnostic, not a method)."]
     elif predictions is not None:
         lines += ["", f"NDR weights: `{predictions.weights}` (sha256 {predictions.digest})."]
     if opts.preset is not None:
@@ -124,7 +124,7 @@ def planning_header(title: str, opts: Any, info: dict, predictions: Any, extra: 
 
 #: What the share tables say about the oracle row and the share (tables 3 and scale).
 SHARE_NOTE = ("*{oracle}* is {row} with the **oracle's priors** in place of the model's: region and guideline drawn from "
-              "each planning grid's own shortest path as the dataset draws its labels, then Eqs. 3-7 as for the model "
+              "an 8-connected shortest path of each planning grid with line-of-sight shortcuts, as the dataset draws its labels, then Eqs. 3-7 as for the model "
               "(a diagnostic of a perfect prediction, not a method); same maps, seeds and constants. Share of the oracle's "
               "reduction = (1 - {row}/QL) / (1 - oracle/QL) on steps pooled over the same maps and seeds (a run that did not "
               "converge counts the steps it ran); steps below are per run, every run.")

@@ -2,7 +2,10 @@
 
 The confidence interval is the Student-t interval of the mean, as in
 :func:`ndrql.planning.results.summarize` (which this module reuses); a share of maps (e.g. "beats
-IQL") takes the Wilson score interval (:func:`wilson_interval`).
+IQL") takes the Wilson score interval (:func:`wilson_interval`). Comparisons of two methods over maps
+lead with the geometric mean of the per-map step ratios and a seeded bootstrap interval over the maps
+(:func:`geomean_ratio`); a single map is a clear win, a tie or a clear loss by a test over its seeds
+(:func:`compare_seeds`); pooled sums come with the same figure without the largest map (:func:`pooled_ratio`).
 """
 
 from __future__ import annotations
@@ -15,7 +18,15 @@ import numpy as np
 from ndrql.planning.results import summarize
 
 __all__ = ["summarize", "describe", "relative_improvement", "per_map_improvement", "run_steps", "share_of_oracle", "fmt",
-           "fmt_ci", "wilson_interval"]
+           "fmt_ci", "wilson_interval", "geomean_ratio", "pooled_ratio", "compare_seeds", "outcomes", "BOOTSTRAP",
+           "TIE", "ALPHA"]
+
+#: Bootstrap resamples of the maps for an interval (seeded: the same records give the same interval).
+BOOTSTRAP = 4000
+#: Relative gap in mean steps within which a map is a tie whatever its seeds say (:func:`compare_seeds`).
+TIE = 0.005
+#: Two-sided level of the test over seeds (:func:`compare_seeds`).
+ALPHA = 0.05
 
 
 def describe(values: Iterable[float | int | None]) -> dict[str, float | int | None]:
@@ -96,3 +107,75 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def _bootstrap_ids(n: int, seed: int, reps: int = BOOTSTRAP) -> np.ndarray:
+    """``reps`` resamples (with replacement) of ``n`` map indices, from a seeded generator."""
+    return np.random.default_rng(seed).integers(0, n, size=(reps, n))
+
+
+def geomean_ratio(a: Sequence[float], b: Sequence[float], seed: int = 0, reps: int = BOOTSTRAP) -> dict[str, float]:
+    """Geometric mean over maps of ``a_i / b_i`` (per-map mean steps of two methods) and its 95% percentile
+    bootstrap interval over the maps (seeded). Every map weighs alike, whatever its size; ``ratio`` 0.5 means
+    half the steps on a typical map. Keys ``ratio``, ``low``, ``high``, ``maps``."""
+    x = np.log(np.asarray(a, np.float64)) - np.log(np.asarray(b, np.float64))
+    if x.size == 0:
+        return {"ratio": math.nan, "low": math.nan, "high": math.nan, "maps": 0}
+    boot = x[_bootstrap_ids(x.size, seed, reps)].mean(axis=1)
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    return {"ratio": float(np.exp(x.mean())), "low": float(np.exp(lo)), "high": float(np.exp(hi)), "maps": int(x.size)}
+
+
+def pooled_ratio(a: Sequence[float], b: Sequence[float], seed: int = 0, reps: int = BOOTSTRAP) -> dict[str, float]:
+    """``sum(a) / sum(b)`` over maps with its 95% bootstrap interval over the maps (seeded), and the same ratio
+    without the largest map (the one with the most steps of the two together), which a pooled sum can hinge
+    on. Keys ``ratio``, ``low``, ``high``, ``without_largest``, ``largest`` (its index)."""
+    a_, b_ = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if a_.size == 0:
+        return {"ratio": math.nan, "low": math.nan, "high": math.nan, "without_largest": math.nan, "largest": -1}
+    ids = _bootstrap_ids(a_.size, seed, reps)
+    lo, hi = np.percentile(a_[ids].sum(axis=1) / b_[ids].sum(axis=1), [2.5, 97.5])
+    big = int(np.argmax(a_ + b_))
+    rest = np.arange(a_.size) != big
+    without = float(a_[rest].sum() / b_[rest].sum()) if rest.any() else math.nan
+    return {"ratio": float(a_.sum() / b_.sum()), "low": float(lo), "high": float(hi), "without_largest": without,
+            "largest": big}
+
+
+def compare_seeds(a: Sequence[float], b: Sequence[float], tie: float = TIE, alpha: float = ALPHA) -> int:
+    """One map: ``-1`` a clear win of ``a`` (fewer steps), ``1`` a clear loss, ``0`` a tie.
+
+    Clear means both: the mean steps differ by more than ``tie`` (relative to ``b``'s), and Welch's t-test
+    on the log steps of the seeds rejects equal means at level ``alpha`` (two-sided). Runs of one seed
+    are not paired across methods (each method draws its own exploration), hence the unpaired test. With
+    no spread in either (every seed the same steps) any difference counts; a single seed per method
+    cannot be tested and is a tie unless the gap exceeds ``tie``."""
+    from scipy import stats as sps  # lazy: loads scipy
+
+    x, y = np.log(np.asarray(a, np.float64)), np.log(np.asarray(b, np.float64))
+    gap = float(np.mean(np.exp(x)) / np.mean(np.exp(y)) - 1)
+    if abs(gap) <= tie:
+        return 0
+    sign = -1 if gap < 0 else 1
+    if x.size < 2 or y.size < 2:
+        return sign
+    vx, vy = x.var(ddof=1) / x.size, y.var(ddof=1) / y.size
+    se = math.sqrt(vx + vy)
+    if se == 0:
+        return sign if x.mean() != y.mean() else 0
+    t = (x.mean() - y.mean()) / se
+    df = (vx + vy) ** 2 / ((vx * vx / (x.size - 1) if vx else 0.0) + (vy * vy / (y.size - 1) if vy else 0.0))
+    p = 2 * float(sps.t.sf(abs(t), df))
+    return sign if p < alpha else 0
+
+
+def outcomes(a: Sequence[Sequence[float]], b: Sequence[Sequence[float]], tie: float = TIE,
+             alpha: float = ALPHA) -> dict[str, Any]:
+    """Clear wins, ties and clear losses of ``a`` against ``b`` over maps (:func:`compare_seeds` on each map's
+    seeds), with the share of clear wins and its Wilson interval. Keys ``wins``, ``ties``, ``losses``,
+    ``maps``, ``win_share``, ``win_ci``."""
+    res = [compare_seeds(x, y, tie, alpha) for x, y in zip(a, b)]
+    wins, ties, losses = res.count(-1), res.count(0), res.count(1)
+    n = len(res)
+    return {"wins": wins, "ties": ties, "losses": losses, "maps": n, "win_share": wins / n if n else math.nan,
+            "win_ci": list(wilson_interval(wins, n))}

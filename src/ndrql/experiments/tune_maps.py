@@ -13,9 +13,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ndrql.errors import NdrqlError
-from ndrql.experiments.ceiling import grid_case, model_priors
-from ndrql.experiments.transfer import eval_set, eval_spec, larger_sizes
+from ndrql.experiments.ceiling import grid_case, larger_sizes, model_priors
+from ndrql.experiments.eval_sets import eval_set, tuning_spec
 from ndrql.io import file_digest
 from ndrql.maps.astar import astar4
 from ndrql.model.predict import Predictor
@@ -47,9 +46,7 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
     weights' SHA-256 (with ``-s<symmetries>`` when not 1)."""
     from tqdm import tqdm
 
-    if set_name in ("transfer", "select"):
-        raise NdrqlError(f"the {set_name!r} set reports or selects models; tune on {TUNE_SET!r}")
-    gs = eval_set(eval_spec(set_name), progress)
+    gs = eval_set(tuning_spec(set_name), progress)
     cases, skipped, by_family = {}, [], {}
     for i in tqdm(range(len(gs)), desc=f"grids {n}", unit="map", disable=not progress):
         raw, fam = gs.raw(i), str(gs.families[i])

@@ -69,10 +69,15 @@ def _next_cells(blocked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.divmod(nxt, blocked.shape[1])
 
 
-def d_qi(blocked: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
-    """Eq. 5, D-QI: ``Q(s, a) = exp(-dist(s', goal))``, ``s'`` where ``a`` leads, Euclidean in cells."""
+def d_qi(blocked: np.ndarray, goal: tuple[int, int], distance: np.ndarray | None = None) -> np.ndarray:
+    """Eq. 5, D-QI: ``Q(s, a) = exp(-dist(s', goal))``, ``s'`` where ``a`` leads, Euclidean in cells.
+
+    ``distance`` (cells, the grid's shape), beyond the paper: ``dist`` read from this field instead of
+    the straight line, e.g. the exact BFS distance to the goal (a reference without learning)."""
     blocked = np.asarray(blocked, dtype=bool)
     r2, c2 = _next_cells(blocked)
+    if distance is not None:
+        return np.exp(-_check_distance(distance, blocked.shape)[r2, c2])
     return np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
 
 

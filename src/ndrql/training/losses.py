@@ -77,7 +77,7 @@ def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTAN
     them (:func:`soft_snap`): the planner rounds each cell's detour to an even number of moves, and two
     neighbours whose raw distances are ordered right can swap when one rounds up and the other down
     (v5 on the ``select`` maps at grid 50: 94.1% of neighbouring cells ordered right raw, 92.2% snapped,
-    ``tools/distance_probe.py``). The raw term stays because the staircase is flat at even detours:
+    ``studies/distance_probe.py``). The raw term stays because the staircase is flat at even detours:
     alone it could not move a prediction out of a wrong step.
     ``rank_on="raw+snapped+moves"`` adds :data:`MOVE_WEIGHT` times :func:`greedy_move_loss` on the
     snapped distances, its pixels weighted ``weight + ROUTE_WEIGHT * route`` (``route``: the guideline

@@ -24,7 +24,7 @@ from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import MethodSetting, Preset, configs_dict
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
-from ndrql.tuning.objective import Evaluation, evaluate
+from ndrql.tuning.objective import PATH_BOUND, Evaluation, evaluate
 from ndrql.tuning.study import TuneConfig, base_score, best_trial, objective_label
 
 
@@ -98,6 +98,19 @@ def paired_ratio_difference(spec: Evaluation, tuned: Evaluation) -> tuple[float,
     return float(d.mean()), se, int(d.size)
 
 
+def path_verdict(record: dict, preset: Preset | None = None) -> list[str]:
+    """What exceeds :data:`PATH_BOUND` in a preset's ``path_quality`` record (one line each; empty: none).
+    With ``preset``, entries that hold the paper's constants (spec) are exempt (:data:`PATH_BOUND`)."""
+    out = []
+    for n, methods in record["grids"].items():
+        for m, q in methods.items():
+            spec = preset is not None and preset.configs(m, grid=int(n) if preset.grids else None) == \
+                (QLConfig(), PriorConfig())
+            if not spec and not q["worst_map"] <= PATH_BOUND:
+                out.append(f"grid {n} {m}: worst map {q['worst_map']:.3f} > {PATH_BOUND}")
+    return out
+
+
 def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings: dict[str, MethodSetting],
                   seeds: Sequence[int], pool: Any = None, objective: str = "pooled") -> dict[str, dict[str, Any]]:
     """SPEC vs tuned constants per method on ``problems`` x ``seeds`` (full SPEC episode budget).
@@ -106,7 +119,8 @@ def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings:
     their geometric mean), leave no more runs unconverged, and
     their greedy path / A* is not significantly worse: the paired mean difference (same map and
     seed) is at most 1.96 standard errors above 0. (Read strictly, "no worse" would reject a set of
-    constants for a difference far inside the seed noise and keep a weaker baseline.)
+    constants for a difference far inside the seed noise and keep a weaker baseline.) And on the worst
+    map of ``problems`` their path is within :data:`PATH_BOUND` of the optimum.
     """
     out = {}
     for m in methods:
@@ -117,7 +131,7 @@ def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings:
         diff, se, pairs = paired_ratio_difference(spec_ev, tuned_ev)
         key = "geomean" if objective == "geomean" else "steps"
         wins = (b[key] < a[key] and b["not_converged"] <= a["not_converged"]
-                and (pairs == 0 or diff <= 1.96 * se))
+                and (pairs == 0 or diff <= 1.96 * se) and b["worst_map"] <= PATH_BOUND)
         out[m] = {"spec": a, "tuned": b, "improvement": 1.0 - b[key] / a[key], "objective": objective,
                   "ratio_difference": {"mean": diff, "se": se, "pairs": pairs}, "tuned_wins": bool(wins)}
     return out

@@ -11,16 +11,15 @@
   as trial 0, the same for every method. With ``start_from``, trial 1 is that preset's constants for
   the method (e.g. a search on other maps), so the search starts from the best point known.
 - **Objective**: pooled convergence steps, or their geometric mean (``objective``; for maps of many
-  sizes and families, :mod:`ndrql.tuning.objective`), minimised, under two
-  constraints (Optuna's constrained TPE): the mean greedy path / A* is no worse than with the SPEC
-  constants, and no more runs fail to converge than with them. During a search a run may take at
-  most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not converge within
-  that is pruned on the spot (it already breaks the second constraint). After each chunk of maps
+  sizes and families, :mod:`ndrql.tuning.objective`), minimised, under three constraints (Optuna's
+  constrained TPE): the mean greedy path / A* no worse than the SPEC constants', no more runs unconverged,
+  and the worst map's greedy path / A* (mean over seeds) within :data:`~ndrql.tuning.objective.PATH_BOUND`.
+  A run may take at most :attr:`TuneConfig.max_episodes` episodes; a trial with a run that does not
+  converge within that is pruned on the spot (it breaks the second constraint). After each chunk of maps
   (from the ``prune_warmup``-th on) a trial is also pruned when it is hopeless: its running mean of
   steps is more than ``prune_factor`` times the best feasible trial's at the same point, or its
   running greedy path / A* is more than ``ratio_margin`` above the SPEC point's at the same point.
-  (A median pruner does not fit a constrained search: fast trials with bad paths drag the median
-  below every feasible trial.)
+  (A median pruner does not fit a constrained search: fast trials with bad paths drag it down.)
 - **Name**: the study's name holds the method and a digest of everything that defines the
   objective (maps, seeds, caps, search space), so changing any of them starts a new study.
 """
@@ -42,7 +41,7 @@ from ndrql.planning.preset import load_preset
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
 from ndrql.planning.methods import get_method
-from ndrql.tuning.objective import Evaluation, evaluate
+from ndrql.tuning.objective import PATH_BOUND, Evaluation, evaluate
 from ndrql.workers import process_pool
 
 
@@ -126,7 +125,7 @@ class TuneConfig:
 def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str | None) -> str:
     """``<method>-<digest>``: the digest covers everything that defines the objective."""
     parts = [S.SPACE_VERSION, cfg.method, list(problem_keys), cfg.seed_list, cfg.max_episodes, cfg.chunk,
-             cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest]
+             cfg.prune_warmup, cfg.prune_factor, cfg.ratio_margin, weights_digest, ["path bound", PATH_BOUND]]
     if cfg.objective != "pooled" or cfg.start_from:  # names of the studies searched before these existed stay valid
         parts += [cfg.objective, cfg.start_from]
     if cfg.fixed:  # likewise: a search without fixed constants keeps its name
@@ -201,8 +200,12 @@ def _has_set_constraint() -> bool:
     return hasattr(optuna.trial.Trial, "set_constraint")
 
 
+#: A trial's constraints, each met at <= 0 (module docstring; a trial from before ``c_worst_map`` reads it as met).
+CONSTRAINTS = ("c_ratio", "c_not_converged", "c_worst_map")
+
+
 def _constraints_func(t: Any) -> list[float]:
-    return [float(t.user_attrs.get("c_ratio", math.inf)), float(t.user_attrs.get("c_not_converged", math.inf))]
+    return [float(t.user_attrs.get(k, 0.0 if k == "c_worst_map" else math.inf)) for k in CONSTRAINTS]
 
 
 def open_study(cfg: TuneConfig, name: str, storage: Any) -> Any:
@@ -217,8 +220,8 @@ def open_study(cfg: TuneConfig, name: str, storage: Any) -> Any:
 
 
 def _constraint_values(ev: Evaluation, baseline: dict[str, Any]) -> dict[str, float]:
-    ratio = ev.ratio if math.isfinite(ev.ratio) else 1e9
-    return {"c_ratio": ratio - float(baseline["ratio"]),
+    ratio, worst = (x if math.isfinite(x) else 1e9 for x in (ev.ratio, ev.path_quality()["worst_map"]))
+    return {"c_ratio": ratio - float(baseline["ratio"]), "c_worst_map": worst - PATH_BOUND,
             "c_not_converged": float(ev.not_converged - int(baseline["not_converged"]))}
 
 
@@ -246,13 +249,13 @@ def _add_spec_trial(study: Any, cfg: TuneConfig, ev: Evaluation, running: list[f
 
     ql, pc = cfg.base_configs()
     params = S.params_of(cfg.method, ql, pc)
-    attrs = {"spec": True, **{k: v for k, v in ev.summary().items()}, "c_ratio": 0.0, "c_not_converged": 0.0}
+    attrs = {"spec": True, **{k: v for k, v in ev.summary().items()}, **dict.fromkeys(CONSTRAINTS, 0.0)}
     kw: dict[str, Any] = {"params": params, "distributions": S.distributions(cfg.method), "value": ev.score(cfg.objective),
                           "user_attrs": attrs, "intermediate_values": dict(enumerate(running))}
     if _has_set_constraint():
-        kw["constraints"] = {"c_ratio": 0.0, "c_not_converged": 0.0}
+        kw["constraints"] = dict.fromkeys(CONSTRAINTS, 0.0)
     else:
-        kw["system_attrs"] = {"constraints": [0.0, 0.0]}
+        kw["system_attrs"] = {"constraints": [0.0] * len(CONSTRAINTS)}
     study.add_trial(optuna.trial.create_trial(**kw))
 
 
@@ -312,7 +315,7 @@ def make_objective(cfg: TuneConfig, problems: Sequence[Problem], base: dict[str,
             # Infeasible whatever else happens; the recorded values must not depend on which other
             # runs the workers had finished, so the constraints are fixed and nothing is reported.
             trial.set_user_attr("pruned_because", f"a run did not converge within {cfg.max_episodes} episodes")
-            _set_constraints(trial, {"c_ratio": 0.0, "c_not_converged": 1.0})
+            _set_constraints(trial, {"c_ratio": 0.0, "c_not_converged": 1.0, "c_worst_map": 0.0})
             raise optuna.TrialPruned("a run did not converge")
         for k, v in ev.summary().items():
             trial.set_user_attr(k, v)

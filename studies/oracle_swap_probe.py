@@ -10,8 +10,8 @@ gain of a row over the model's is what a perfect version of that one output woul
 
 A diagnostic for where to train next, run on ``select`` (never on the reported set):
 
-    python tools/oracle_swap_probe.py --grid 50            # 20 maps per family, 10 seeds (~4 min)
-    python tools/oracle_swap_probe.py --grid 50 --rows model --weights FILE   # a candidate's own row
+    python studies/oracle_swap_probe.py --grid 50            # 20 maps per family, 10 seeds (~4 min)
+    python studies/oracle_swap_probe.py --grid 50 --rows model --weights FILE   # a candidate's own row
 """
 
 from __future__ import annotations

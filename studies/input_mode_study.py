@@ -5,7 +5,7 @@ grid: QL, IQL, NDR-QL with each model's priors and NDR-QL with the oracle's, sam
 model and grid, the pooled steps against QL, the model's share of the oracle's reduction (pooled and
 per family), path / A* and the share of maps where NDR-QL beats IQL.
 
-    .venv/bin/python tools/input_mode_study.py --set DIR --model map=RUN_A/best.pt --model grid=RUN_B/best.pt \
+    .venv/bin/python studies/input_mode_study.py --set DIR --model map=RUN_A/best.pt --model grid=RUN_B/best.pt \
         --grids 50,100 --seeds 5 --per-family 6 --json out/input_mode_study.json
 
 ``--model MODE=FILE`` names the input mode the weights were trained on (``map`` or ``grid``); the same

@@ -9,7 +9,7 @@ distance is a breadth-first search of the grid, a planner inside the planner, an
 same; a large gain says that the straight-line tie-breaker, not the region, is what loses the maps.
 Weights with a distance head add a row with their own predicted distance in Eq. 6 (a method: no search).
 
-    python tools/qi_distance_probe.py --grid 50          # the 'select' set, 20 maps per family, 10 seeds
+    python studies/qi_distance_probe.py --grid 50          # the 'select' set, 20 maps per family, 10 seeds
 """
 
 from __future__ import annotations

@@ -14,8 +14,8 @@ reach the goal, this prints per family and overall:
 - **greedy reaches**: the share of maps on which always taking the lowest neighbour from the start
   reaches the goal (without revisiting a cell), and its moves over the shortest path's on those maps.
 
-    python tools/distance_probe.py --grid 50                       # the shipped weights (~1 min)
-    python tools/distance_probe.py --grid 50 --weights FILE        # a candidate
+    python studies/distance_probe.py --grid 50                       # the shipped weights (~1 min)
+    python studies/distance_probe.py --grid 50 --weights FILE        # a candidate
 """
 
 from __future__ import annotations

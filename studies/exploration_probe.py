@@ -6,10 +6,10 @@ two is lower is then decided by a few epsilon-greedy moves and by any wrong move
 route in the first episode. This probe runs both methods on ``select`` (never the reported set) with
 the preset's constants but each one's epsilon multiplied by every factor of ``--scales``, and prints
 for every pair of factors how many maps NDR-QL wins, ties (mean steps within ``--tie`` of IQL's, the
-transfer report's :func:`~ndrql.experiments.transfer.against_iql`) and loses by more:
+transfer report's :func:`~ndrql.experiments.transfer_report.against_iql`) and loses by more:
 
-    python tools/exploration_probe.py --grid 50 --scales 1,0.5,0.25,0.1,0.01   # ~2 min
-    python tools/exploration_probe.py --grid 100 --scales 1,0.01               # ~6 min
+    python studies/exploration_probe.py --grid 50 --scales 1,0.5,0.25,0.1,0.01   # ~2 min
+    python studies/exploration_probe.py --grid 100 --scales 1,0.01               # ~6 min
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ndrql.experiments.transfer import TIE, against_iql, row_configs
+from ndrql.experiments.stats import TIE
+from ndrql.experiments.transfer import row_configs
+from ndrql.experiments.transfer_report import against_iql
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import resolve_weights

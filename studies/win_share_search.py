@@ -15,7 +15,7 @@ Score (minimised): share of maps lost (mean steps over the seeds not below IQL's
 the geometric mean of the steps over IQL's (a tie-breaker) + 1 if a run did not converge + the
 amount by which the mean greedy path / A* exceeds the preset's NDR-QL by more than ``--path-margin``.
 
-    python tools/win_share_search.py --grid 50 --trials 150 --out results/win-share   # search 'tune', check 'select'
+    python studies/win_share_search.py --grid 50 --trials 150 --out results/win-share   # search 'tune', check 'select'
 """
 
 from __future__ import annotations
@@ -30,7 +30,8 @@ import numpy as np
 
 from ndrql.errors import NdrqlError
 from ndrql.experiments.ceiling import prior_arrays
-from ndrql.experiments.transfer import eval_set, eval_spec, grid_case, larger_sizes, model_priors, row_configs
+from ndrql.experiments.eval_sets import eval_set, eval_spec
+from ndrql.experiments.transfer import grid_case, larger_sizes, model_priors, row_configs
 from ndrql.io import make_folder, write_json
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT

@@ -1,17 +1,18 @@
-"""tools/distance_probe.py: its measures of a distance field on hand-made grids."""
+"""studies/distance_probe.py: its measures of a distance field on hand-made grids."""
 
 from __future__ import annotations
+
+import importlib
 
 import numpy as np
 import pytest
 
-from helpers.tools import tool_module
 from ndrql.maps.grid import bfs_distances
 
 
 @pytest.fixture(scope="module")
 def probe():
-    yield from tool_module("distance_probe")
+    return importlib.import_module("distance_probe")
 
 
 def _grid() -> tuple[np.ndarray, tuple[int, int], np.ndarray]:

@@ -1,15 +1,15 @@
-"""tools/win_share_search.py's ``--priors``: the probes' preset with prior constants set on every row."""
+"""studies/win_share_search.py's ``--priors``: the probes' preset with prior constants set on every row."""
 
 from __future__ import annotations
 
-import pytest
+import importlib
 
-from helpers.tools import tool_module
+import pytest
 
 
 @pytest.fixture(scope="module")
 def probes():
-    yield from tool_module("win_share_search")
+    return importlib.import_module("win_share_search")
 
 
 def _args(probes, *argv: str):

@@ -1,0 +1,94 @@
+"""Path quality is part of a preset's check: no shipped preset's greedy path exceeds the grid optimum by more
+than PATH_BOUND on the worst map of its tuning set, and an export refuses constants that do."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.preset import builtin_path, load_preset
+from ndrql.tuning.objective import PATH_BOUND, Evaluation
+from ndrql.tuning.report import check_presets, path_verdict
+
+
+def test_path_quality_by_hand():
+    ev = Evaluation()
+    ev.add("a", [(True, 100, 1.0), (True, 120, 1.2)])  # map mean 1.1
+    ev.add("b", [(True, 100, 1.5), (False, 900, math.nan)])  # map mean 1.5 (the converged run only)
+    ev.add("c", [(False, 900, math.nan)])  # no run converged: an infinite ratio, the worst map
+    q = ev.path_quality()
+    assert q["worst_run"] == 1.5 and q["worst_map"] == math.inf
+    assert q["p95_map"] == math.inf  # 3 maps: the value at or above 95% of them is the worst
+    ev.runs.pop("c")
+    for i in range(19):
+        ev.add(f"d{i}", [(True, 100, 1.0)])
+    q = ev.path_quality()  # 21 maps: 19 at 1.0, then 1.1 and 1.5; the 95th percentile (position 0.95 x 20 = 19) is 1.1
+    assert q["worst_map"] == pytest.approx(1.5) and q["p95_map"] == pytest.approx(1.1)
+    assert ev.summary()["worst_map"] == q["worst_map"]
+
+
+def test_the_verdict_names_every_method_over_the_bound():
+    rec = {"grids": {"50": {"IQL": {"worst_map": 1.1}, "QL": {"worst_map": PATH_BOUND + 0.01}},
+                     "100": {"NDR-QL": {"worst_map": math.inf}}}}
+    lines = path_verdict(rec)
+    assert len(lines) == 2 and lines[0].startswith("grid 50 QL: worst map") and "grid 100 NDR-QL" in lines[1]
+    assert path_verdict({"grids": {"50": {"IQL": {"worst_map": PATH_BOUND}}}}) == []
+    # the paper's constants are reported, not judged: spec's QL is exempt, a searched entry is not
+    spec, tuned = load_preset("spec"), load_preset("tuned")
+    over = {"grids": {"50": {"QL": {"worst_map": PATH_BOUND + 0.1}}}}
+    assert path_verdict(over, spec) == [] and len(path_verdict(over, tuned)) == 1
+
+
+def test_an_export_does_not_adopt_constants_whose_worst_map_exceeds_the_bound(monkeypatch):
+    """Fewer steps, paths no worse on average, but one map far over the bound: the spec constants stay."""
+    import ndrql.tuning.report as R
+    from ndrql.planning.preset import MethodSetting
+
+    def fake_evaluate(problems, method, seeds, ql, pc, pool=None):
+        ev = Evaluation()
+        tuned = ql.alpha != QLConfig().alpha
+        for i in range(20):
+            ratio = 1.02 if not tuned or i else PATH_BOUND + 0.2  # one bad map for the tuned constants
+            ev.add(f"m{i}", [(True, 500 if tuned else 1000, ratio - (0.01 if tuned and i else 0.0))] * 2)
+        return ev, ""
+
+    monkeypatch.setattr(R, "evaluate", fake_evaluate)
+    setting = MethodSetting(QLConfig(alpha=0.3), PriorConfig())
+    check = check_presets([], ["IQL"], {"IQL": setting}, [5, 6], objective="geomean")["IQL"]
+    assert check["tuned"]["geomean"] < check["spec"]["geomean"] and check["tuned"]["worst_map"] > PATH_BOUND
+    assert not check["tuned_wins"]
+
+
+GENERAL_IQL = pytest.mark.xfail(strict=True, reason="general's IQL (searched before the bound) reaches 3.75 / 2.83 times "
+                                "the optimum on one tune map at grids 50 / 100; a search with the bound is the fix "
+                                "(docs/results.md#path-quality). Strict: once the preset passes, this mark must go.")
+
+
+@pytest.mark.parametrize("name", [pytest.param("general", marks=GENERAL_IQL), "tuned"])
+def test_every_shipped_preset_keeps_its_worst_map_within_the_bound(name):
+    """The record is measured by tools/preset_path_check.py on the preset's own tuning set and check seeds."""
+    rec = json.loads(builtin_path(name).read_text())["meta"].get("path_quality")
+    assert rec is not None, f"run tools/preset_path_check.py {name}"
+    preset = load_preset(name)
+    grids = [str(n) for n in sorted(preset.grids)] or ["50"]
+    assert sorted(rec["grids"]) == sorted(grids)
+    for n in grids:
+        methods = preset.grids[int(n)] if preset.grids else preset.methods
+        assert set(rec["grids"][n]) == set(methods)
+    assert path_verdict(rec, preset) == [], path_verdict(rec, preset)
+    assert rec["bound"] == PATH_BOUND
+
+
+def test_a_search_counts_a_trial_over_the_bound_as_infeasible():
+    from ndrql.tuning.study import CONSTRAINTS, _constraint_values
+
+    ev = Evaluation()
+    ev.add("a", [(True, 100, 1.0), (True, 100, 1.1)])
+    ev.add("b", [(True, 100, PATH_BOUND + 0.5), (True, 100, PATH_BOUND + 0.3)])  # worst map: bound + 0.4
+    c = _constraint_values(ev, {"ratio": 10.0, "not_converged": 0})
+    assert set(c) == set(CONSTRAINTS) and c["c_worst_map"] == pytest.approx(0.4) and c["c_ratio"] < 0
+    ev.runs["b"] = [(True, 100, 1.2)]
+    assert _constraint_values(ev, {"ratio": 10.0, "not_converged": 0})["c_worst_map"] == pytest.approx(1.2 - PATH_BOUND)

@@ -1,0 +1,85 @@
+"""Record the digests of every registered evaluation set, and of the training sets the scripts draw.
+
+Writes ``src/ndrql/experiments/set_digests.json``: for each set of ``transfer_sets.json`` its spec and the
+SHA-256 (16 hex digits) of every map and every problem (map, start, goal), recorded when the set is first
+drawn; ``ndrql reproduce release`` refuses a sealed set whose maps no longer match. An entry that exists
+is never changed (a set is drawn once): a set missing from the file is added, one whose spec changed is
+an error. ``training``: the first ``--training-count`` samples of each training set of the scripts
+(``tools/train_general.sh``: every family, 201/401/801 px, seed 1), for the duplicate test
+(tests/experiments/test_sealed_sets.py).
+
+    python tools/seal_sets.py                       # add what is missing
+    python tools/seal_sets.py --check               # regenerate every set and compare (no write)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ndrql.dataset.generated import GeneratedSet, build_shard, check_purpose
+from ndrql.experiments.eval_sets import digests_path, eval_set, registry, set_record
+from ndrql.io import write_json
+from ndrql.synth.families import family_names
+from ndrql.synth.generate import SetSpec
+
+#: The training sets the scripts generate (tools/train_general.sh: SEED=1, every family, 201/401/801 px).
+TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801))}
+
+
+def training_record(seed: int, sizes: tuple[int, ...], count: int) -> dict:
+    """The digests of the first ``count`` samples of a training set (sample ``i`` depends only on seed and ``i``)."""
+    spec = SetSpec(family_names(), sizes, count, seed)
+    check_purpose(seed, "training")
+    arrays = build_shard(spec, 0, shard_size=count)
+    gs = GeneratedSet(root=digests_path().parent, spec=spec, sizes=arrays["sizes"], points=arrays["points"],
+                      families=arrays["families"], map_offsets=arrays["map_offsets"], maps=arrays["maps"],
+                      wp_offsets=arrays["wp_offsets"], waypoints=arrays["waypoints"])
+    return set_record(gs)
+
+
+def _refuse(message: str) -> int:
+    print(f"seal_sets: error: {message}", file=sys.stderr)
+    return 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--training-count", type=int, default=240, help="samples hashed per training set (default: 240)")
+    ap.add_argument("--check", action="store_true", help="regenerate every recorded set and compare; write nothing")
+    args = ap.parse_args(argv)
+    path = digests_path()
+    data = json.loads(path.read_text()) if path.exists() else {"sets": {}, "training": {}}
+    changed = False
+    for name, entry in registry().items():
+        rec = set_record(eval_set(entry.spec, progress=False, release=True))
+        old = data["sets"].get(name)
+        if old is None:
+            data["sets"][name] = {"role": entry.role, **rec}
+            changed = True
+            print(f"{name}: recorded {len(rec['maps'])} maps")
+        elif {k: old[k] for k in rec} != rec:
+            return _refuse(f"{name}: the maps differ from the recorded digests (a set is drawn once; register a new one)")
+        else:
+            print(f"{name}: matches its record")
+    for label, (seed, sizes) in TRAINING_SETS.items():
+        old = data["training"].get(label)
+        count = len(old["maps"]) if old and args.check else args.training_count
+        rec = training_record(seed, sizes, count)
+        if old is None or (not args.check and len(old["maps"]) != count):
+            data["training"][label] = rec
+            changed = True
+            print(f"{label}: recorded {count} samples")
+        elif old != rec:
+            return _refuse(f"{label}: the training maps differ from the recorded digests")
+        else:
+            print(f"{label}: matches its record")
+    if changed and not args.check:
+        write_json(path, data, indent=1)
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

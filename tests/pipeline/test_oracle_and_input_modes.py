@@ -72,7 +72,8 @@ def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
 
     torch_pred = Predictor.load(grid_model, threads=1, backend="torch")
     assert torch_pred.input_mode == "grid"
-    report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=grid_model, workers=1)
+    report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=grid_model, workers=1,
+                         fallback=None)
     pg = report.grid
     view = predict_region(torch_pred, report.grid_map, pg, report.start, report.goal)
     assert view.info["mode"] == "grid" and view.info["side"] == 4 * max(pg.shape)
@@ -134,7 +135,7 @@ def test_a_grid_mode_model_predicts_on_the_safe_grid_plan_builds(model_weights):
     if predictor.input_mode != "grid":
         pytest.skip(f"{model_weights} holds a map-mode model")
     m = _walls()
-    report = ndrql.solve(m, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1)
+    report = ndrql.solve(m, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1, fallback=None)
     auto = predictor.predict(m, (10, 10), (110, 150))
     assert auto.grid.size == report.setup.size and np.array_equal(auto.grid.blocked, report.grid.blocked)
     assert (auto.grid.start, auto.grid.goal) == (report.grid.start, report.grid.goal)

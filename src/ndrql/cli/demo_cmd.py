@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ndrql.api import PlanSettings, solve
+from ndrql.api import PlanSettings, build_request, run_request
 from ndrql.cli.common import add_weights_argument, warnings_to_stderr, write_json
 from ndrql.cli.options import add_command
 from ndrql.cli.plan_cmd import _save, _short, _summary
@@ -68,9 +68,10 @@ def run(args: argparse.Namespace) -> int:
     sample = bundled_sample()
     out = Path(args.out)
     with warnings_to_stderr():
-        report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
-                       workers=args.workers, info={"source": sample.description}, preset=args.preset,
-                       settings=PlanSettings.paper(), progress=True)  # a dataset map: the paper's 50x50 area grid
+        request = build_request(sample.grid_map, sample.start, sample.goal, methods=DEMO_METHODS, seeds=args.seeds,
+                                weights=args.weights, preset=args.preset, sample={"source": sample.description},
+                                settings=PlanSettings.paper())  # a dataset map: the paper's 50x50 area grid
+        report = run_request(request, workers=args.workers, progress=True)
     pg = report.grid
     print(f"demo map: {sample.description}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "

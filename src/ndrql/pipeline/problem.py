@@ -24,7 +24,7 @@ import numpy as np
 from ndrql.errors import MapFormatError, NoPathError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
 from ndrql.maps.world import world_to_pixel
-from ndrql.maps.readers import load_map, read_movingai_scen
+from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
@@ -75,8 +75,10 @@ class GridSetup:
         return out
 
 
-def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, crop: bool = False) -> GridMap:
-    """A :class:`GridMap` from a path (any supported format), a ``GridMap`` or a 2-D array (non-zero = obstacle)."""
+def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, crop: bool = False,
+             max_pixels: int = MAX_MAP_PIXELS) -> GridMap:
+    """A :class:`GridMap` from a path (any supported format; larger than ``max_pixels`` refused before it is
+    decoded), a ``GridMap`` or a 2-D array (non-zero = obstacle)."""
     if isinstance(map_or_path, GridMap):
         return map_or_path
     if isinstance(map_or_path, np.ndarray):
@@ -84,7 +86,7 @@ def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, 
             raise MapFormatError(f"a map array must be non-empty and 2-D, got shape {map_or_path.shape}")
         return GridMap(map_or_path != 0, source="array")
     if isinstance(map_or_path, (str, os.PathLike)):
-        return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
+        return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop, max_pixels=max_pixels)
     raise MapFormatError(f"cannot read a map from {type(map_or_path).__name__}; pass a file path, a GridMap or a 2-D array")
 
 

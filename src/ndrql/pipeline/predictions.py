@@ -125,6 +125,18 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
     return ModelView(region=region, guideline=guideline, info=info)
 
 
+def view_prediction(view: ModelView, grid: PlanningGrid, size: int) -> Any:
+    """``view`` as a :class:`~ndrql.model.predict.Prediction` (what a prediction file holds,
+    :func:`prediction_arrays`): its per-cell arrays with the grid they were made on when it has them."""
+    from ndrql.model.predict import Prediction
+
+    cells = None
+    if view.region_grid is not None:
+        cells = GridPrediction(size, grid.blocked, grid.start, grid.goal, view.region_grid, view.guideline_grid,
+                               view.distance_grid)
+    return Prediction(view.region, view.guideline, cells)
+
+
 def predict_priors(
     obstacles: np.ndarray,
     start: tuple[int, int],

@@ -217,6 +217,34 @@ def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Poi
                         source_start=start, source_goal=goal, snapped=(snapped[0], snapped[1]), cell_px=(s, s))
 
 
+def inflated(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, float]:
+    """The map's obstacles inflated by the robot's radius (read-only), and that radius in pixels."""
+    radius_px = radius_to_px(settings.robot_radius, grid_map.resolution)
+    check_map = inflate(grid_map.obstacles, radius_px) if radius_px >= 1 else np.array(grid_map.obstacles, dtype=bool)
+    check_map.setflags(write=False)
+    return check_map, radius_px
+
+
+def map_grid(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, str]:
+    """The blocked cells of the whole map under ``settings`` when no route is given (``size`` an integer),
+    and a line naming the grid: what ``map info`` shows without start and goal."""
+    from ndrql.maps.grid import planning_grid
+
+    check_map, radius_px = inflated(grid_map, settings)
+    size = int(settings.grid_size)
+    if settings.grid == "area":
+        blocked = planning_grid(check_map, size)
+        rule = "area (the paper's: area-averaged, blocked at >= half obstacle)"
+        cell = f"{grid_map.height / blocked.shape[0]:.2f}x{grid_map.width / blocked.shape[1]:.2f} px"
+    else:
+        blocked = conservative_grid(check_map, size)
+        rule = "safe (square cells, a cell blocked when any pixel is an obstacle)"
+        cell = _units(cell_size_px(check_map.shape, size), grid_map.resolution)
+    radius = f", robot radius {_units(radius_px, grid_map.resolution)}" if radius_px > 0 else ""
+    return blocked, (f"planning grid: {rule}, {blocked.shape[0]}x{blocked.shape[1]} cells of {cell} "
+                     f"(size {size}{radius})")
+
+
 def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSettings) -> tuple[PlanningGrid, GridSetup]:
     """The planning grid for ``start``/``goal`` (checked map pixels) under ``settings``, and how it was made.
 
@@ -226,9 +254,7 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
     import time
 
     t0 = time.perf_counter()
-    radius_px = radius_to_px(settings.robot_radius, grid_map.resolution)
-    check_map = inflate(grid_map.obstacles, radius_px) if radius_px >= 1 else grid_map.obstacles
-    check_map.setflags(write=False)
+    check_map, radius_px = inflated(grid_map, settings)
     _check_clearance(check_map, grid_map, (start, goal), radius_px)
     size = settings.grid_size
     auto = None
@@ -252,3 +278,15 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
                       f"(crop the map around start and goal for a smaller grid)", SlowGridWarning, stacklevel=2)
     return pg, GridSetup(rule=settings.grid, size=int(size), radius_px=radius_px, check_map=check_map, auto=auto,
                          seconds=time.perf_counter() - t0)
+
+
+def grid_text(setup: GridSetup, grid: PlanningGrid, resolution: float | None = None) -> str:
+    """One line naming the grid a command used: rule, shape, cell size, size (auto or given), robot radius."""
+    sr, sc = grid.cell_size
+    cell = (f"{sr:.2f}" if abs(sr - sc) < 1e-9 else f"{sr:.2f}x{sc:.2f}") + " px" + \
+        (f" = {sr * resolution:.3g} m" if resolution is not None and abs(sr - sc) < 1e-9 else "")
+    how = "size auto" if setup.auto is not None else f"size {setup.size}"
+    rule = ("safe (square cells, a cell blocked when any pixel is an obstacle)" if setup.rule == "safe"
+            else "area (the paper's: area-averaged, blocked at >= half obstacle)")
+    radius = f", robot radius {_units(setup.radius_px, resolution)}" if setup.radius_px > 0 else ""
+    return f"planning grid: {rule}, {grid.shape[0]}x{grid.shape[1]} cells of {cell} ({how}{radius})"

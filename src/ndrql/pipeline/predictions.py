@@ -21,12 +21,13 @@ import numpy as np
 
 from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on_grid, to_model_input
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
-from ndrql.errors import FallbackWarning, NdrqlError
-from ndrql.model.predict import GridPrediction, load_predictor
+from ndrql.errors import NdrqlError
+from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fallback, fall_back,  # noqa: F401 (re-exported)
+                                     prediction_quality)
+from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.pipeline.report import StageClock
 from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
-from ndrql.planning.priors import adaptive_threshold
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
 Point = tuple[int, int]
@@ -128,8 +129,6 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
 def view_prediction(view: ModelView, grid: PlanningGrid, size: int) -> Any:
     """``view`` as a :class:`~ndrql.model.predict.Prediction` (what a prediction file holds,
     :func:`prediction_arrays`): its per-cell arrays with the grid they were made on when it has them."""
-    from ndrql.model.predict import Prediction
-
     cells = None
     if view.region_grid is not None:
         cells = GridPrediction(size, grid.blocked, grid.start, grid.goal, view.region_grid, view.guideline_grid,
@@ -239,75 +238,6 @@ def load_predictions(path: str | os.PathLike) -> GivenPredictions:
                             GridPrediction(size, blocked, cells[0], cells[1], arrays[0], arrays[1], distance))
 
 
-#: The region threshold (Eq. 7) below which the prediction is called uninformative: the model is not
-#: even 50 % sure of any band of cells that joins start and goal.
-MIN_THRESHOLD = 0.5
-#: Largest share of the guideline's probability mass that may lie on obstacle pixels.
-MAX_GUIDE_ON_OBSTACLES = 0.5
-
-
-def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
-                       grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
-    """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
-
-    Uninformative when no region threshold >= :data:`MIN_THRESHOLD` makes the region connect start
-    and goal on the planning grid (Eq. 7's search, ``cfg`` a :class:`~ndrql.planning.config.PriorConfig`),
-    or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
-    the map (the model draws its path through walls).
-    """
-    thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
-    reasons = []
-    if thd is None or thd < MIN_THRESHOLD:
-        shown = "none" if thd is None else f"{thd:.2f}"
-        reasons.append(f"no region threshold >= {MIN_THRESHOLD} connects start and goal (Eq. 7 threshold {shown})")
-    on_obstacles = None
-    if guideline is not None:
-        mass = float(np.sum(guideline))
-        if mass > 0:
-            on_obstacles = float(np.sum(guideline, where=np.asarray(obstacles, dtype=bool))) / mass
-            if on_obstacles > MAX_GUIDE_ON_OBSTACLES:
-                reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
-        else:
-            reasons.append("the guideline is empty")
-    return {"informative": not reasons, "threshold": thd, "guideline_on_obstacles": on_obstacles,
-            "reasons": reasons}
-
-
-@dataclass(frozen=True)
-class Fallback:
-    """An NDR method that did not run because the prediction was uninformative, and what ran instead."""
-
-    requested: str
-    """The method asked for."""
-    ran: str
-    """The method that ran instead."""
-    reason: str
-    """Why (the prediction's quality, :func:`prediction_quality`)."""
-
-
-def fall_back(ms: Sequence[Method], quality: dict[str, Any], fallback: str | None) -> tuple[list[Method], list[Fallback]]:
-    """The methods to run after judging the prediction (``quality``): when it is uninformative and
-    ``fallback`` is set, each NDR method is replaced by the fallback, unless that one runs anyway; and
-    the replacements made. Each replacement is warned about (:class:`~ndrql.errors.FallbackWarning`)."""
-    if quality["informative"] or fallback is None:
-        return list(ms), []
-    fb = get_method(fallback)
-    if any(m.name == fb.name for m in ms):
-        return list(ms), []
-    reason = "the prediction is uninformative: " + "; ".join(quality["reasons"])
-    out: list[Method] = []
-    swaps: list[Fallback] = []
-    for m in ms:
-        m2 = fb if m.needs_ndr else m
-        if m2 is not m:
-            swaps.append(Fallback(m.name, fb.name, reason))
-            warnings.warn(f"{m.name} did not run, {fb.name} ran instead ({reason}; fallback none keeps the "
-                          f"model's priors)", FallbackWarning, stacklevel=4)
-        if all(x.name != m2.name for x in out):
-            out.append(m2)
-    return out, swaps
-
-
 @dataclass(frozen=True)
 class Predicted:
     """Region and guideline for one plan: the model's, the oracle's or given arrays, and the methods they leave."""
@@ -362,9 +292,7 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock) -> Predicte
     :class:`GivenPredictions` (used on the planning grid as they are when made on this very grid).
     Times the ``load`` and ``predict`` stages on ``clock``.
     """
-    from ndrql.planning.methods import get_method as method
-
-    ms = [method(m) for m in request.methods]
+    ms = [get_method(m) for m in request.methods]
     settings = request.settings
     record: dict[str, Any] = {}
     if request.predictions is not None:

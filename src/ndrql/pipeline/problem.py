@@ -22,7 +22,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import MapFormatError, NoPathError, PointError
-from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
+from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning, planning_grid
 from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
@@ -228,8 +228,6 @@ def inflated(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, flo
 def map_grid(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, str]:
     """The blocked cells of the whole map under ``settings`` when no route is given (``size`` an integer),
     and a line naming the grid: what ``map info`` shows without start and goal."""
-    from ndrql.maps.grid import planning_grid
-
     check_map, radius_px = inflated(grid_map, settings)
     size = int(settings.grid_size)
     if settings.grid == "area":

@@ -36,6 +36,7 @@ from ndrql.pipeline.problem import Point, check_map_size, place_points, read_map
 from ndrql.pipeline.runs import methods_named, seeds_given
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.methods import get_method
 from ndrql.planning.preset import Preset, load_preset, plan_default_preset
 
 #: Kinds of map a request plans on: a user's map, or a dataset sample (the paper's setting by default).
@@ -99,8 +100,6 @@ class PlanRequest:
     @property
     def needs_model(self) -> bool:
         """Whether a method asks for the NDR model's predictions."""
-        from ndrql.planning.methods import get_method
-
         return any(get_method(m).needs_ndr for m in self.methods)
 
     def to_dict(self) -> dict[str, Any]:

@@ -13,7 +13,7 @@ import math
 
 from ndrql.errors import brief
 
-__all__ = ["MIN_GRID_SIZE", "check_grid_size", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "check_finite", "check_int",
+__all__ = ["MIN_GRID_SIZE", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "check_finite", "check_int",
            "check_seeds"]
 
 SEED_LIMIT = 2**63
@@ -27,12 +27,8 @@ MAX_THREADS = 1024
 MIN_GRID_SIZE = 2
 """Smallest planning grid (cells on a side) any command takes: one cell has nothing to plan."""
 MAX_GRID_SIZE = 1024
-"""Largest planning grid (cells on a side) any command takes (``plan``'s default ``--max-size`` is smaller)."""
-
-
-def check_grid_size(value: object, name: str = "--size") -> int:
-    """A planning-grid size (cells on a side) in :data:`MIN_GRID_SIZE`..:data:`MAX_GRID_SIZE`, the bounds every command shares."""
-    return check_int(value, name, MIN_GRID_SIZE, MAX_GRID_SIZE)
+"""Largest planning grid (cells on a side) any command takes (``plan``'s default ``--max-size`` is smaller).
+Checked for every command by :class:`ndrql.pipeline.settings.PlanSettings`."""
 
 
 def check_int(value: object, name: str, lo: int, hi: int | None = None) -> int:

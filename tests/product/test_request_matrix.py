@@ -227,3 +227,35 @@ def test_a_scenario_with_a_map_that_is_not_movingai_is_an_error(maps, capsys):
         ndrql.build_request(str(maps["npy"]), scen=f"{maps['scen']}:0")
     code = cli_main(["plan", str(maps["map"]), "--start", "5,5", "--goal", "65,60", "--scen", f"{maps['scen']}:2"])
     assert code == 2 and "--scen gives start and goal" in capsys.readouterr().err
+
+
+def test_a_fallback_is_named_in_the_summary_the_json_the_warning_and_the_figure(maps, tmp_path, capsys):
+    from ndrql.viz.plan import plan_figure
+
+    out = tmp_path / "fb.json"
+    code = cli_main(["plan", str(maps["npy"]), "--start", "5,5", "--goal", "65,60", "--prior-from", str(maps["flat"]),
+                     "--workers", "1", "--json", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "IQL (fallback for NDR-QL) seed 0" in captured.out and "fell back to IQL" in captured.out
+    assert "ndrql: warning: NDR-QL did not run, IQL ran instead" in captured.err
+    run = json.loads(out.read_text())["runs"][0]
+    assert run["method"] == "IQL" and run["requested_method"] == "NDR-QL" and run["fallback_reason"]
+    with pytest.warns(FallbackWarning):
+        report = ndrql.solve(str(maps["npy"]), (5, 5), (65, 60), predictions=ndrql.api.load_predictions(maps["flat"]),
+                             workers=1)
+    titles = [ax.get_title() for ax in plan_figure(report).axes]
+    assert any("IQL (fallback for NDR-QL)" in t for t in titles), titles
+
+
+def test_every_command_shares_the_grid_size_bounds(maps, capsys):
+    from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
+
+    for argv in (["astar", str(maps["npy"]), "--start", "5,5", "--goal", "65,60"],
+                 ["map", "info", str(maps["npy"])],
+                 ["plan", str(maps["npy"]), "--start", "5,5", "--goal", "65,60", "--method", "QL", "--max-size", "1024"],
+                 ["predict", str(maps["npy"]), "--start", "5,5", "--goal", "65,60", "--out", "/nonexistent/x"]):
+        for size in (MIN_GRID_SIZE - 1, MAX_GRID_SIZE + 1):
+            assert cli_main([*argv, "--size", str(size)]) == 2, argv
+            err = capsys.readouterr().err
+            assert err.startswith("ndrql: error: ") and str(size) in err, (argv, err)

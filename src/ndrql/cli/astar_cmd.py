@@ -66,6 +66,9 @@ def grid_request(args: argparse.Namespace, **settings: Any) -> Any:
     points = {"start": parse_point(args.start, "--start") if args.start else None,
               "goal": parse_point(args.goal, "--goal") if args.goal else None}
     fields = {"methods": ("QL",), "max_map_pixels": getattr(args, "max_pixels", None), **settings}
+    size = settings.get("size")
+    if size is not None and str(size).strip().lower() != "auto":  # a size given: the bounds every command shares
+        fields["max_size"] = MAX_GRID_SIZE  # (auto keeps plan's default ceiling, so it picks plan's grid)
     if getattr(args, "sample", None):
         if scen:
             raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")

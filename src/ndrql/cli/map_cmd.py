@@ -9,7 +9,7 @@ from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argumen
                               load_map_argument, map_info, warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command
 from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, check_grid_size
+from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.pipeline.problem import build_grid, grid_text, map_grid
 from ndrql.pipeline.request import request_settings
@@ -75,8 +75,8 @@ def run_info(args: argparse.Namespace) -> int:
         loaded = load_map_argument(args)
         grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
         settings = request_settings(grid=args.grid, size=PLANNING_SIZE if args.size is None else args.size,
-                                    robot_radius=args.robot_radius, max_map_pixels=args.max_pixels)
-        check_grid_size(settings.grid_size)
+                                    robot_radius=args.robot_radius, max_map_pixels=args.max_pixels,
+                                    max_size=MAX_GRID_SIZE)
         blocked, named = map_grid(grid_map, settings)
         pg = setup = None
     info = map_info(grid_map)

@@ -123,6 +123,12 @@ def _vs_full(report: Any, length: float) -> str:
     return f" ({length / a.full_length:.3f} x the map's shortest)"
 
 
+def run_name(r: Any) -> str:
+    """A run's method, and the one asked for when the fallback replaced it: ``IQL (fallback for NDR-QL)``."""
+    asked = getattr(r, "requested_method", None)
+    return r.method if asked in (None, r.method) else f"{r.method} (fallback for {asked})"
+
+
 def summary_lines(report: Any) -> list[str]:
     """The short summary printed by ``plan``: runs, A* optimum, NDR-QI threshold, path on the map, time per stage."""
     lines = grid_lines(report)
@@ -131,11 +137,11 @@ def summary_lines(report: Any) -> list[str]:
     if single:
         for r in report.results:
             if r.converged:
-                lines.append(f"{r.method} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
+                lines.append(f"{run_name(r)} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
                              f"{r.convergence_steps:,} steps; path {r.path_length} moves ({r.length_ratio:.3f} x A*)")
             else:
                 tail = f"; last greedy path {r.path_length} moves" if r.path_length is not None else ""
-                lines.append(f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
+                lines.append(f"{run_name(r)} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
                              f"({r.total_steps:,} steps){tail}")
     lines.append(f"A* optimum: {opt} moves; seeds {report.seeds[0]}..{report.seeds[-1]}; "
                  f"max {report.config.max_episodes} episodes")

@@ -73,11 +73,12 @@ class PlanSettings:
         if isinstance(size, bool) or (size not in (None, "auto") and not isinstance(size, int)):
             raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}")
         if isinstance(size, int):
-            if size < MIN_GRID_SIZE:
-                raise NdrqlError(f"the planning grid size must be at least {MIN_GRID_SIZE}, got {size}")
+            if not MIN_GRID_SIZE <= size <= MAX_GRID_SIZE:
+                raise NdrqlError(f"the planning grid size must be in {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, got {size}")
             if size > self.max_size:
                 raise NdrqlError(f"the planning grid size {size} is larger than the limit {self.max_size} "
-                                 f"(Q-learning's episode cap grows with the cells; raise the limit to go further)")
+                                 f"(Q-learning's episode cap grows with the cells; raise it with --max-size, up to "
+                                 f"{MAX_GRID_SIZE})")
         if not self.robot_radius >= 0 or self.robot_radius == float("inf"):
             raise NdrqlError(f"the robot radius must be a number >= 0, got {self.robot_radius}")
         if not 0 <= self.tolerance < 10:

@@ -289,7 +289,10 @@ def run(args: argparse.Namespace) -> int:
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.weights:
         turns = report.info.get("symmetries", 1)
-        echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
+        runs = report.info.get("runs_file")
+        on = (f"ONNX Runtime on {_short(runs)}" if runs and runs != report.weights
+              else report.info.get("backend", "torch"))
+        echo(f"model: {_short(report.weights)} ({on}"
              f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}); "
              f"constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:

@@ -6,6 +6,7 @@ from typing import Any
 
 from ndrql.api import WORK_STAGES
 from ndrql.cli.text import text_table
+from ndrql.pipeline.route import octile_cost
 from ndrql.planning.results import summarize
 
 
@@ -89,7 +90,7 @@ def route_lines(report: Any) -> list[str]:
             what = "smoothed" if r.route.smoothed else "not smoothed"
             who = f"{m} seed {r.seed}" if single else f"{m}: {len(runs)} of {len(runs)} paths collision-free; seed {r.seed}"
             lines.append(f"{who}: path on the map collision-free; grid path {length_text(r.route.grid_length, res)}, "
-                         f"{what} {length_text(r.route.length, res)}" + _vs_full(report, r.route.length))
+                         f"{what} {length_text(r.route.length, res)}" + _vs_full(report, r.route))
     return lines
 
 
@@ -116,11 +117,13 @@ def prediction_lines(report: Any) -> list[str]:
     return [f"prediction: uninformative ({why}); the model's priors were used anyway"]
 
 
-def _vs_full(report: Any, length: float) -> str:
+def _vs_full(report: Any, route: Any) -> str:
+    """The final path against the map's own optimum, one definition everywhere (as the scenario batch's
+    ratio): the path's octile cost over the octile length of the map's shortest 8-connected route."""
     a = report.setup.auto if report.setup is not None else None
     if a is None or a.full_length <= 0:
         return ""
-    return f" ({length / a.full_length:.3f} x the map's shortest)"
+    return f" (octile cost {octile_cost(route.pixels) / a.full_length:.3f} x the map's octile optimum)"
 
 
 def run_name(r: Any) -> str:

@@ -302,6 +302,8 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock) -> Predicte
         with clock.stage("load"):
             predictor = load_predictor(request.weights_file, settings.threads, settings.backend, settings.symmetries)
         record["backend"] = predictor.backend_name
+        if predictor.graph_file is not None:  # the file that actually runs (an export of the weights)
+            record["runs_file"] = str(predictor.graph_file)
         if predictor.input_mode == "grid":
             record["symmetries"] = predictor.symmetries
         used_weights = request.weights_file

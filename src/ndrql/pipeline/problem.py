@@ -126,10 +126,17 @@ def world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) -> 
     """A ``(x, y[, yaw])`` world point (metres) as a map pixel and its yaw."""
     if given is None:
         return None, None
-    vals = [float(v) for v in given]
+    try:
+        vals = [float(v) for v in given]
+    except (TypeError, ValueError):
+        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians") from None
     if len(vals) not in (2, 3):
-        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {tuple(given)!r}")
-    return world_to_pixel(grid_map, vals[0], vals[1], name), (vals[2] if len(vals) == 3 else None)
+        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {len(vals)} numbers")
+    r, c = world_to_pixel(grid_map, vals[0], vals[1], name)
+    if grid_map.obstacles[r, c]:  # said in the units it was given in; a ROS map's unknown space is an obstacle
+        raise PointError(f"{name} ({vals[0]:g}, {vals[1]:g}) m is on an obstacle or in unknown space of the map "
+                         f"(pixel {r},{c}); give a point in known free space")
+    return (r, c), (vals[2] if len(vals) == 3 else None)
 
 
 def place_points(grid_map: GridMap, start: Sequence[int] | None, goal: Sequence[int] | None, *,

@@ -13,7 +13,7 @@ import numpy as np
 
 from ndrql.maps.grid import GridMap, PlanningGrid
 from ndrql.pipeline.problem import GridSetup
-from ndrql.pipeline.route import Route, make_route
+from ndrql.pipeline.route import Route, make_route, octile_cost
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.results import PlanResult, summarize
@@ -164,6 +164,10 @@ class PlanReport:
             if "poses" in route:
                 out["path_world"] = route["poses"]
             out["route"] = route
+            out["octile_cost"] = round(octile_cost(r.route.pixels), 4)
+            auto = self.setup.auto if self.setup is not None else None
+            if auto is not None and auto.full_length > 0:  # the scenario batch's ratio: octile over octile
+                out["octile_ratio"] = round(out["octile_cost"] / auto.full_length, 5)
         else:
             out["collisions"] = []
         return out

@@ -17,8 +17,8 @@ from ndrql.pipeline.problem import build_grid, grid_text
 from ndrql.pipeline.request import build_request
 from ndrql.pipeline.route import make_route
 from ndrql.pipeline.settings import GRID_RULES
-from ndrql.viz.maps import frame_map, plot_endpoints, plot_occupancy, plot_path
-from ndrql.viz.style import ASTAR_COLOR, BLOCKED_ALPHA, BLOCKED_COLOR, OBSTACLE_COLOR, legend_below
+from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path, plot_planning_result
+from ndrql.viz.style import ASTAR_COLOR, legend_below
 
 DESCRIPTION = ("Shortest path with A*. By default: 4-connected, unit moves, on the planning grid `ndrql plan` "
                "would build: on a map file the safe grid (square cells, a cell blocked when any pixel is an "
@@ -41,13 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     description=DESCRIPTION, examples=EXAMPLES)
     add_problem_arguments(p)
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen: take start and goal from scenario K (default 0)")
-    p.add_argument("--grid", choices=GRID_RULES, default=None,
-                   help="planning-grid rule (default: safe for a map file, area for --sample)")
-    p.add_argument("--size", default=None, metavar="N|auto",
-                   help=f"cells on the map's longer side, {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, or auto (safe grid) "
-                   f"(default: auto for safe, 50 for area)")
-    p.add_argument("--robot-radius", type=float, default=None, metavar="R",
-                   help="inflate obstacles by the robot's radius (metres on maps with a resolution, else pixels) (default: 0)")
+    add_grid_arguments(p, "auto for safe, 50 for area")
     add_max_pixels_argument(p)
     p.add_argument("--octile", action="store_true", help="8-connected octile A* on the full-resolution map")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
@@ -55,6 +49,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--print-grid", action="store_true", help="print the planning grid with the path (S, G, *)")
     add_dpi_argument(p)
     p.set_defaults(func=run)
+
+
+def add_grid_arguments(parser: argparse.ArgumentParser, size_default: str, rule: bool = True) -> None:
+    """``--grid``, ``--size`` and ``--robot-radius``: the planning grid ``plan`` would build, for a command that
+    shows or uses one (unset flags are decided by :func:`~ndrql.pipeline.request.build_request`)."""
+    if rule:
+        parser.add_argument("--grid", choices=GRID_RULES, default=None,
+                            help="planning-grid rule: safe (a cell blocked when any pixel is an obstacle) or area "
+                            "(the paper's) (default: safe for a map file, area for --sample)")
+    parser.add_argument("--size", default=None, metavar="N|auto",
+                        help=f"cells on the map's longer side, {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, or auto (safe grid: the "
+                        f"coarsest that keeps the route, as plan picks it) (default: {size_default})")
+    parser.add_argument("--robot-radius", type=float, default=None, metavar="R",
+                        help="inflate obstacles by the robot's radius before building the grid, as plan does (metres "
+                        "on maps with a resolution, else pixels) (default: 0)")
 
 
 def grid_request(args: argparse.Namespace, **settings: Any) -> Any:
@@ -174,28 +183,9 @@ def solve(request: Any, args: argparse.Namespace) -> int:
         print(f"wrote {write_json(args.json, result)}")
     if args.png:
         title = (f"{grid_map.source}\nA* on the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid: {res.moves} moves")
-        print(f"wrote {save_figure(lambda ax: draw_grid_path(ax, grid_map.obstacles, pg, route, title), args.png, dpi=check_dpi(args))}")
+        def draw(ax: Any) -> None:
+            plot_planning_result(ax, grid_map.obstacles, pg.blocked, res.path, pg.source_start, pg.source_goal,
+                                 title=title, cell_size=pg.cell_size,
+                                 path_points=None if route is None else route.grid_pixels)
+        print(f"wrote {save_figure(draw, args.png, dpi=check_dpi(args))}")
     return 0
-
-
-def draw_grid_path(ax: Any, obstacles: Any, pg: Any, route: Any, title: str) -> list[Any]:
-    """The map, the planning grid's blocked cells (shaded, at their true cell size) and the grid path on the map."""
-    from matplotlib.patches import Patch
-
-    h, w = obstacles.shape
-    sr, sc = pg.cell_size
-    gh, gw = pg.shape
-    artists = [plot_occupancy(ax, obstacles, color=OBSTACLE_COLOR, zorder=1),
-               plot_occupancy(ax, pg.blocked, color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA,
-                              extent=(-0.5, gw * sc - 0.5, gh * sr - 0.5, -0.5), zorder=2)]
-    if route is not None:
-        artists += plot_path(ax, route.grid_pixels, color=ASTAR_COLOR, linewidth=2.0, label="A* on the planning grid")
-        artists[-1].set_linestyle("--")
-    artists += plot_endpoints(ax, pg.source_start, pg.source_goal)
-    frame_map(ax, (h, w))
-    artists.append(ax.set_title(title, fontsize=9))
-    handles, _ = ax.get_legend_handles_labels()
-    handles += [Patch(color=OBSTACLE_COLOR, label="obstacle"),
-                Patch(color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA, label="blocked cell")]
-    artists.append(legend_below(ax, handles))
-    return artists

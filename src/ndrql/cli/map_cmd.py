@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import argparse
 
-from ndrql.cli.astar_cmd import grid_request
+from ndrql.cli.astar_cmd import add_grid_arguments, grid_request
 from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, add_problem_arguments,
                               load_map_argument, map_info, warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command
 from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
+from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.pipeline.problem import build_grid, grid_text, map_grid
 from ndrql.pipeline.request import request_settings
-from ndrql.pipeline.settings import GRID_RULES
 from ndrql.maps.writers import save_map
 
 EXAMPLES = """examples:
@@ -38,13 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_problem_arguments(info)
     add_max_pixels_argument(info)
-    info.add_argument("--grid", choices=GRID_RULES, default=None,
-                      help="planning-grid rule (default: safe for a map file, area for --sample)")
-    info.add_argument("--size", default=None, metavar="N|auto",
-                      help=f"cells on the map's longer side, {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, or auto (needs --start "
-                      f"and --goal) (default: auto with --start and --goal, else {PLANNING_SIZE})")
-    info.add_argument("--robot-radius", type=float, default=None, metavar="R",
-                      help="inflate obstacles by the robot's radius (metres on maps with a resolution, else pixels)")
+    add_grid_arguments(info, f"auto with --start and --goal, else {PLANNING_SIZE}")
     info.add_argument("--json", metavar="FILE", help="also write the information as JSON ('-' for stdout)")
     info.set_defaults(func=run_info)
 

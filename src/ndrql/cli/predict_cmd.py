@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ndrql.cli.astar_cmd import grid_request
+from ndrql.cli.astar_cmd import add_grid_arguments, grid_request
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_symmetries_argument,
                               add_weights_argument, check_dpi, save_figure, warnings_to_stderr)
 from ndrql.cli.options import add_command
 from ndrql.dataset.render import cells_to_map
 from ndrql.errors import NdrqlError
 from ndrql.io import make_folder, save_npz
-from ndrql.limits import MAX_GRID_SIZE, MAX_THREADS, MIN_GRID_SIZE, check_int
+from ndrql.limits import MAX_THREADS, check_int
 from ndrql.model.predict import BACKENDS, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.pipeline.predictions import prediction_arrays, predict_region, view_prediction
@@ -40,13 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="threads for the forward pass (default: 1)")
-    p.add_argument("--size", default=None, metavar="N|auto",
-                   help=f"the planning grid a grid-mode model (the default general weights) sees: cells on the map's "
-                   f"longer side, {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, or auto (default: the grid ndrql plan builds: auto on "
-                   f"a map file, 50 with --sample); map-mode models see the map itself and refuse it")
-    p.add_argument("--robot-radius", type=float, default=None, metavar="R",
-                   help="inflate obstacles by the robot's radius before building the grid, as ndrql plan does "
-                   "(metres on maps with a resolution, else pixels) (default: 0)")
+    add_grid_arguments(p, "the grid ndrql plan builds: auto on a map file, 50 with --sample; map-mode models see "
+                       "the map itself and refuse --size", rule=False)
     add_symmetries_argument(p, "grid-mode models: average the prediction over N orientations of the grid (1, 2, 4, 8), "
                             "as ndrql plan does", DEFAULT_COUNT)
     add_dpi_argument(p)

@@ -33,6 +33,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
+from ndrql.pipeline.fallback import warn_fallbacks
 from ndrql.pipeline.predictions import GivenPredictions, Predicted, load_predictions, predict_for
 from ndrql.pipeline.problem import build_grid, check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
@@ -63,8 +64,9 @@ def _request(map_or_request: Any, positional: Sequence[Any], names: Sequence[str
 
 
 def run_request(request: PlanRequest, *, workers: int | None = None, keep_records: bool = False,
-                progress: bool = False) -> PlanReport:
-    """Plan ``request``: every method with every seed (:func:`solve` reads as this function)."""
+                progress: bool = False, _caller: int = 1) -> PlanReport:
+    """Plan ``request``: every method with every seed (:func:`solve` reads as this function). A method the
+    fallback replaced issues a :class:`~ndrql.errors.FallbackWarning` at the caller's line."""
     clock = StageClock()
     clock.wall["map"] = clock.cpu["map"] = request.map_seconds
     with clock.stage("grid"):
@@ -77,6 +79,7 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     pred = predict_for(request, pg, clock) if request.needs_model else \
         Predicted(methods=tuple(get_method(m) for m in request.methods))
     ms = list(pred.methods)
+    warn_fallbacks(pred.fallbacks, stacklevel=_caller + 1)
     with clock.stage("priors"):
         priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts, pred.distance)
     with clock.stage("startup"):
@@ -118,7 +121,7 @@ def solve(map_or_request: Any, *positional: Any, workers: int | None = None, kee
     ``keep_records``: per-episode records in the results; ``progress``: a bar on a terminal.
     """
     request = _request(map_or_request, positional, SOLVE_POSITIONAL, dict(request_fields))
-    return run_request(request, workers=workers, keep_records=keep_records, progress=progress)
+    return run_request(request, workers=workers, keep_records=keep_records, progress=progress, _caller=2)
 
 
 def plan(map_or_request: Any, *positional: Any, workers: int | None = None, **request_fields: Any) -> PlannedRun:
@@ -146,7 +149,7 @@ def plan(map_or_request: Any, *positional: Any, workers: int | None = None, **re
     request = _request(map_or_request, positional, SOLVE_POSITIONAL, fields)
     if len(request.methods) * len(request.seeds) != 1:
         raise NdrqlError("plan runs one method with one seed; use solve for this request")
-    return run_request(request, workers=workers).results[0]
+    return run_request(request, workers=workers, _caller=2).results[0]
 
 
 def cell_path_to_pixels(report: PlanReport, path: Sequence[Sequence[int]]) -> list[tuple[float, float]]:

@@ -68,7 +68,7 @@ class Fallback:
 def fall_back(ms: Sequence[Method], quality: dict[str, Any], fallback: str | None) -> tuple[list[Method], list[Fallback]]:
     """The methods to run after judging the prediction (``quality``): when it is uninformative and
     ``fallback`` is set, each NDR method is replaced by the fallback, unless that one runs anyway; and
-    the replacements made. Each replacement is warned about (:class:`~ndrql.errors.FallbackWarning`)."""
+    the replacements made (:func:`warn_fallbacks` tells the caller)."""
     if quality["informative"] or fallback is None:
         return list(ms), []
     fb = get_method(fallback)
@@ -81,8 +81,13 @@ def fall_back(ms: Sequence[Method], quality: dict[str, Any], fallback: str | Non
         m2 = fb if m.needs_ndr else m
         if m2 is not m:
             swaps.append(Fallback(m.name, fb.name, reason))
-            warnings.warn(f"{m.name} did not run, {fb.name} ran instead ({reason}; fallback none keeps the "
-                          f"model's priors)", FallbackWarning, stacklevel=4)
         if all(x.name != m2.name for x in out):
             out.append(m2)
     return out, swaps
+
+
+def warn_fallbacks(swaps: Sequence[Fallback], stacklevel: int = 2) -> None:
+    """One :class:`~ndrql.errors.FallbackWarning` per replaced method, pointing at the caller's line."""
+    for f in swaps:
+        warnings.warn(f"{f.requested} did not run, {f.ran} ran instead ({f.reason}; fallback none keeps the "
+                      f"model's priors)", FallbackWarning, stacklevel=stacklevel + 1)

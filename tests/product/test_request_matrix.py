@@ -259,3 +259,18 @@ def test_every_command_shares_the_grid_size_bounds(maps, capsys):
             assert cli_main([*argv, "--size", str(size)]) == 2, argv
             err = capsys.readouterr().err
             assert err.startswith("ndrql: error: ") and str(size) in err, (argv, err)
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["{npy}", "--start", "5,5", "--goal", "65,60", "--invert"], "invert read image files"),
+    (["{png}", "--start", "5,5", "--goal", "65,60", "--crop"], "crop cuts a ROS map"),
+    (["{npy}", "--start", "5,5", "--goal", "65,60", "--method", "QL", "--prior-from", "oracle"], "none of QL uses them"),
+    (["{map}", "--start", "5,5", "--goal", "65,60", "--scen", "{scen}"], "--scen gives start and goal"),
+    (["{npy}", "--scen", "{scen}:0"], "MovingAI"),
+    (["{ros}", "--start-world=0.72,1.0", "--goal", "60,60"], "m is on an obstacle or in unknown space"),
+    (["{ros}", "--start-world=2.4,1.0", "--goal", "60,60"], "m is on an obstacle or in unknown space"),
+])
+def test_plan_refuses_options_the_request_would_ignore(argv, needle, maps, capsys):
+    assert cli_main(["plan", *[_fill(a, maps) for a in argv]]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ndrql: error: ") and needle in err and err.count("\n") == 1, err

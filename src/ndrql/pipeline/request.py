@@ -31,6 +31,7 @@ from typing import Any, Mapping, Sequence
 
 from ndrql.errors import NdrqlError, PointError
 from ndrql.maps.grid import GridMap
+from ndrql.maps.readers import IMAGE_SUFFIXES, YAML_SUFFIXES
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.pipeline.problem import Point, check_map_size, place_points, read_map
 from ndrql.pipeline.runs import methods_named, seeds_given
@@ -165,6 +166,18 @@ def request_settings(settings: PlanSettings | None = None, *, sample: Mapping[st
     return _settings(settings, "sample" if sample is not None else "map", len(methods_named(methods)), given)
 
 
+def _check_reader_options(source: Any, invert: bool, threshold: float, crop: bool) -> None:
+    """Reader options that the map would ignore are errors (a ROS map has its own thresholds)."""
+    path = os.fspath(source).lower() if isinstance(source, (str, os.PathLike)) else None
+    image, ros = (path is not None and path.endswith(IMAGE_SUFFIXES)), (path is not None and path.endswith(YAML_SUFFIXES))
+    given = [f for f, v in (("invert", invert), ("threshold", threshold != 128)) if v]
+    if given and not image:
+        raise NdrqlError(f"{' and '.join(given)} read image files (dark = obstacle); this map is not one "
+                         f"(a ROS map's thresholds are in its .yaml)")
+    if crop and not ros:
+        raise NdrqlError("crop cuts a ROS map to its known cells; this map is not a ROS .yaml")
+
+
 def split_scen(scen: str | os.PathLike | None, index: int | None) -> tuple[str | None, int | None]:
     """``scen="FILE:K"`` as ``(FILE, K)`` (a trailing ``:K`` is the scenario when ``FILE:K`` is not itself a
     file); ``scen_index`` and ``:K`` together are an error."""
@@ -236,6 +249,7 @@ def build_request(
             raise PointError(f"a scenario gives start and goal; drop {' and '.join(given)} (or drop the scenario)")
         if kind == "sample":
             raise NdrqlError("a scenario needs a map file (MovingAI .map), not a dataset sample")
+    _check_reader_options(map_source, invert, threshold, crop)
     grid_map = read_map(map_source, invert=invert, threshold=threshold, crop=crop, max_pixels=s.max_map_pixels)
     if scen_file is not None and not str(grid_map.source).lower().endswith(".map"):
         raise NdrqlError(f"a MovingAI scenario goes with its MovingAI .map; {grid_map.source} is not one")
@@ -249,6 +263,8 @@ def build_request(
     p_start, p_goal, start_yaw, goal_yaw = place_points(grid_map, start, goal, scen=scen_file,
                                                         scen_index=0 if index is None else int(index),
                                                         start_world=start_world, goal_world=goal_world, info=record)
+    if predictions is not None and not any(get_method(m).needs_ndr for m in ms):
+        raise NdrqlError(f"predictions are given but none of {', '.join(ms)} uses them (N-C, N-Q, NDR-QL do)")
     uses_model = predictions is None
     weights_file = str(resolve_weights(weights)) if uses_model or preset is None else None
     if predictions is not None and weights is not None:

@@ -94,7 +94,8 @@ def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> t
     """Start and goal ``(row, col)`` of scenario ``index`` in a MovingAI ``.scen`` file, checked against the map."""
     scenarios = read_movingai_scen(scen)
     if not 0 <= index < len(scenarios):
-        raise MapFormatError(f"scenario {index} not in {scen} (it has {len(scenarios)} scenarios, 0..{len(scenarios) - 1})")
+        raise MapFormatError(f"scenario {index} not in {scen}: it has scenarios 0..{len(scenarios) - 1}"
+                             if scenarios else f"{scen} has no scenarios")
     s = scenarios[index]
     if grid_map.shape != (s.height, s.width):
         raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "

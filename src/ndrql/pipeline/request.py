@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 from ndrql.errors import NdrqlError, PointError
+from ndrql.limits import check_finite
 from ndrql.maps.grid import GridMap
 from ndrql.maps.readers import IMAGE_SUFFIXES, YAML_SUFFIXES
 from ndrql.model.weights import resolve_weights, weights_label
@@ -168,6 +169,10 @@ def request_settings(settings: PlanSettings | None = None, *, sample: Mapping[st
 
 def _check_reader_options(source: Any, invert: bool, threshold: float, crop: bool) -> None:
     """Reader options that the map would ignore are errors (a ROS map has its own thresholds)."""
+    try:
+        check_finite(threshold, "--threshold (the image threshold)")
+    except ValueError as exc:
+        raise NdrqlError(str(exc)) from None
     path = os.fspath(source).lower() if isinstance(source, (str, os.PathLike)) else None
     image, ros = (path is not None and path.endswith(IMAGE_SUFFIXES)), (path is not None and path.endswith(YAML_SUFFIXES))
     given = [f for f, v in (("invert", invert), ("threshold", threshold != 128)) if v]

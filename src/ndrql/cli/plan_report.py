@@ -47,10 +47,13 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
 
 
 def grid_lines(report: Any) -> list[str]:
-    """How the map became the planning grid (safe grid only: the paper's area grid keeps its one line)."""
+    """How the map became the planning grid: the rule always, and for the safe grid its cells and size auto's search."""
     setup = report.setup
-    if setup is None or setup.rule != "safe":
+    if setup is None:
         return []
+    if setup.rule != "safe":
+        return [f"grid: area, the paper's ({report.grid.shape[0]}x{report.grid.shape[1]} cells area-averaged, a cell "
+                f"blocked when at least half obstacle)"]
     res = report.grid_map.resolution
     cell = report.grid.cell_size[0]
     metres = f" = {cell * res:.3g} m" if res is not None else ""

@@ -184,6 +184,8 @@ def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> 
         predictions = "oracle"
     elif args.prior_from:
         predictions = load_predictions(args.prior_from)
+    if args.threads < 1:
+        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
     check_int(args.threads, "--threads", 1, MAX_THREADS)
     return dict(methods=methods, seeds=list(seeds), weights=args.weights, predictions=predictions, preset=args.preset,
                 ql=_set_fields(args, _QL_FLAGS), priors=_set_fields(args, _PRIOR_FLAGS), grid=args.grid, size=args.size,
@@ -209,7 +211,8 @@ def build_from_args(args: argparse.Namespace, methods: list[str], seeds: Any) ->
             if value:
                 raise NdrqlError(f"{flag} reads map files; a dataset sample has none to read")
         return build_request(sample.grid_map, **_points(args, sample), sample=sample.info, **fields)
-    return build_request(args.map, **_points(args, None), **_scenario(args), **fields)
+    scenario = _scenario(args)
+    return build_request(args.map, **_points(args, None), **scenario, **fields)
 
 
 def _batch(args: argparse.Namespace, methods: list[str]) -> int:

@@ -99,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
             out / "distance.png", figsize=size, dpi=dpi))
     print(grid_text(setup, pg, request.grid_map.resolution))
     if pred.grid is not None:
-        print(f"grid-mode model: saw this grid at 4 px per cell, start cell {pg.start}, goal cell {pg.goal}")
+        print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
+              f"per cell, start cell {pg.start}, goal cell {pg.goal}")
     else:
         print("map-mode model: saw the map resized to 201 px (the grid is plan's, for the record)")
     print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "

@@ -220,6 +220,8 @@ class PlanReport:
         }
         if self.setup is not None:
             out["planning_grid"] = self.setup.to_dict(pg, gm.resolution)
+        if self.request is not None:  # what was asked for, every default decided (the builder's record)
+            out["request"] = self.request.to_dict()
         return out
 
 

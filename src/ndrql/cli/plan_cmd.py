@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from typing import Any
 
 from ndrql.api import PlanSettings, build_request, run_request
@@ -12,7 +13,7 @@ from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, 
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
-from ndrql.errors import NdrqlError
+from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
 from ndrql.limits import MAX_THREADS, MAX_WORKERS, check_int, check_seeds
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
@@ -233,7 +234,8 @@ def _batch(args: argparse.Namespace, methods: list[str]) -> int:
     if parse_scen(args.scen)[1] is not None:
         raise NdrqlError("give the batch range with --index A:B or --all, not --scen FILE:K")
     fields = request_fields(args, methods, [args.seed])
-    with warnings_to_stderr():
+    with warnings_to_stderr(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=FallbackWarning)  # each line says which method ran
         return run_batch(args.map, args.scen, args.index, args.all, fields=fields, jsonl=args.jsonl, echo=print)
 
 
@@ -281,7 +283,8 @@ def run(args: argparse.Namespace) -> int:
     if args.path_out and not has_world_frame(request.grid_map):
         raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
                          "(a ROS map_server .yaml); use --json for the path in pixels")
-    with warnings_to_stderr():
+    with warnings_to_stderr(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=FallbackWarning)  # the summary names both methods instead
         report = run_request(request, workers=args.workers, keep_records=args.records, progress=True)
     pg = report.grid
     # with --json - the JSON owns stdout; the summary goes to stderr
@@ -293,10 +296,9 @@ def run(args: argparse.Namespace) -> int:
     elif report.weights:
         turns = report.info.get("symmetries", 1)
         runs = report.info.get("runs_file")
-        on = (f"ONNX Runtime on {_short(runs)}" if runs and runs != report.weights
-              else report.info.get("backend", "torch"))
-        echo(f"model: {_short(report.weights)} ({on}"
-             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}); "
+        graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
+        echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
+             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}){graph}; "
              f"constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"

@@ -133,3 +133,10 @@ def test_docs_state_the_layering():
         for package in group:
             if package not in ("ndrql", "__main__", "_layers", "version"):
                 assert f"`{package}`" in doc, f"docs/architecture.md does not describe {package}"
+
+
+def test_the_docs_graph_is_the_codes():
+    doc = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    assert G.doc_block(IMPORTS) in doc, ("docs/architecture.md's import graph has drifted from the code: "
+                                         "run python tools/import_graph.py --write-doc")
+    assert G.doc_with_graph(doc, IMPORTS) == doc

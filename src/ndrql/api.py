@@ -7,10 +7,12 @@
 :func:`plan` runs one method with one seed and returns a :class:`PlannedRun` (a
 :class:`~ndrql.planning.results.PlanResult` with its path on the map and whether that path holds).
 :func:`solve` runs several methods on the same seeds and returns a :class:`PlanReport` with the
-planning grid, the model's predictions, the NDR-QI thresholds and the time of every stage; the
-``ndrql plan`` and ``ndrql demo`` commands are thin wrappers around it.
+planning grid, the model's predictions, the NDR-QI thresholds and the time of every stage. Both
+take a :class:`PlanRequest` or build one with :func:`build_request`, the one place a plan's defaults
+are decided and its input checked; ``ndrql plan``, its scenario batch and ``ndrql demo`` turn their
+flags into the same request, so the CLI and the API give the same plan for the same request.
 
-The pipeline (:mod:`ndrql.pipeline`), as :func:`solve` reads top to bottom: read the map (image, ROS
+The pipeline (:mod:`ndrql.pipeline`), as :func:`run_request` reads top to bottom: read the map (image, ROS
 ``map_server`` YAML, MovingAI ``.map``, ``.npy``, or an array) -> place start and goal (on the map,
 not on an obstacle pixel; ROS maps also take them in metres) -> inflate obstacles by the robot's
 radius -> planning grid (on a user's map the safe grid: square cells, a cell blocked when any pixel is
@@ -28,89 +30,56 @@ prints it and exits with 2).
 
 from __future__ import annotations
 
-import os
 from typing import Any, Sequence
 
-import numpy as np
-
-from ndrql.errors import NdrqlError, PointError  # noqa: F401 (NdrqlError: what bad input raises, for callers)
-from ndrql.pipeline.predictions import GivenPredictions, Predicted, predict_for
-from ndrql.pipeline.problem import build_grid, check_map_size, check_points, place_points, read_map, scenario_points
+from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
+from ndrql.pipeline.fallback import warn_fallbacks
+from ndrql.pipeline.predictions import GivenPredictions, Predicted, load_predictions, predict_for
+from ndrql.pipeline.problem import build_grid, check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
-from ndrql.pipeline.runs import check_workers, learn, method_priors, methods_named, seeds_given
+from ndrql.pipeline.request import PlanRequest, build_request
+from ndrql.pipeline.runs import check_workers, learn, method_priors
 from ndrql.pipeline.settings import PlanSettings
-from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.preset import load_preset, method_configs
+from ndrql.planning.methods import get_method
+
+#: Positional arguments of :func:`solve` after the map (the keyword form), in order.
+SOLVE_POSITIONAL = ("start", "goal", "methods", "seeds")
+#: Positional arguments of :func:`plan` after the map.
+PLAN_POSITIONAL = ("start", "goal", "method", "seed")
 
 
-def solve(
-    map_or_path: Any,
-    start: Sequence[int] | None = None,
-    goal: Sequence[int] | None = None,
-    methods: Sequence[str] | str = ("NDR-QL",),
-    seeds: Sequence[int] | int = (0,),
-    *,
-    weights: str | os.PathLike | None = None,
-    predictions: GivenPredictions | tuple[np.ndarray, np.ndarray | None] | str | None = None,
-    config: QLConfig = QLConfig(),
-    prior_config: PriorConfig = PriorConfig(),
-    preset: Any = None,
-    settings: PlanSettings = PlanSettings(),
-    scen: str | os.PathLike | None = None,
-    scen_index: int = 0,
-    start_world: Sequence[float] | None = None,
-    goal_world: Sequence[float] | None = None,
-    invert: bool = False,
-    threshold: float = 128,
-    crop: bool = False,
-    workers: int | None = None,
-    keep_records: bool = False,
-    info: dict[str, Any] | None = None,
-    progress: bool = False,
-) -> PlanReport:
-    """Plan on one map with every method in ``methods`` and every seed in ``seeds``.
+def _request(map_or_request: Any, positional: Sequence[Any], names: Sequence[str], fields: dict[str, Any]) -> PlanRequest:
+    """The request given, or one built from the keyword form by :func:`build_request` (the one builder)."""
+    if isinstance(map_or_request, PlanRequest):
+        if positional or fields:
+            raise NdrqlError("a PlanRequest is the whole plan: change it with build_request, not with more arguments")
+        return map_or_request
+    if len(positional) > len(names):
+        raise NdrqlError(f"too many positional arguments: after the map, at most {', '.join(names)}")
+    for name, value in zip(names, positional):
+        if name in fields:
+            raise NdrqlError(f"{name} given twice")
+        fields[name] = value
+    return build_request(map_or_request, **fields)
 
-    ``map_or_path``: a map file (image, ROS ``.yaml``, MovingAI ``.map``, ``.npy``), a
-    :class:`GridMap` or a 2-D array (non-zero = obstacle). ``start``/``goal``: ``(row, col)`` map
-    pixels, or ``start_world``/``goal_world`` ``(x, y[, yaw])`` in metres on ROS maps (the yaws orient
-    the first and last pose), or taken from MovingAI scenario ``scen_index`` of ``scen``.
-    ``seeds``: a list, or an int ``N`` for seeds ``0..N-1``. ``weights``: model file (default:
-    ``$NDRQL_WEIGHTS`` or the shipped weights); ``predictions``: ``(region, guideline)`` at the map's
-    resolution instead of the model, a :class:`~ndrql.pipeline.predictions.GivenPredictions` (a file of
-    ``ndrql predict``, :func:`~ndrql.pipeline.predictions.load_predictions`), or ``"oracle"`` for the oracle's (the planning grid's own shortest
-    path drawn like the dataset's labels: a diagnostic of the ceiling, reported as "oracle priors"). ``settings``: grid rule, size, robot radius, smoothing
-    (default: the safe grid for a user's map; :meth:`PlanSettings.paper` for the paper's).
-    ``workers``: processes for many runs (default: all cores; results do not depend on it).
-    ``preset``: ``"spec"``, ``"tuned"``, ``"general"``, a preset file or a
-    :class:`~ndrql.planning.preset.Preset`: each method runs with its own constants from it (from a
-    per-grid-size preset, those of the size nearest to the planning grid), and the fields of ``config``/``prior_config``
-    that differ from their defaults win over the preset's (default ``None``: ``config`` and
-    ``prior_config`` for every method, which by default are the paper-reproduction constants).
-    """
+
+def run_request(request: PlanRequest, *, workers: int | None = None, keep_records: bool = False,
+                progress: bool = False, _caller: int = 1) -> PlanReport:
+    """Plan ``request``: every method with every seed (:func:`solve` reads as this function). A method the
+    fallback replaced issues a :class:`~ndrql.errors.FallbackWarning` at the caller's line."""
     clock = StageClock()
-    ms = methods_named(methods)
-    seed_list = seeds_given(seeds)
-    info = dict(info or {})
-    preset_obj = None if preset is None else load_preset(preset)
-    if preset_obj is not None:
-        info["preset"] = preset_obj.name
-
-    with clock.stage("map"):
-        grid_map = read_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
-        info.setdefault("source", grid_map.source)
-        check_map_size(grid_map, settings)
-        start, goal, start_yaw, goal_yaw = place_points(grid_map, start, goal, scen=scen, scen_index=scen_index,
-                                                        start_world=start_world, goal_world=goal_world, info=info)
+    clock.wall["map"] = clock.cpu["map"] = request.map_seconds
     with clock.stage("grid"):
-        pg, setup = build_grid(grid_map, start, goal, settings)
+        pg, setup = build_grid(request.grid_map, request.start, request.goal, request.settings)
         if pg.start == pg.goal:
             raise PointError(f"start and goal fall in the same planning cell {pg.start}; nothing to plan "
                              f"(use a finer grid with --size or points further apart)")
     side = max(pg.blocked.shape)  # a per-grid-size preset takes the entry nearest to this grid
-    consts = lambda name: method_configs(preset_obj, name, config, prior_config, side)  # noqa: E731
-    pred = Predicted()
-    if any(m.needs_ndr for m in ms):
-        pred, ms = predict_for(ms, predictions, weights, grid_map, pg, start, goal, settings, prior_config, clock, info)
+    consts = lambda name: request.constants(name, side)  # noqa: E731
+    pred = predict_for(request, pg, clock) if request.needs_model else \
+        Predicted(methods=tuple(get_method(m) for m in request.methods))
+    ms = list(pred.methods)
+    warn_fallbacks(pred.fallbacks, stacklevel=_caller + 1)
     with clock.stage("priors"):
         priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts, pred.distance)
     with clock.stage("startup"):
@@ -119,36 +88,68 @@ def solve(
         kernel.warm_up()  # loads the compiled kernel from numba's disk cache (compiles on the very first run)
     n_workers = check_workers(workers)
     with clock.stage("learn"):
-        results = learn(pg, ms, seed_list, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
+        results = learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
                         progress, pred.distance)
     with clock.stage("route"):
-        runs = planned_runs(results, setup.check_map, pg, grid_map, settings.smoothing, start_yaw, goal_yaw)
-
+        runs = planned_runs(results, setup.check_map, pg, request.grid_map, request.settings.smoothing,
+                            request.start_yaw, request.goal_yaw, pred.fallbacks)
     return PlanReport(
-        grid_map=grid_map, start=start, goal=goal, grid=pg, methods=tuple(m.name for m in ms),
-        seeds=tuple(seed_list), results=tuple(runs), region=pred.region_map, guideline=pred.guideline_map,
+        grid_map=request.grid_map, start=request.start, goal=request.goal, grid=pg, methods=tuple(m.name for m in ms),
+        seeds=request.seeds, results=tuple(runs), region=pred.region_map, guideline=pred.guideline_map,
         thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=pred.weights,
-        info=info, config=consts(ms[0].name)[0], prior_config=consts(ms[0].name)[1], setup=setup, settings=settings,
+        info={**request.info, **pred.record}, config=consts(ms[0].name)[0], prior_config=consts(ms[0].name)[1],
+        setup=setup, settings=request.settings, request=request,
     )
 
 
-def plan(
-    map_or_path: Any,
-    start: Sequence[int] | None = None,
-    goal: Sequence[int] | None = None,
-    method: str = "NDR-QL",
-    seed: int = 0,
-    **kwargs: Any,
-) -> PlannedRun:
+def solve(map_or_request: Any, *positional: Any, workers: int | None = None, keep_records: bool = False,
+          progress: bool = False, **request_fields: Any) -> PlanReport:
+    """Plan on one map with every method and every seed of a request; returns a :class:`PlanReport`.
+
+    ``map_or_request``: a :class:`~ndrql.pipeline.request.PlanRequest` (from
+    :func:`~ndrql.pipeline.request.build_request`), or a map (file, :class:`GridMap` or 2-D array,
+    non-zero = obstacle) followed by the keywords of :func:`~ndrql.pipeline.request.build_request`
+    (``start``, ``goal``, ``methods``, ``seeds`` may also come positionally): ``start_world``,
+    ``goal_world``, ``scen`` (``"arena.map.scen:K"``), ``weights``, ``predictions``, ``preset``,
+    ``ql={...}``, ``priors={...}``, ``settings`` or any :class:`PlanSettings` field (``grid``, ``size``,
+    ``robot_radius``, ...). The defaults are ``ndrql plan``'s: on a map file the safe grid with ``size
+    auto``, the general weights with the preset searched for them, and IQL when the model's prediction
+    is uninformative (then the run says so: ``requested_method``, ``fallback_reason``, and a
+    :class:`~ndrql.errors.FallbackWarning`).
+
+    ``workers``: processes for many runs (default: all cores; results do not depend on it);
+    ``keep_records``: per-episode records in the results; ``progress``: a bar on a terminal.
+    """
+    request = _request(map_or_request, positional, SOLVE_POSITIONAL, dict(request_fields))
+    return run_request(request, workers=workers, keep_records=keep_records, progress=progress, _caller=2)
+
+
+def plan(map_or_request: Any, *positional: Any, workers: int | None = None, **request_fields: Any) -> PlannedRun:
     """Plan a path with one method and one seed; returns the run (a :class:`PlanResult` with its route).
 
-    ``map_or_path``: a map file (image, ROS ``.yaml``, MovingAI ``.map``, ``.npy``), a ``GridMap`` or
-    a 2-D array (non-zero = obstacle); ``start``/``goal``: ``(row, col)`` map pixels. Keyword
-    arguments are those of :func:`solve` (``weights``, ``settings``, ``start_world``, ``scen``, ...).
-    ``result.path`` is in planning-grid cells; ``result.route`` is the path on the map (checked for
-    collisions, shortcut, with world poses on ROS maps) and ``result.success`` says whether it holds.
+    ``ndrql.plan("map.png", start=(25, 179), goal=(167, 5))`` runs NDR-QL with seed 0; ``method=`` and
+    ``seed=`` choose others, and the keywords are those of :func:`solve`. ``result.path`` is in
+    planning-grid cells; ``result.route`` is the path on the map (checked for collisions, shortcut, with
+    world poses on ROS maps) and ``result.success`` says whether it holds. When the model's prediction is
+    uninformative, IQL runs instead: ``result.method`` is then ``"IQL"``, ``result.requested_method``
+    ``"NDR-QL"``, ``result.fallback_reason`` says why, and a :class:`~ndrql.errors.FallbackWarning` is issued.
     """
-    return solve(map_or_path, start, goal, methods=(method,), seeds=(seed,), **kwargs).results[0]
+    fields = dict(request_fields)
+    if not isinstance(map_or_request, PlanRequest):
+        named = dict(zip(PLAN_POSITIONAL, positional))
+        for k in named:
+            if k in fields:
+                raise NdrqlError(f"{k} given twice")
+        fields.update(named)
+        positional = ()
+        if "methods" in fields or "seeds" in fields:
+            raise NdrqlError("plan runs one method with one seed (method=, seed=); use solve for several")
+        fields["methods"] = (fields.pop("method", "NDR-QL"),)
+        fields["seeds"] = (fields.pop("seed", 0),)
+    request = _request(map_or_request, positional, SOLVE_POSITIONAL, fields)
+    if len(request.methods) * len(request.seeds) != 1:
+        raise NdrqlError("plan runs one method with one seed; use solve for this request")
+    return run_request(request, workers=workers, _caller=2).results[0]
 
 
 def cell_path_to_pixels(report: PlanReport, path: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
@@ -157,5 +158,6 @@ def cell_path_to_pixels(report: PlanReport, path: Sequence[Sequence[int]]) -> li
     return [report.grid.centre(c) for c in path]
 
 
-__all__ = ["PlanReport", "PlanSettings", "PlannedRun", "STAGES", "WORK_STAGES", "plan", "solve", "read_map",
-           "scenario_points", "check_points", "cell_path_to_pixels"]
+__all__ = ["FallbackWarning", "GivenPredictions", "NdrqlWarning", "PlanReport", "PlanRequest", "PlanSettings",
+           "PlannedRun", "STAGES", "WORK_STAGES", "build_request", "plan", "run_request", "solve", "read_map",
+           "scenario_points", "check_points", "cell_path_to_pixels", "load_predictions"]

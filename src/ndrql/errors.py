@@ -28,6 +28,14 @@ class NdrqlError(Exception):
     """Base class of every error ndrql raises on bad input."""
 
 
+class NdrqlWarning(UserWarning):
+    """Base class of ndrql's own warnings (filter them with ``warnings.filterwarnings(..., category=NdrqlWarning)``)."""
+
+
+class FallbackWarning(NdrqlWarning):
+    """The method asked for did not run: the model's prediction was uninformative and the fallback ran instead."""
+
+
 class MapFormatError(NdrqlError):
     """A map file is missing, unreadable, corrupt, or of an unsupported format."""
 

@@ -13,8 +13,8 @@ import math
 
 from ndrql.errors import brief
 
-__all__ = ["DEVELOPMENT_SEEDS", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEALED_SEEDS", "SEED_LIMIT",
-           "TRAINING_SEEDS", "check_finite", "check_int", "check_seeds", "check_training_seed", "seed_role"]
+__all__ = ["DEVELOPMENT_SEEDS", "MIN_GRID_SIZE", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEALED_SEEDS",
+           "SEED_LIMIT", "TRAINING_SEEDS", "check_finite", "check_int", "check_seeds", "check_training_seed", "seed_role"]
 
 SEED_LIMIT = 2**63
 """Seeds are ``0 <= seed < 2**63``: numpy, torch and the planning kernel all take them as 64-bit integers."""
@@ -24,8 +24,11 @@ MAX_WORKERS = 256
 """Most worker processes in one pool."""
 MAX_THREADS = 1024
 """Most threads for a forward pass or training."""
+MIN_GRID_SIZE = 2
+"""Smallest planning grid (cells on a side) any command takes: one cell has nothing to plan."""
 MAX_GRID_SIZE = 1024
-"""Largest planning grid for A* and ``map info`` (cells on a side; Q-learning has its own, smaller limit)."""
+"""Largest planning grid (cells on a side) any command takes (``plan``'s default ``--max-size`` is smaller).
+Checked for every command by :class:`ndrql.pipeline.settings.PlanSettings`."""
 
 #: Seeds of generated maps, by what the maps are for (the one home of these ranges). A set of generated
 #: maps takes one seed; sample ``i`` depends only on ``(seed, i)``, so sets with seeds in different

@@ -36,7 +36,7 @@ def test_help_lists_the_foundation_subcommands(ndrql_exe):
 def test_astar_on_a_png_writes_json_and_png(ndrql_exe, room_png, tmp_path):
     path, obstacles = room_png
     r = run_cli(ndrql_exe, "astar", path, "--start", "5,5", "--goal", "115,10", "--json", tmp_path / "o" / "r.json",
-                "--png", tmp_path / "o" / "r.png")
+                "--png", tmp_path / "o" / "r.png", "--grid", "area", "--size", "50")  # the paper's grid: known answers
     assert r.returncode == 0, r.stderr
     data = json.loads((tmp_path / "o" / "r.json").read_text())
     blocked = planning_grid(obstacles)
@@ -48,14 +48,14 @@ def test_astar_on_a_png_writes_json_and_png(ndrql_exe, room_png, tmp_path):
     assert path_is_valid(blocked, path_cells)
     assert data["length"] == len(path_cells) - 1 == bfs_distances(blocked, (2, 3))[48, 6]
     assert data["map"]["height"] == 120 and data["map"]["width"] == 80
-    assert f"{data['length']} moves" in r.stdout
+    assert f"{data['length']} moves" in r.stdout and "planning grid: area" in r.stdout
     assert (tmp_path / "o" / "r.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_astar_print_grid_and_snap_warning(ndrql_exe, room_png):
     path, _ = room_png
     # pixel (64, 10) is free, its planning cell (26, 6) two-thirds wall: snapped with a warning
-    r = run_cli(ndrql_exe, "astar", path, "--start", "64,10", "--goal", "115,10", "--print-grid")
+    r = run_cli(ndrql_exe, "astar", path, "--start", "64,10", "--goal", "115,10", "--print-grid", "--grid", "area")
     assert r.returncode == 0
     assert r.stderr.startswith("ndrql: warning: start (64, 10) falls in blocked planning cell (26, 6)")
     # a start on an obstacle pixel is refused, as by plan
@@ -89,8 +89,9 @@ def test_astar_on_a_dataset_sample(ndrql_exe, dataset_root, tmp_path):
 
 def test_map_info_and_convert(ndrql_exe, room_png, tmp_path):
     path, obstacles = room_png
-    r = run_cli(ndrql_exe, "map", "info", path, "--json", tmp_path / "i.json")
+    r = run_cli(ndrql_exe, "map", "info", path, "--json", tmp_path / "i.json", "--grid", "area")
     assert r.returncode == 0, r.stderr
+    assert "planning grid: area" in r.stdout
     assert "120 rows x 80 cols" in r.stdout and f"{100 * obstacles.mean():.2f}%" in r.stdout
     assert sum(1 for ln in r.stdout.splitlines() if len(ln) == 50 and set(ln) <= set("#.")) == 50
     assert json.loads((tmp_path / "i.json").read_text())["obstacle_ratio"] == pytest.approx(obstacles.mean())
@@ -160,7 +161,7 @@ def test_error_bad_movingai_header(ndrql_exe, tmp_path):
     assert_one_line_error(r, "bad header")
 
 
-@pytest.mark.parametrize("start, goal, match", [("120,5", "5,5", "start 120,5 is off the map"), ("5,5", "5,-1", "goal 5,-1 is off the map")])
+@pytest.mark.parametrize("start, goal, match", [("120,5", "5,5", "start 120,5 is outside the map"), ("5,5", "5,-1", "goal 5,-1 is outside the map")])
 def test_error_point_off_the_map(ndrql_exe, room_png, start, goal, match):
     path, _ = room_png
     assert_one_line_error(run_cli(ndrql_exe, "astar", path, "--start", start, "--goal", goal), match)
@@ -171,7 +172,7 @@ def test_error_no_path(ndrql_exe, tmp_path):
     obstacles[18:22, :] = True
     np.save(tmp_path / "wall.npy", obstacles)
     r = run_cli(ndrql_exe, "astar", tmp_path / "wall.npy", "--start", "2,2", "--goal", "38,38")
-    assert_one_line_error(r, "not 4-connected")
+    assert_one_line_error(r, "not connected on the map itself")
 
 
 @pytest.mark.parametrize(

@@ -41,7 +41,7 @@ def test_registered_time_limits():
 
 
 def test_env_from_a_map_file_known_answer(wall_png):
-    env = gym.make(ENV_ID, map=str(wall_png), start=(2, 2), goal=(37, 2), size=10)
+    env = gym.make(ENV_ID, map=str(wall_png), start=(2, 2), goal=(37, 2), size=10, grid_rule="area")
     inner = env.unwrapped
     expected = np.zeros((10, 10), dtype=bool)
     expected[4:6, :8] = True
@@ -65,14 +65,14 @@ def test_env_from_a_map_file_known_answer(wall_png):
 def test_env_from_array_and_safe_rule():
     m = wall_map()
     m[0:3, 20] = True  # a 1-px post: the safe rule blocks its cell, the area rule does not
-    area = GridPathEnv(map=m, start=(2, 2), goal=(37, 2), size=10)
+    area = GridPathEnv(map=m, start=(2, 2), goal=(37, 2), size=10, grid_rule="area")
     safe = GridPathEnv(map=m, start=(2, 2), goal=(37, 2), size=10, grid_rule="safe")
     assert not area.blocked[0, 5] and safe.blocked[0, 5]
     assert safe.problem.astar_length == 25
 
 
 def test_reset_options_start_goal_and_map(wall_png, tmp_path):
-    env = GridPathEnv(map=str(wall_png), start=(2, 2), goal=(37, 2), size=10)
+    env = GridPathEnv(map=str(wall_png), start=(2, 2), goal=(37, 2), size=10, grid_rule="area")
     obs, info = env.reset(seed=0, options={"start": (37, 38)})  # map pixels
     assert info["start"] == (9, 9) and info["goal"] == (9, 0) and info["astar_length"] == 9
     obs, info = env.reset()  # options apply until changed
@@ -111,6 +111,8 @@ def test_map_problem_errors(wall_png):
         map_problem(closed, (2, 2), (37, 2), size=10)
     with pytest.raises(NdrqlError, match="grid_rule"):
         GridPathEnv(map=closed, start=(2, 2), goal=(37, 2), grid_rule="coarse")
+    with pytest.raises(NdrqlError, match="give map"):
+        GridPathEnv(size=10)  # a size without a map would be ignored: an error instead
 
 
 def test_generator_source_is_deterministic_and_valid():

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import ndrql
+from ndrql.errors import FallbackWarning
 from ndrql.planning.priors import ThresholdWarning
 from ndrql.maps.grid import PlanningGrid
 from ndrql.pipeline.predictions import prediction_quality
@@ -57,8 +58,12 @@ def test_quality_of_hand_made_predictions():
 def test_fallback_runs_iql_and_says_so():
     m = corridor_map()
     flat = (np.zeros(m.shape), np.full(m.shape, 0.2))  # a region that joins start and goal at no threshold
-    report = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1)
+    with pytest.warns(FallbackWarning, match="NDR-QL did not run, IQL ran instead"):
+        report = ndrql.solve(m, (20, 20), (180, 20), "NDR-QL", 1, predictions=flat, workers=1)
     assert report.methods == ("IQL",) and report.results[0].method == "IQL"
+    run = report.results[0]
+    assert run.requested_method == "NDR-QL" and run.fell_back and "no region threshold" in run.fallback_reason
+    assert report.to_dict()["runs"][0]["requested_method"] == "NDR-QL" and report.requested_methods == ("NDR-QL",)
     assert report.info["fallback"]["requested"] == ["NDR-QL"] and report.info["fallback"]["ran"] == "IQL"
     assert report.to_dict()["prediction_quality"]["informative"] is False
     with pytest.warns(ThresholdWarning, match="no threshold"):  # the model's priors kept, and the mask is empty
@@ -67,8 +72,9 @@ def test_fallback_runs_iql_and_says_so():
     assert kept.methods == ("NDR-QL",) and "fallback" not in kept.info
     good = ndrql.solve(m, (20, 170), (180, 170), "NDR-QL", 1, predictions=good_prediction(m), workers=1)
     assert good.methods == ("NDR-QL",) and good.info["prediction_quality"]["informative"]
+    assert kept.results[0].requested_method == "NDR-QL" and kept.results[0].fallback_reason is None
     with pytest.warns(ThresholdWarning, match="no threshold"):
-        both = ndrql.solve(m, (20, 20), (180, 20), ["IQL", "NDR-QL"], 1, predictions=flat, workers=1)
+        both = ndrql.solve(m, (20, 20), (180, 20), ["IQL", "NDR-QL"], 1, predictions=flat, workers=1, fallback="IQL")
     assert both.methods == ("IQL", "NDR-QL")  # a comparison that runs the fallback anyway keeps every method
 
 

@@ -10,14 +10,13 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ndrql.api import PlanSettings, solve
+from ndrql.api import build_request, run_request
 from ndrql.cli.common import add_weights_argument, warnings_to_stderr, write_json
 from ndrql.cli.options import add_command
 from ndrql.cli.plan_cmd import _save, _short, _summary
 from ndrql.io import write_text
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.maps.bundled import bundled_sample
-from ndrql.planning.preset import plan_default_preset
 from ndrql.planning.results import geometric_ci, summarize
 from ndrql.viz.plan import compare_figure, plan_figure
 
@@ -70,11 +69,11 @@ def run(args: argparse.Namespace) -> int:
         check_int(args.workers, "--workers", 1, MAX_WORKERS)
     sample = bundled_sample()
     out = Path(args.out)
-    preset = args.preset or plan_default_preset(args.weights)
     with warnings_to_stderr():
-        report = solve(sample.grid_map, sample.start, sample.goal, DEMO_METHODS, args.seeds, weights=args.weights,
-                       workers=args.workers, info={"source": sample.description}, preset=preset,
-                       settings=PlanSettings(), progress=True)  # as `ndrql plan` runs on a user's map: the safe grid
+        request = build_request(sample.grid_map, sample.start, sample.goal, methods=DEMO_METHODS, seeds=args.seeds,
+                                weights=args.weights, preset=args.preset, info={"source": sample.description})
+        # as `ndrql plan` runs on a user's map: the safe grid, size auto, plan's preset for the weights
+        report = run_request(request, workers=args.workers, progress=True)
     pg = report.grid
     print(f"demo map: {sample.description}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "
@@ -83,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     table = table_markdown(report)
     head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.description}); seeds 0..{args.seeds - 1}; "
             f"A* optimum {report.astar_length} moves; NDR-QI threshold {report.thresholds.get('NDR-QL')}; "
-            f"constants: preset {preset}.")
+            f"constants: preset {request.preset.name}.")
     written = [
         _save(compare_figure(report), str(out / "compare.png")),
         _save(plan_figure(report, method="NDR-QL"), str(out / "ndr-ql.png")),

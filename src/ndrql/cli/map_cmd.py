@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import argparse
 
-from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, load_map_argument, map_info,
-                              write_json)
+from ndrql.cli.astar_cmd import add_grid_arguments, grid_request
+from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, add_problem_arguments,
+                              load_map_argument, map_info, warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command
-from ndrql.limits import MAX_GRID_SIZE, check_int
-from ndrql.maps.grid import PLANNING_SIZE, planning_grid
+from ndrql.errors import NdrqlError
+from ndrql.limits import MAX_GRID_SIZE
+from ndrql.maps.grid import PLANNING_SIZE
+from ndrql.pipeline.problem import build_grid, grid_text, map_grid
+from ndrql.pipeline.request import request_settings
 from ndrql.maps.writers import save_map
 
 EXAMPLES = """examples:
   ndrql map info warehouse.yaml --crop
+  ndrql map info apartment.yaml --start 40,30 --goal 150,160 --robot-radius 0.15   # the grid plan builds
   ndrql map info --sample path-planning-dataset:unseen:950
   ndrql map convert arena.map arena.png
 """
@@ -25,12 +30,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     info = sub.add_parser(
         "info", help="size, obstacle ratio and the planning grid as text",
-        description="Print the map's size, obstacle ratio and its planning grid (# blocked, . free).",
+        description="Print the map's size, obstacle ratio and its planning grid (# blocked, . free): the grid "
+        "`ndrql plan` builds (on a map file the safe grid, square cells blocked when any pixel is an obstacle, "
+        "size auto when --start and --goal are given; with --sample the paper's 50x50 area grid). The output "
+        "names the grid.",
     )
-    add_map_arguments(info)
+    add_problem_arguments(info)
     add_max_pixels_argument(info)
-    info.add_argument("--size", type=int, default=PLANNING_SIZE, metavar="N",
-                      help=f"planning grid side, 1..{MAX_GRID_SIZE} (default: {PLANNING_SIZE})")
+    add_grid_arguments(info, f"auto with --start and --goal, else {PLANNING_SIZE}")
     info.add_argument("--json", metavar="FILE", help="also write the information as JSON ('-' for stdout)")
     info.set_defaults(func=run_info)
 
@@ -45,24 +52,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    check_int(args.size, "--size", 1, MAX_GRID_SIZE)
-    loaded = load_map_argument(args)
-    grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
+    sample = bool(args.sample)
+    has_points = sample or bool(args.start and args.goal) or bool(getattr(args, "scen", None))
+    if not has_points and (args.start or args.goal):
+        raise NdrqlError("give both --start and --goal (the grid plan builds for them), or neither")
+    if has_points:
+        request = grid_request(args, grid=args.grid, size=args.size, robot_radius=args.robot_radius)
+        grid_map, settings = request.grid_map, request.settings
+        with warnings_to_stderr():
+            pg, setup = build_grid(grid_map, request.start, request.goal, settings)
+        blocked, named = pg.blocked, grid_text(setup, pg, grid_map.resolution)
+    else:
+        if args.size is not None and str(args.size).strip().lower() == "auto":
+            raise NdrqlError("--size auto picks the grid for a route: give --start and --goal")
+        loaded = load_map_argument(args)
+        grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
+        settings = request_settings(grid=args.grid, size=PLANNING_SIZE if args.size is None else args.size,
+                                    robot_radius=args.robot_radius, max_map_pixels=args.max_pixels,
+                                    max_size=MAX_GRID_SIZE)
+        blocked, named = map_grid(grid_map, settings)
+        pg = setup = None
     info = map_info(grid_map)
-    blocked = planning_grid(grid_map, args.size)
     rows = ["".join("#" if b else "." for b in row) for row in blocked]
     print(f"map: {grid_map.source}")
     print(f"size: {grid_map.height} rows x {grid_map.width} cols")
     print(f"obstacles: {100 * grid_map.obstacle_ratio:.2f}%")
     if grid_map.resolution is not None:
         print(f"resolution: {grid_map.resolution} m/px, origin: {list(grid_map.origin or ())}")
-    if isinstance(loaded, Problem):
-        print(f"sample start: {loaded.start}, goal: {loaded.goal} (row, col), category: {loaded.info['sample']['category']}")
-        info.update(loaded.info, start=list(loaded.start), goal=list(loaded.goal))
-    print(f"planning grid {blocked.shape[0]}x{blocked.shape[1]} ({100 * blocked.mean():.1f}% blocked):")
+    if sample:
+        print(f"sample start: {request.start}, goal: {request.goal} (row, col), "
+              f"category: {request.info['sample']['category']}")
+        info.update({k: v for k, v in request.info.items() if k not in ("source", "preset")},
+                    start=list(request.start), goal=list(request.goal))
+    print(f"{named}; {100 * blocked.mean():.1f}% blocked:")
     print("\n".join(rows))
     if args.json:
-        info.update(planning_size=list(blocked.shape), grid=rows)
+        info.update(planning_size=list(blocked.shape), grid=rows, grid_rule=settings.grid)
+        if pg is not None:
+            info["planning_grid"] = setup.to_dict(pg, grid_map.resolution)
         write_json(args.json, info)
     return 0
 

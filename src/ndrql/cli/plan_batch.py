@@ -16,11 +16,13 @@ import time
 from pathlib import Path
 from typing import Any, Sequence
 
-from ndrql.api import solve
+from ndrql.api import build_request, read_map, run_request
 from ndrql.errors import NdrqlError
 from ndrql.io import json_text
 from ndrql.maps.readers import read_movingai_scen
+from ndrql.pipeline.request import request_settings
 from ndrql.pipeline.route import octile_cost
+from ndrql.planning.methods import get_method
 
 
 def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
@@ -91,7 +93,12 @@ def _record(index: int, scen: Any, key: dict[str, Any], report: Any, seconds: fl
         cost = octile_cost(run.route.pixels)
         rec.update(octile=round(cost, 4), length=round(run.route.length, 4),
                    ratio=round(cost / scen.optimal_length, 5) if scen.optimal_length > 0 else None,
-                   collisions=len(run.route.final_collisions))
+                   collisions=len(run.route.final_collisions),
+                   path=[[round(float(a), 3), round(float(b), 3)] for a, b in run.route.pixels])
+        if run.route.poses is not None:
+            rec["path_world"] = [[round(float(v), 4) for v in pose] for pose in run.route.poses]
+    if run.fallback_reason is not None:
+        rec.update(requested=run.requested_method, fallback_reason=run.fallback_reason)
     return rec
 
 
@@ -127,11 +134,19 @@ def summary(records: Sequence[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, method: str, seed: int,
-              settings: Any, jsonl: str | None, echo: Any, solve_kw: dict[str, Any]) -> int:
-    """Run the chosen scenarios of ``scen_path`` on ``grid_map``; print a line each and a summary."""
+def run_batch(map_path: str, scen_path: str, index: str | None, all_: bool, *, fields: dict[str, Any],
+              jsonl: str | None, echo: Any) -> int:
+    """Run the chosen scenarios of ``scen_path`` on the map ``map_path``; print a line each and a summary.
+
+    ``fields``: the keywords of :func:`~ndrql.pipeline.request.build_request` (one method, one seed): each
+    scenario K is the request ``ndrql plan MAP --scen FILE:K`` makes, on the map read once."""
     from tqdm import tqdm
 
+    fields = dict(fields)
+    reader = {k: fields.pop(k) for k in ("invert", "threshold", "crop") if k in fields}
+    settings = request_settings(**fields)
+    grid_map = read_map(map_path, max_pixels=settings.max_map_pixels, **reader)
+    method, seed = get_method(fields["methods"][0]).name, int(fields["seeds"][0])
     scenarios = read_movingai_scen(scen_path)
     if not scenarios:
         raise NdrqlError(f"{scen_path} has no scenarios")
@@ -154,7 +169,8 @@ def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, m
         s = scenarios[i]
         t = time.perf_counter()
         try:
-            report = solve(grid_map, s.start, s.goal, (method,), (seed,), settings=settings, **solve_kw)
+            request = build_request(grid_map, scen=scen_path, scen_index=i, **fields)
+            report = run_request(request, workers=1)
             rec = _record(i, s, key, report, time.perf_counter() - t)
         except NdrqlError as exc:
             rec = {**key, "scenario": i, "start": list(s.start), "goal": list(s.goal), "optimal": s.optimal_length,

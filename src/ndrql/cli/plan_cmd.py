@@ -3,24 +3,26 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from typing import Any
 
-from ndrql.api import PlanSettings, solve
+from ndrql.api import PlanSettings, build_request, run_request
 from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
-                              check_dpi, check_outputs, load_map_argument, parse_point, parse_scen, warnings_to_stderr, write_json)
-from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
+                              check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
+                              warnings_to_stderr, write_json)
+from ndrql.cli.options import add_command, add_config_flags, add_seed_options
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
-from ndrql.errors import NdrqlError
+from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
-from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
+from ndrql.limits import MAX_THREADS, MAX_WORKERS, check_finite, check_int, check_seeds
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
+from ndrql.pipeline.request import PRIOR_FIELDS, QL_FIELDS
 from ndrql.pipeline.settings import GRID_RULES
 from ndrql.planning.config import PriorConfig, QLConfig, field_docs
 from ndrql.planning.methods import get_method
-from ndrql.planning.preset import load_preset, plan_default_preset
 from ndrql.viz.plan import compare_figure, plan_figure
 
 DESCRIPTION = ("Plan a path on a map (image, ROS map_server YAML, MovingAI .map with --scen, .npy, or a dataset "
@@ -57,10 +59,8 @@ can take minutes.
 """
 
 #: Config fields that become flags (``alpha`` -> ``--alpha``), from the frozen dataclasses.
-_QL_FLAGS = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window",
-             "reward_collision", "reward_goal", "reward_revisit")
-_PRIOR_FLAGS = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step",
-                "region_dilation", "guideline_ties")
+_QL_FLAGS = QL_FIELDS
+_PRIOR_FLAGS = PRIOR_FIELDS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -96,7 +96,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    f"at most --max-size)")
     g.add_argument("--max-size", type=int, default=settings.max_size, metavar="N",
                    help=f"{docs['max_size']} (default: {settings.max_size})")
-    g.add_argument("--robot-radius", type=float, default=0.0, metavar="R",
+    g.add_argument("--robot-radius", type=float, default=None, metavar="R",
                    help=f"{docs['robot_radius']} (default: 0)")
     g.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=None,
                    help="shortcut the learned path by line of sight on the full map (default: on for a map file, "
@@ -104,7 +104,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--fallback", metavar="NAME|none", default=None,
                    help="when the model's prediction is uninformative (its region joins start and goal at no Eq. 7 "
                    "threshold, or the guideline lies mostly on obstacles), plan with this method instead of the NDR one "
-                   "(default: IQL for a map file with one method, none for --sample and --compare; with --preset spec the "
+                   "(default: IQL for a map file with one method, none for --sample and for several methods; with --preset spec the "
                    "general model does better with none: docs/results.md#transfer)")
     g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
                    "(ROS maps), instead of --start; negative values as typed: --start-world -1.5,2")
@@ -137,54 +137,112 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _preset(args: argparse.Namespace):
-    """``--preset`` (default: :func:`ndrql.planning.preset.plan_default_preset`) with explicit flags on top."""
-    ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
-    pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
-    return load_preset(args.preset or plan_default_preset(args.weights)).with_overrides(ql, pri)
+def _set_fields(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, Any]:
+    """The constants given as flags (each one set explicitly, even to its default value)."""
+    return {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
 
 
-def _configs(args: argparse.Namespace):
-    ql_cfg, prior_cfg = configs_from_flags(args, ((QLConfig, _QL_FLAGS), (PriorConfig, _PRIOR_FLAGS)))
-    return ql_cfg, prior_cfg
+def _points(args: argparse.Namespace, sample: Problem | None) -> dict[str, Any]:
+    """Start and goal as the flags give them (a sample's own points unless flags replace them)."""
+    start = parse_point(args.start, "--start") if args.start else None
+    goal = parse_point(args.goal, "--goal") if args.goal else None
+    start_world = parse_world_point(args.start_world, "--start-world") if args.start_world else None
+    goal_world = parse_world_point(args.goal_world, "--goal-world") if args.goal_world else None
+    for flag, pixel, world in (("start", start, start_world), ("goal", goal, goal_world)):
+        if pixel and world:
+            raise NdrqlError(f"give --{flag} (ROW,COL pixels) or --{flag}-world (X,Y metres), not both")
+    if args.scen:
+        given = [f for f, v in (("--start", start), ("--goal", goal), ("--start-world", start_world),
+                                ("--goal-world", goal_world)) if v is not None]
+        if given:
+            raise NdrqlError(f"--scen gives start and goal; drop {' and '.join(given)} (or drop --scen)")
+    if sample is not None:
+        start = start if start is not None or start_world else sample.start
+        goal = goal if goal is not None or goal_world else sample.goal
+    elif not args.scen:
+        missing = [f for f, v, w in (("--start", start, start_world), ("--goal", goal, goal_world)) if v is None and w is None]
+        if missing:
+            raise NdrqlError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels, or "
+                             f"{' and '.join(m + '-world' for m in missing)} X,Y in metres on ROS maps), or --scen FILE")
+    return {"start": start, "goal": goal, "start_world": _xyyaw(start_world), "goal_world": _xyyaw(goal_world)}
 
 
-def _scenario(args: argparse.Namespace) -> tuple[str | None, int]:
+def _scenario(args: argparse.Namespace) -> dict[str, Any]:
     if not args.scen:
         if args.index is not None:
             raise NdrqlError("--index needs --scen FILE")
-        return None, 0
-
-    path, k = parse_scen(args.scen)
+        return {}
     if args.index is None:
-        return path, 0 if k is None else k
+        return {"scen": args.scen}
+    if parse_scen(args.scen)[1] is not None:
+        raise NdrqlError("give the scenario as --scen FILE:K or --index K, not both")
     try:
-        return path, int(args.index)
+        return {"scen": args.scen, "scen_index": int(args.index)}
     except ValueError:
         raise NdrqlError(f"--index must be a scenario number K or a range A:B, got {str(args.index)[:40]!r}") from None
 
 
-def _batch(args: argparse.Namespace, methods: list[str], ql_cfg: Any, prior_cfg: Any) -> int:
+def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> dict[str, Any]:
+    """The flags as keywords of :func:`ndrql.pipeline.request.build_request` (points excluded)."""
+    predictions: Any = None
+    if args.prior_from == "oracle":
+        predictions = "oracle"
+    elif args.prior_from:
+        predictions = load_predictions(args.prior_from)
+    if args.threads < 1:
+        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
+    check_int(args.threads, "--threads", 1, MAX_THREADS)
+    return dict(methods=methods, seeds=list(seeds), weights=args.weights, predictions=predictions, preset=args.preset,
+                ql=_set_fields(args, _QL_FLAGS), priors=_set_fields(args, _PRIOR_FLAGS), grid=args.grid, size=args.size,
+                robot_radius=args.robot_radius, smooth=args.smooth, max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads, backend=args.backend,
+                learned_distance=args.learned_distance, symmetries=args.symmetries, invert=args.invert,
+                threshold=args.threshold, crop=args.crop,
+                info={"prior_from": args.prior_from} if predictions is not None and predictions != "oracle" else None,
+                **({} if args.fallback is None else {"fallback": args.fallback}))
+
+
+def build_from_args(args: argparse.Namespace, methods: list[str], seeds: Any) -> Any:
+    """The :class:`~ndrql.pipeline.request.PlanRequest` of ``ndrql plan``'s flags (one scenario, not a batch)."""
+    if args.example:
+        use_example(args, bool(args.sample))
+    if args.sample and args.map:
+        raise NdrqlError("give either MAP or --sample, not both")
+    sample = load_sample_problem(args.sample) if args.sample else None
+    if sample is not None and args.scen:
+        raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
+    if sample is None and not args.map:
+        raise NdrqlError("no map given: pass MAP, --example (the bundled map) or --sample DATASET_DIR:SPLIT:INDEX")
+    fields = request_fields(args, methods, seeds)
+    if sample is not None:
+        for flag, value in (("--invert", args.invert), ("--crop", args.crop), ("--threshold", args.threshold != 128)):
+            if value:
+                raise NdrqlError(f"{flag} reads map files; a dataset sample has none to read")
+        return build_request(sample.grid_map, **_points(args, sample), sample=sample.info, **fields)
+    scenario = _scenario(args)
+    return build_request(args.map, **_points(args, None), **scenario, **fields)
+
+
+def _batch(args: argparse.Namespace, methods: list[str]) -> int:
     """``--all`` / ``--index A:B``: every chosen scenario with one method and one seed (:mod:`ndrql.cli.plan_batch`)."""
     if not args.scen:
         raise NdrqlError("--all and --index A:B need --scen FILE")
     bad = [f for f, v in (("--compare", args.compare), ("--start", args.start), ("--goal", args.goal),
                           ("--start-world", args.start_world), ("--goal-world", args.goal_world), ("--json", args.json),
-                          ("--png", args.png), ("--path-out", args.path_out), ("--prior-from", args.prior_from)) if v]
+                          ("--png", args.png), ("--path-out", args.path_out), ("--prior-from", args.prior_from),
+                          ("--records", args.records)) if v]
     if bad or args.seeds != 1:
         raise NdrqlError(f"a scenario batch runs one method with one seed and writes --jsonl; drop "
                          f"{', '.join(bad) or '--seeds'}")
-    loaded = load_map_argument(args)
-    if isinstance(loaded, Problem):
+    if args.sample:
         raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
-    scen_path = args.scen
-    if parse_scen(scen_path)[1] is not None:
+    if not args.map:
+        raise NdrqlError("no map given: pass MAP with --scen")
+    if parse_scen(args.scen)[1] is not None:
         raise NdrqlError("give the batch range with --index A:B or --all, not --scen FILE:K")
-    with warnings_to_stderr():
-        return run_batch(loaded, scen_path, args.index, args.all, method=methods[0], seed=args.seed,
-                         settings=_settings(args, sample=False), jsonl=args.jsonl, echo=print,
-                         solve_kw={"weights": args.weights, "config": ql_cfg, "prior_config": prior_cfg, "workers": 1,
-                                   "preset": _preset(args)})
+    fields = request_fields(args, methods, [args.seed])
+    with warnings_to_stderr(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=FallbackWarning)  # each line says which method ran
+        return run_batch(args.map, args.scen, args.index, args.all, fields=fields, jsonl=args.jsonl, echo=print)
 
 
 def _summary(report: Any) -> list[str]:
@@ -217,58 +275,25 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args.json, args.png)  # before the work: an unwritable output is one line now, not after planning
     if args.workers is not None:
         check_int(args.workers, "--workers", 1, MAX_WORKERS)
-    if args.weights and args.prior_from:
-        raise NdrqlError("give either --weights or --prior-from, not both")
+    if args.compare and args.method != "NDR-QL":
+        raise NdrqlError("give either --method or --compare, not both")
     names = [n.strip() for n in (args.compare.split(",") if args.compare else [args.method]) if n.strip()]
     if not names:
         raise NdrqlError("--compare needs at least one method name")
     methods = [get_method(n).name for n in names]
-    ql_cfg, prior_cfg = _configs(args)
-    if args.threads < 1:
-        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
     if args.all or (args.index is not None and ":" in str(args.index)):
-        return _batch(args, methods, ql_cfg, prior_cfg)
+        return _batch(args, methods)
     if args.jsonl:
         raise NdrqlError("--jsonl is for scenario batches (--scen FILE --all or --index A:B); use --json")
-    scen, index = _scenario(args)
-    for flag, pixel, world in (("start", args.start, args.start_world), ("goal", args.goal, args.goal_world)):
-        if pixel and world:
-            raise NdrqlError(f"give --{flag} (ROW,COL pixels) or --{flag}-world (X,Y metres), not both")
-    loaded = load_map_argument(args)
-    settings = _settings(args, sample=isinstance(loaded, Problem))
-    start_world = parse_world_point(args.start_world, "--start-world") if args.start_world else None
-    goal_world = parse_world_point(args.goal_world, "--goal-world") if args.goal_world else None
-    if isinstance(loaded, Problem):  # a dataset sample: its points unless overridden
-        grid_map, info = loaded.grid_map, dict(loaded.info)
-        start = parse_point(args.start, "--start") if args.start else None if start_world else loaded.start
-        goal = parse_point(args.goal, "--goal") if args.goal else None if goal_world else loaded.goal
-    else:
-        grid_map, info = loaded, {"source": loaded.source}
-        start = parse_point(args.start, "--start") if args.start else None
-        goal = parse_point(args.goal, "--goal") if args.goal else None
-        if scen is None and ((start is None and start_world is None) or (goal is None and goal_world is None)):
-            missing = [f for f, v, w in (("--start", start, start_world), ("--goal", goal, goal_world))
-                       if v is None and w is None]
-            raise NdrqlError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels, or "
-                             f"{' and '.join(m + '-world' for m in missing)} X,Y in metres on ROS maps), or --scen FILE")
-    if args.path_out:
-        if not has_world_frame(grid_map):
-            raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
-                             "(a ROS map_server .yaml); use --json for the path in pixels")
-        if args.path_spacing is not None:
-            check_finite(args.path_spacing, "--path-spacing", 0.0)
-    predictions = None
-    if args.prior_from == "oracle":
-        predictions = "oracle"
-    elif args.prior_from and any(get_method(m).needs_ndr for m in methods):
-        predictions = load_predictions(args.prior_from)
-        info["prior_from"] = args.prior_from
-    with warnings_to_stderr():
-        report = solve(grid_map, start, goal, methods, list(seeds),
-                       weights=args.weights, predictions=predictions, config=ql_cfg, prior_config=prior_cfg,
-                       preset=_preset(args), settings=settings, scen=scen, scen_index=index, workers=args.workers,
-                       keep_records=args.records, info=info, start_world=_xyyaw(start_world),
-                       goal_world=_xyyaw(goal_world), progress=True)
+    request = build_from_args(args, methods, seeds)
+    if args.path_out and not has_world_frame(request.grid_map):
+        raise NdrqlError("--path-out writes poses in metres and needs a map with a resolution and origin "
+                         "(a ROS map_server .yaml); use --json for the path in pixels")
+    if args.path_out and args.path_spacing is not None:
+        check_finite(args.path_spacing, "--path-spacing", 0.0)
+    with warnings_to_stderr(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=FallbackWarning)  # the summary names both methods instead
+        report = run_request(request, workers=args.workers, keep_records=args.records, progress=True)
     pg = report.grid
     # with --json - the JSON owns stdout; the summary goes to stderr
     echo = functools.partial(print, file=sys.stderr if args.json == "-" else sys.stdout)
@@ -278,8 +303,11 @@ def run(args: argparse.Namespace) -> int:
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.weights:
         turns = report.info.get("symmetries", 1)
+        runs = report.info.get("runs_file")
+        graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
-             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''})")
+             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}){graph}; "
+             f"constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")
@@ -291,26 +319,12 @@ def run(args: argparse.Namespace) -> int:
             echo(f"wrote {written}")
     if args.png:
         dpi = check_dpi(args)
-        fig = plan_figure(report, dpi=dpi) if len(methods) == 1 else compare_figure(report, dpi=dpi)
+        fig = plan_figure(report, dpi=dpi) if len(report.requested_methods) == 1 else compare_figure(report, dpi=dpi)
         echo(f"wrote {_save(fig, args.png)}")
     if args.path_out:
-        spacing = grid_map.resolution if args.path_spacing is None else args.path_spacing
+        spacing = report.grid_map.resolution if args.path_spacing is None else args.path_spacing
         echo(f"wrote {write_path(args.path_out, report.results[0], spacing)}")
     return 0
-
-
-def _settings(args: argparse.Namespace, sample: bool) -> Any:
-    """:class:`PlanSettings` from the flags: the paper's grid for a dataset sample, the safe grid for a map file."""
-    rule = args.grid or ("area" if sample else "safe")
-    smooth = args.smooth if args.smooth is not None else not sample
-    fallback = args.fallback
-    if fallback is None:
-        fallback = None if sample or args.compare else "IQL"
-    elif fallback.strip().lower() == "none":
-        fallback = None
-    return PlanSettings(grid=rule, size=args.size, robot_radius=args.robot_radius, smooth=smooth, fallback=fallback,
-                        max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads,
-                        backend=args.backend, learned_distance=args.learned_distance, symmetries=args.symmetries)
 
 
 def _xyyaw(point: Any) -> Any:

@@ -6,6 +6,7 @@ from typing import Any
 
 from ndrql.api import WORK_STAGES
 from ndrql.cli.text import text_table
+from ndrql.pipeline.route import octile_cost
 from ndrql.planning.results import geometric_ci, summarize
 
 
@@ -47,10 +48,13 @@ def table(methods: list[str], results: list[Any]) -> list[str]:
 
 
 def grid_lines(report: Any) -> list[str]:
-    """How the map became the planning grid (safe grid only: the paper's area grid keeps its one line)."""
+    """How the map became the planning grid: the rule always, and for the safe grid its cells and size auto's search."""
     setup = report.setup
-    if setup is None or setup.rule != "safe":
+    if setup is None:
         return []
+    if setup.rule != "safe":
+        return [f"grid: area, the paper's ({report.grid.shape[0]}x{report.grid.shape[1]} cells area-averaged, a cell "
+                f"blocked when at least half obstacle)"]
     res = report.grid_map.resolution
     cell = report.grid.cell_size[0]
     metres = f" = {cell * res:.3g} m" if res is not None else ""
@@ -90,7 +94,7 @@ def route_lines(report: Any) -> list[str]:
             what = "smoothed" if r.route.smoothed else "not smoothed"
             who = f"{m} seed {r.seed}" if single else f"{m}: {len(runs)} of {len(runs)} paths collision-free; seed {r.seed}"
             lines.append(f"{who}: path on the map collision-free; grid path {length_text(r.route.grid_length, res)}, "
-                         f"{what} {length_text(r.route.length, res)}" + _vs_full(report, r.route.length))
+                         f"{what} {length_text(r.route.length, res)}" + _vs_full(report, r.route))
     return lines
 
 
@@ -117,11 +121,19 @@ def prediction_lines(report: Any) -> list[str]:
     return [f"prediction: uninformative ({why}); the model's priors were used anyway"]
 
 
-def _vs_full(report: Any, length: float) -> str:
+def _vs_full(report: Any, route: Any) -> str:
+    """The final path against the map's own optimum, one definition everywhere (as the scenario batch's
+    ratio): the path's octile cost over the octile length of the map's shortest 8-connected route."""
     a = report.setup.auto if report.setup is not None else None
     if a is None or a.full_length <= 0:
         return ""
-    return f" ({length / a.full_length:.3f} x the map's shortest)"
+    return f" (octile cost {octile_cost(route.pixels) / a.full_length:.3f} x the map's octile optimum)"
+
+
+def run_name(r: Any) -> str:
+    """A run's method, and the one asked for when the fallback replaced it: ``IQL (fallback for NDR-QL)``."""
+    asked = getattr(r, "requested_method", None)
+    return r.method if asked in (None, r.method) else f"{r.method} (fallback for {asked})"
 
 
 def summary_lines(report: Any) -> list[str]:
@@ -132,11 +144,11 @@ def summary_lines(report: Any) -> list[str]:
     if single:
         for r in report.results:
             if r.converged:
-                lines.append(f"{r.method} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
+                lines.append(f"{run_name(r)} seed {r.seed}: converged after {r.convergence_episode:,} episodes, "
                              f"{r.convergence_steps:,} steps; path {r.path_length} moves ({r.length_ratio:.3f} x A*)")
             else:
                 tail = f"; last greedy path {r.path_length} moves" if r.path_length is not None else ""
-                lines.append(f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
+                lines.append(f"{run_name(r)} seed {r.seed}: NOT converged in {r.episodes:,} episodes "
                              f"({r.total_steps:,} steps){tail}")
     lines.append(f"A* optimum: {opt} moves; seeds {report.seeds[0]}..{report.seeds[-1]}; "
                  f"max {report.config.max_episodes} episodes")

@@ -5,16 +5,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ndrql.cli.astar_cmd import add_grid_arguments, grid_request
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, add_symmetries_argument,
-                              add_weights_argument, check_dpi, resolve_problem, save_figure)
+                              add_weights_argument, check_dpi, save_figure, warnings_to_stderr)
 from ndrql.cli.options import add_command
-from ndrql.io import make_folder, save_npz
 from ndrql.dataset.render import cells_to_map
-from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
+from ndrql.errors import NdrqlError
+from ndrql.io import make_folder, save_npz
 from ndrql.limits import MAX_THREADS, check_int
-from ndrql.model.predict import BACKENDS, Predictor
+from ndrql.model.predict import BACKENDS, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
-from ndrql.pipeline.predictions import prediction_arrays
+from ndrql.pipeline.predictions import prediction_arrays, predict_region, view_prediction
+from ndrql.pipeline.problem import build_grid, grid_text
 from ndrql.viz.prediction import plot_distance_field, plot_probability_overlay
 
 EXAMPLES = """examples:
@@ -38,9 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="inference backend: auto (ONNX Runtime when installed, else torch), onnx or torch (default: auto)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="threads for the forward pass (default: 1)")
-    p.add_argument("--size", type=int, default=None, metavar="N",
-                   help="grid-mode models (the default general weights): the safe planning grid they see, cells on the "
-                   "map's longer side (default: what ndrql plan --size auto picks); map-mode models ignore it")
+    add_grid_arguments(p, "the grid ndrql plan builds: auto on a map file, 50 with --sample; map-mode models see "
+                       "the map itself and refuse --size", rule=False)
     add_symmetries_argument(p, "grid-mode models: average the prediction over N orientations of the grid (1, 2, 4, 8), "
                             "as ndrql plan does", DEFAULT_COUNT)
     add_dpi_argument(p)
@@ -53,25 +54,32 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     check_int(args.threads, "--threads", 1, MAX_THREADS)
-    if args.size is not None:
-        check_int(args.size, "--size", 2, DEFAULT_MAX_SIZE)
     dpi = check_dpi(args)
-    problem = resolve_problem(args)
+    request = grid_request(args, size=args.size, robot_radius=args.robot_radius, threads=args.threads,
+                           backend=args.backend, symmetries=args.symmetries)
+    settings = request.settings
+    with warnings_to_stderr():
+        pg, setup = build_grid(request.grid_map, request.start, request.goal, settings)  # the grid plan builds
     existed = Path(args.out).exists()
     out = make_folder(args.out)  # before the model runs: a file in the way is one clear line
-    obstacles = problem.grid_map.obstacles
+    obstacles = request.grid_map.obstacles
     t0 = time.perf_counter()
-    predictor = Predictor.load(args.weights, threads=args.threads, backend=args.backend, symmetries=args.symmetries)
+    predictor = load_predictor(args.weights, settings.threads, settings.backend, settings.symmetries)
     t1 = time.perf_counter()
-    try:  # a grid-mode model needs a planning grid that joins start and goal
-        pred = predictor.predict(obstacles, problem.start, problem.goal, args.size)
+    if predictor.input_mode != "grid" and args.size is not None:
+        raise NdrqlError(f"--size chooses the grid a grid-mode model sees; {args.weights or 'the weights'} hold a "
+                         f"map-mode model (it sees the map at 201 px): drop --size")
+    try:
+        with warnings_to_stderr():
+            view = predict_region(predictor, request.grid_map, pg, request.start, request.goal)
     except Exception:
         if not existed:
             out.rmdir()  # made above and still empty: leave nothing behind
         raise
+    pred = view_prediction(view, pg, setup.size)
     t2 = time.perf_counter()
     npz = out / "prediction.npz"
-    arrays = {**prediction_arrays(pred), "start": np.array(problem.start), "goal": np.array(problem.goal),
+    arrays = {**prediction_arrays(pred), "start": np.array(request.start), "goal": np.array(request.goal),
               "obstacles": obstacles}
     save_npz(npz, arrays)
     written = [npz]
@@ -81,19 +89,20 @@ def run(args: argparse.Namespace) -> int:
         if prob is None:
             continue
         written.append(save_figure(lambda ax, prob=prob, name=name: plot_probability_overlay(
-            ax, obstacles, prob, kind=name, start=problem.start, goal=problem.goal, title=f"NDR {name}"),
+            ax, obstacles, prob, kind=name, start=request.start, goal=request.goal,
+            title=f"NDR {name} ({setup.rule} grid {pg.shape[0]}x{pg.shape[1]})"),
             out / f"{name}.png", figsize=size, dpi=dpi))
     if pred.grid is not None and pred.grid.distance is not None:
-        dist_map = cells_to_map(pred.grid.distance, obstacles.shape, (cell_size_px(obstacles.shape, pred.grid.size),) * 2)
+        dist_map = cells_to_map(pred.grid.distance, obstacles.shape, pg.cell_size)
         written.append(save_figure(lambda ax: plot_distance_field(
-            ax, obstacles, dist_map, start=problem.start, goal=problem.goal, title="NDR distance to the goal"),
+            ax, obstacles, dist_map, start=request.start, goal=request.goal, title="NDR distance to the goal"),
             out / "distance.png", figsize=size, dpi=dpi))
+    print(grid_text(setup, pg, request.grid_map.resolution))
     if pred.grid is not None:
-        g = pred.grid
-        print(f"grid-mode model: saw the safe {g.blocked.shape[0]}x{g.blocked.shape[1]} planning grid "
-              f"(size {g.size}{'' if args.size else ', as plan --size auto picks it'}), start cell {g.start}, goal cell {g.goal}")
-    elif args.size is not None:
-        print(f"--size {args.size} ignored: {args.weights or 'the weights'} hold a map-mode model (it sees the map at 201 px)")
+        print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
+              f"per cell, start cell {pg.start}, goal cell {pg.goal}")
+    else:
+        print("map-mode model: saw the map resized to 201 px (the grid is plan's, for the record)")
     print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "
           f"region > 0.5: {int((pred.region >= 0.5).sum())} px" +
           (f", guideline > 0.5: {int((pred.guideline >= 0.5).sum())} px" if pred.guideline is not None else ""))

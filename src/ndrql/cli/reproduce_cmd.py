@@ -32,7 +32,7 @@ EXAMPLES = """examples:
   ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
   ndrql reproduce transfer --grids 50,100      # the development set of generated maps: every row, every family
   ndrql reproduce transfer --preset spec --no-learned-distance   # the paper's Eq. 6 (straight line) with the general weights
-  ndrql reproduce release                      # the sealed sets, once per release (counted in docs/release/ledger.json)
+  ndrql reproduce release                      # the sealed sets, once per release (counted in the checkout's ledger)
   ndrql reproduce scale --grids 50,100         # also on the 100x100 grid -> results/scale-g100/
   ndrql reproduce table3 --prior-from oracle   # NDR-QL with the oracle's priors (a diagnostic) -> results/table3-oracle/
   ndrql reproduce dynamic
@@ -93,7 +93,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "--no-learned-distance: the straight line, the paper's Eq. 6 (default: on)")
     p.add_argument("--ledger", metavar="FILE", default="docs/release/ledger.json",
                    help="release: the ledger that counts every evaluation of a sealed set, updated before the sets "
-                   "are read (default: docs/release/ledger.json of the checkout it runs in)")
+                   "are read (default: the ledger of the checkout it runs in, under its docs folder: release/ledger.json)")
     p.add_argument("--allow-dirty", action="store_true",
                    help="release: run with uncommitted changes (the ledger records the commit as -dirty)")
     add_symmetries_argument(p, "a grid-mode model's prediction (--weights general) is averaged over N orientations of "

@@ -13,6 +13,7 @@ from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
 from ndrql.errors import NdrqlError, PointError
 from ndrql.maps.grid import PLANNING_SIZE, GridMap, bfs_distances
+from ndrql.pipeline.problem import read_map
 from ndrql.planning import rules
 from ndrql.planning.config import QLConfig
 
@@ -85,9 +86,13 @@ class GridPathEnv(gym.Env):
 
     ## Arguments
     - ``map``: a map file (image, ROS ``map_server`` YAML, MovingAI ``.map``, ``.npy``), a ``GridMap``
-      or a bool array in pixels; it becomes a planning grid of ``size`` cells on its longer side
-      (default 50) by ``grid_rule`` (``area``, the paper's, or ``safe``); ``start``/``goal`` are then
-      ``(row, col)`` map pixels and required;
+      or a bool array in pixels; it becomes the planning grid ``ndrql plan`` builds: by default the
+      safe grid (square cells, a cell blocked when any pixel is an obstacle, so thin walls stay walls)
+      at ``size="auto"`` (the coarsest that keeps the route; the size it picks is kept for later
+      resets, ``env.size``), obstacles inflated by ``robot_radius`` (metres on maps with a resolution,
+      else pixels); ``grid_rule="area"`` gives the paper's 50x50 area grid (``size`` cells);
+      ``start``/``goal`` are then ``(row, col)`` map pixels and required; ``env.grid_rule`` and
+      ``env.size`` name the grid;
     - ``grid``: a planning grid given directly, bool ``(h, w)``, ``True`` = blocked (default
       :data:`DEFAULT_MAP`, 8x8, when neither ``map`` nor ``grid`` is given); ``start``/``goal`` are
       then ``(row, col)`` cells (default top-left and bottom-right);
@@ -119,17 +124,22 @@ class GridPathEnv(gym.Env):
         render_mode: str | None = None,
         cell_px: int = 8,
         map: MapLike | None = None,  # noqa: A002  (the name users pass to gym.make)
-        size: int = PLANNING_SIZE,
-        grid_rule: str = "area",
+        size: int | str | None = None,
+        grid_rule: str | None = None,
+        robot_radius: float = 0.0,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise NdrqlError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
-        if grid_rule not in GRID_RULES:
+        if grid_rule is not None and grid_rule not in GRID_RULES:
             raise NdrqlError(f"unknown grid_rule {grid_rule!r}; valid: {', '.join(GRID_RULES)}")
         if map is not None and grid is not None:
             raise NdrqlError("give either map (pixels) or grid (planning cells), not both")
-        self.size = int(size)
-        self.grid_rule = grid_rule
+        if map is None and (size is not None or grid_rule is not None or robot_radius):
+            raise NdrqlError("size, grid_rule and robot_radius turn a map into a grid: give map (or drop them)")
+        # a map file plans on the grid `ndrql plan` builds: safe, size auto (fixed at reset for the same shape)
+        self.grid_rule = grid_rule or "safe"
+        self.size: int | str = size if size is not None else ("auto" if self.grid_rule == "safe" else PLANNING_SIZE)
+        self.robot_radius = float(robot_radius)
         self.config = config or QLConfig()
         self.problem = self._new_problem(map, grid, start, goal, None)
         h, w = self.problem.blocked.shape
@@ -150,6 +160,14 @@ class GridPathEnv(gym.Env):
 
     # -- the problem -----------------------------------------------------------------------------
 
+    _map: GridMap | None = None
+
+    def _fix_size(self, problem: EnvProblem) -> EnvProblem:
+        """Keep the size ``auto`` chose for later problems on this map (the observation space is fixed)."""
+        if problem.grid_size is not None:
+            self.size = problem.grid_size
+        return problem
+
     def _new_problem(self, map_: MapLike | None, grid: np.ndarray | None, start, goal,
                      old: EnvProblem | None) -> EnvProblem:
         """The problem for a map (pixels) or a grid (cells); points default to ``old``'s (or the corners)."""
@@ -159,11 +177,13 @@ class GridPathEnv(gym.Env):
             goal = goal if goal is not None else (source.goal if source is not None else None)
             if start is None or goal is None:
                 raise PointError("a map needs start and goal, (row, col) in map pixels")
-            return map_problem(map_, start, goal, self.size, self.grid_rule)
+            self._map = read_map(map_)  # read once: new points on this map reuse it (and its resolution)
+            return self._fix_size(map_problem(self._map, start, goal, self.size, self.grid_rule,
+                                              robot_radius=self.robot_radius, name=_name(map_, self._map)))
         if grid is None and old is not None and old.source is not None:  # new points on the same map
-            return map_problem(old.name, start if start is not None else old.source.start,
+            return map_problem(self._map, start if start is not None else old.source.start,
                                goal if goal is not None else old.source.goal, self.size, self.grid_rule,
-                               obstacles=old.source.obstacles)
+                               robot_radius=self.robot_radius, name=old.name)
         if grid is None:
             blocked = old.blocked if old is not None else _parse_map(DEFAULT_MAP)
         else:
@@ -268,3 +288,8 @@ class GridPathEnv(gym.Env):
         if self.render_mode == "rgb_array":
             return render_rgb(self.blocked, self._visited_grid(), agent, self.start, self.goal, self.cell_px)
         return None
+
+
+def _name(given: Any, grid_map: GridMap) -> str:
+    """What a problem on a map is called: the file as given, else the map's own name."""
+    return str(given) if isinstance(given, (str, Path)) else (grid_map.source or "map")

@@ -22,6 +22,7 @@ from ndrql.env.sources import EnvProblem
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import area_downscale, bfs_distances
 from ndrql.maps.safe import cell_size_px
+from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.synth.oracle import oracle_prediction
 
 Cell = tuple[int, int]
@@ -128,7 +129,7 @@ def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int, distanc
     goal distance (:func:`distance_channel` with side ``size``; only models with a distance head have one)."""
     grid_mode = getattr(predictor, "input_mode", "map") == "grid"
     if grid_mode:  # sees the planning grid itself, as ndrql plan's model does
-        r, gl, d = predictor.predict_grid_all(problem.blocked, problem.start, problem.goal)
+        r, gl, _, d = predict_on_grid(predictor, problem.blocked, problem.start, problem.goal)  # plan's own call
         shape = problem.blocked.shape
         layers = [cell_means(r, shape), cell_means(r if gl is None else gl, shape)]
         if distance:

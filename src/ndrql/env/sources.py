@@ -27,18 +27,18 @@ import numpy as np
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.layout import check_root, normalize_split
 from ndrql.errors import NdrqlError, NoPathError, PointError
+from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import (MODEL_SIDE, PLANNING_SIZE, GridMap, bfs_distances, nearest_free_bfs, planning_grid,
                              point_to_cell)
 from ndrql.maps.problem import MapProblem
-from ndrql.maps.readers import load_map
 from ndrql.maps.safe import conservative_grid, point_to_square_cell
+from ndrql.pipeline.problem import build_grid, read_map as read_any_map
+from ndrql.pipeline.request import request_settings
+from ndrql.pipeline.settings import GRID_RULES
 from ndrql.synth.endpoints import sample_endpoints
 
 Cell = tuple[int, int]
 
-#: Planning-grid rules: ``area`` (the paper's: area-averaged, blocked at >= 0.5) or ``safe``
-#: (square cells, blocked when any pixel is an obstacle).
-GRID_RULES = ("area", "safe")
 
 #: Draws a source makes before giving up on a map whose endpoints do not connect.
 MAX_DRAWS = 100
@@ -61,6 +61,8 @@ class EnvProblem:
     """Where it came from: a file, ``family:maze`` or ``dataset:seen:12``."""
     astar_length: int = field(default=-1)
     """Moves of a shortest 4-connected path from start to goal on the grid."""
+    grid_size: int | None = None
+    """Cells on the map's longer side (the size ``auto`` chose, on the safe grid); ``None`` when not recorded."""
 
 
 def _snap(blocked: np.ndarray, cell: Cell, name: str) -> Cell:
@@ -107,15 +109,8 @@ def grid_problem(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int],
 
 def read_map(source: str | Path | GridMap | np.ndarray) -> tuple[np.ndarray, str]:
     """Obstacles (bool ``(H, W)``) and a name for a map file, a :class:`GridMap` or an array (non-zero = obstacle)."""
-    if isinstance(source, (str, Path)):
-        grid_map = load_map(source)
-        return grid_map.obstacles, str(source)
-    if isinstance(source, GridMap):
-        return source.obstacles, source.source or "map"
-    arr = np.asarray(source)
-    if arr.ndim != 2 or arr.size == 0:
-        raise NdrqlError(f"a map must be a file, a GridMap or a non-empty 2-D array, got shape {arr.shape}")
-    return arr != 0, "array"
+    grid_map = read_any_map(source if isinstance(source, (str, Path, GridMap)) else np.asarray(source))
+    return grid_map.obstacles, str(source) if isinstance(source, (str, Path)) else (grid_map.source or "map")
 
 
 def planning_cells(obstacles: np.ndarray, size: int, rule: str = "area") -> np.ndarray:
@@ -138,22 +133,32 @@ def map_problem(
     source: str | Path | GridMap | np.ndarray,
     start: Sequence[int],
     goal: Sequence[int],
-    size: int = PLANNING_SIZE,
+    size: int | str = PLANNING_SIZE,
     rule: str = "area",
     obstacles: np.ndarray | None = None,
     name: str | None = None,
+    robot_radius: float = 0.0,
 ) -> EnvProblem:
     """A problem on map ``source`` from ``start`` to ``goal`` (map pixels, row-col).
 
     The map becomes a planning grid of ``size`` cells on its longer side by ``rule``; a point whose
     cell is blocked moves to the nearest free cell with a warning; :class:`PointError` for a point
     off the map or on an obstacle, :class:`NoPathError` when the cells are not 4-connected.
-    ``obstacles`` skips reading ``source`` again (it is then only the name).
+    ``obstacles`` skips reading ``source`` again (it is then only the name). The ``safe`` rule is
+    ``ndrql plan``'s own grid (:func:`ndrql.pipeline.problem.build_grid`: ``size`` may be ``"auto"``,
+    obstacles inflated by ``robot_radius``, metres on maps with a resolution); :attr:`EnvProblem.grid_size`
+    says which size it took.
     """
+    if rule == "safe":  # the map as read (a ROS map keeps its resolution: robot_radius in metres)
+        grid_map = read_any_map(source) if obstacles is None else GridMap(obstacles, source=str(source))
+        shown = str(source) if isinstance(source, (str, Path)) else (grid_map.source or "map")
+        return _plan_grid_problem(grid_map, start, goal, size, robot_radius, name or shown)
     if obstacles is None:
         obstacles, shown = read_map(source)
     else:
         shown = str(source)
+    if robot_radius:
+        raise NdrqlError("robot_radius needs the safe grid (grid_rule='safe'): the paper's area grid does not inflate")
     h, w = obstacles.shape
     blocked = planning_cells(obstacles, int(size), rule)
     cells, points = [], []
@@ -166,6 +171,25 @@ def map_problem(
         cells.append(_snap(blocked, pixel_to_cell(p, (h, w), blocked.shape, int(size), rule), f"{label} {p}"))
         points.append(p)
     return _checked(blocked, cells[0], cells[1], source=MapProblem(obstacles, points[0], points[1]), name=name or shown)
+
+
+def _plan_grid_problem(grid_map: GridMap, start: Sequence[int], goal: Sequence[int], size: int | str,
+                       robot_radius: float, name: str) -> EnvProblem:
+    """A problem on the safe grid ``ndrql plan`` builds for this map and these points."""
+    obstacles = grid_map.obstacles
+    points = []
+    for label, point in (("start", start), ("goal", goal)):
+        p = _cell(point, label)
+        h, w = obstacles.shape
+        if not (0 <= p[0] < h and 0 <= p[1] < w):
+            raise PointError(f"{label} {p[0]},{p[1]} is off the map (rows 0..{h - 1}, cols 0..{w - 1})")
+        if obstacles[p]:
+            raise PointError(f"{label} {p[0]},{p[1]} is on an obstacle of the map")
+        points.append(p)
+    settings = request_settings(grid="safe", size=size, robot_radius=robot_radius, max_size=MAX_GRID_SIZE)
+    pg, setup = build_grid(grid_map, points[0], points[1], settings)
+    return _checked(pg.blocked, pg.start, pg.goal, source=MapProblem(obstacles, points[0], points[1]), name=name,
+                    grid_size=setup.size)
 
 
 def _quiet_problem(obstacles: np.ndarray, start: Cell, goal: Cell, size: int, rule: str, name: str) -> EnvProblem | None:

@@ -138,6 +138,11 @@ class Predictor:
         return self._runner.name
 
     @property
+    def graph_file(self) -> Path | None:
+        """The ONNX graph that runs (the weights' export, or the ``.onnx`` given); ``None`` on torch."""
+        return getattr(self._runner, "path", None)
+
+    @property
     def model(self):
         """The torch module (torch backend only)."""
         if not isinstance(self._runner, _TorchRunner):

@@ -14,22 +14,20 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass
-from typing import Any, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on_grid, to_model_input
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
-from ndrql.model.predict import GridPrediction, load_predictor
+from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fallback, fall_back,  # noqa: F401 (re-exported)
+                                     prediction_quality)
+from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
-from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.report import StageClock
-from ndrql.pipeline.settings import PlanSettings
-from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
-from ndrql.planning.priors import adaptive_threshold
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
 Point = tuple[int, int]
@@ -126,6 +124,16 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
     region = np.asarray(pred.region, dtype=np.float64)
     guideline = None if pred.guideline is None else np.asarray(pred.guideline, dtype=np.float64)
     return ModelView(region=region, guideline=guideline, info=info)
+
+
+def view_prediction(view: ModelView, grid: PlanningGrid, size: int) -> Any:
+    """``view`` as a :class:`~ndrql.model.predict.Prediction` (what a prediction file holds,
+    :func:`prediction_arrays`): its per-cell arrays with the grid they were made on when it has them."""
+    cells = None
+    if view.region_grid is not None:
+        cells = GridPrediction(size, grid.blocked, grid.start, grid.goal, view.region_grid, view.guideline_grid,
+                               view.distance_grid)
+    return Prediction(view.region, view.guideline, cells)
 
 
 def predict_priors(
@@ -230,66 +238,9 @@ def load_predictions(path: str | os.PathLike) -> GivenPredictions:
                             GridPrediction(size, blocked, cells[0], cells[1], arrays[0], arrays[1], distance))
 
 
-#: The region threshold (Eq. 7) below which the prediction is called uninformative. 0: only a region
-#: that joins start and goal at no threshold at all is; measured as ``plan`` runs on generated
-#: development maps (``studies/plan_defaults``), NDR-QL beat IQL on every map a cut of 0.3-0.6 sent to
-#: IQL (Eq. 7 thresholds down to 0.00), so any cut only lost maps (0.5 lost 8 of 36).
-MIN_THRESHOLD = 0.0
-#: Largest share of the guideline's probability mass that may lie on obstacle pixels.
-MAX_GUIDE_ON_OBSTACLES = 0.5
-
-
-def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
-                       grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
-    """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
-
-    Uninformative when no region threshold (>= :data:`MIN_THRESHOLD`, which is 0) makes the region connect
-    start and goal on the planning grid (Eq. 7's search, ``cfg`` a :class:`~ndrql.planning.config.PriorConfig`),
-    or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
-    the map (the model draws its path through walls).
-    """
-    thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
-    reasons = []
-    if thd is None or thd < MIN_THRESHOLD:
-        shown = "none" if thd is None else f"{thd:.2f}"
-        floor = f" >= {MIN_THRESHOLD}" if MIN_THRESHOLD > 0 else ""
-        reasons.append(f"no region threshold{floor} connects start and goal (Eq. 7 threshold {shown})")
-    on_obstacles = None
-    if guideline is not None:
-        mass = float(np.sum(guideline))
-        if mass > 0:
-            on_obstacles = float(np.sum(guideline, where=np.asarray(obstacles, dtype=bool))) / mass
-            if on_obstacles > MAX_GUIDE_ON_OBSTACLES:
-                reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
-        else:
-            reasons.append("the guideline is empty")
-    return {"informative": not reasons, "threshold": thd, "guideline_on_obstacles": on_obstacles,
-            "reasons": reasons}
-
-
-def fall_back(ms: Sequence[Method], region: np.ndarray, guideline_map: np.ndarray | None, grid_map: GridMap,
-              grid: PlanningGrid, prior_config: PriorConfig, fallback: str | None, info: dict[str, Any]) -> list[Method]:
-    """Judge the prediction (``info["prediction_quality"]``); when it is uninformative and ``fallback`` is
-    set, each NDR method is replaced by the fallback (``info["fallback"]``), unless that one runs anyway."""
-    quality = prediction_quality(region, guideline_map, grid_map.obstacles, grid, prior_config)
-    info["prediction_quality"] = quality
-    if quality["informative"] or fallback is None:
-        return list(ms)
-    fb = get_method(fallback)
-    if any(m.name == fb.name for m in ms):
-        return list(ms)
-    info["fallback"] = {"requested": [m.name for m in ms if m.needs_ndr], "ran": fb.name, "reasons": quality["reasons"]}
-    out: list[Method] = []
-    for m in ms:
-        m2 = fb if m.needs_ndr else m
-        if all(x.name != m2.name for x in out):
-            out.append(m2)
-    return out
-
-
 @dataclass(frozen=True)
 class Predicted:
-    """Region and guideline for one plan: the model's, the oracle's or given arrays."""
+    """Region and guideline for one plan: the model's, the oracle's or given arrays, and the methods they leave."""
 
     region_map: np.ndarray | None = None
     """Region at the map's resolution (report, figures, JSON)."""
@@ -303,51 +254,62 @@ class Predicted:
     """What made them: the weights file, ``"oracle priors"``, or ``None`` for given arrays."""
     distance: np.ndarray | None = None
     """The model's goal distance on the planning grid (cells), for Eq. 6; ``None``: the straight line."""
+    methods: tuple[Method, ...] = ()
+    """The methods to run (after :func:`fall_back`)."""
+    fallbacks: tuple[Fallback, ...] = ()
+    """The NDR methods replaced by the fallback."""
+    record: dict[str, Any] = field(default_factory=dict)
+    """What the JSON says about them: model input, backend, prediction quality, fallback."""
 
 
-def predict_for(ms: Sequence[Method], predictions: GivenPredictions | tuple[np.ndarray, np.ndarray | None] | str | None,
-                weights: str | os.PathLike | None, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point,
-                settings: PlanSettings, prior_config: PriorConfig, clock: StageClock,
-                info: dict[str, Any]) -> tuple[Predicted, list[Method]]:
-    """The predictions the NDR methods in ``ms`` need, and the methods to run after :func:`fall_back`.
-
-    ``predictions``: ``None`` (the model in ``weights``, loaded once per process), ``"oracle"``
-    (:func:`oracle_view`), ``(region, guideline)`` at the map's resolution, or :class:`GivenPredictions`
-    (used on the planning grid as they are when made on this very grid). Times the ``load`` and
-    ``predict`` stages on ``clock``; records what the model saw in ``info``.
-    """
+def _given(request: Any, grid: PlanningGrid, record: dict[str, Any]) -> tuple[Any, Any, ModelView | None, str | None]:
+    """Predictions that arrive with the request (the oracle's or given arrays)."""
+    predictions, grid_map = request.predictions, request.grid_map
+    if isinstance(predictions, str):  # "oracle" (checked by build_request)
+        view = oracle_view(grid)
+        record["model_input"] = view.info
+        record["prior_from"] = "oracle"
+        return view.region, view.guideline, view, ORACLE_NAME
+    given = predictions if isinstance(predictions, GivenPredictions) else GivenPredictions(*predictions)
+    on_grid = given.on(grid)
     view = None
-    used_weights = None
-    if isinstance(predictions, str):
-        if predictions != "oracle":
-            raise NdrqlError(f"predictions must be (region, guideline) arrays or 'oracle', got {predictions!r}")
+    if on_grid is not None:  # made by a grid-mode model on this very grid: used as they are
+        view = ModelView(given.region, given.guideline, {"mode": "grid", "from_file": True}, *on_grid)
+    record["prior_grid"] = "as given" if on_grid is not None else "averaged from the map's pixels"
+    for name, arr in (("region", given.region), ("guideline", given.guideline)):
+        if arr is not None and np.shape(arr) != grid_map.shape:
+            raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
+                             f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
+    return given.region, given.guideline, view, None
+
+
+def predict_for(request: Any, grid: PlanningGrid, clock: StageClock) -> Predicted:
+    """The predictions the NDR methods of ``request`` (a :class:`~ndrql.pipeline.request.PlanRequest`) need on
+    ``grid``, and the methods to run after :func:`fall_back`.
+
+    The request's ``predictions``: ``None`` (the model in its weights, loaded once per process),
+    ``"oracle"`` (:func:`oracle_view`), ``(region, guideline)`` at the map's resolution, or
+    :class:`GivenPredictions` (used on the planning grid as they are when made on this very grid).
+    Times the ``load`` and ``predict`` stages on ``clock``.
+    """
+    ms = [get_method(m) for m in request.methods]
+    settings = request.settings
+    record: dict[str, Any] = {}
+    if request.predictions is not None:
         with clock.stage("predict"):
-            view = oracle_view(grid)
-        info["model_input"] = view.info
-        info["prior_from"] = "oracle"
-        used_weights = ORACLE_NAME
-        region_map, guideline_map = view.region, view.guideline
-    elif predictions is not None:
-        given = predictions if isinstance(predictions, GivenPredictions) else GivenPredictions(*predictions)
-        region_map, guideline_map = given.region, given.guideline
-        on_grid = given.on(grid)
-        if on_grid is not None:  # made by a grid-mode model on this very grid: used as they are
-            view = ModelView(region_map, guideline_map, {"mode": "grid", "from_file": True}, *on_grid)
-        info["prior_grid"] = "as given" if on_grid is not None else "averaged from the map's pixels"
-        for name, arr in (("region", region_map), ("guideline", guideline_map)):
-            if arr is not None and np.shape(arr) != grid_map.shape:
-                raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
-                                 f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
+            region_map, guideline_map, view, used_weights = _given(request, grid, record)
     else:
         with clock.stage("load"):
-            predictor = load_predictor(weights, settings.threads, settings.backend, settings.symmetries)
-        info["backend"] = predictor.backend_name
+            predictor = load_predictor(request.weights_file, settings.threads, settings.backend, settings.symmetries)
+        record["backend"] = predictor.backend_name
+        if predictor.graph_file is not None:  # the file that actually runs (an export of the weights)
+            record["runs_file"] = str(predictor.graph_file)
         if predictor.input_mode == "grid":
-            info["symmetries"] = predictor.symmetries
-        used_weights = str(resolve_weights(weights))
+            record["symmetries"] = predictor.symmetries
+        used_weights = request.weights_file
         with clock.stage("predict"):
-            view = predict_region(predictor, grid_map, grid, start, goal)
-            info["model_input"] = view.info
+            view = predict_region(predictor, request.grid_map, grid, request.start, request.goal)
+            record["model_input"] = view.info
             region_map, guideline_map = view.region, view.guideline
     needs_guide = [m.name for m in ms if m.needs_guideline]
     if guideline_map is None and needs_guide:
@@ -360,8 +322,13 @@ def predict_for(ms: Sequence[Method], predictions: GivenPredictions | tuple[np.n
             distance = view.distance_grid if settings.learned_distance else None
         else:
             region, guideline = downscale_priors(region_map, guideline_map, grid.shape)
-        # the prediction's quality is judged with the given prior_config, whatever the preset
-        ms = fall_back(ms, region, guideline_map, grid_map, grid, prior_config, settings.fallback, info)
-    if any(m.n_qi for m in ms):
-        info["qi_distance"] = "model" if distance is not None else "straight line"
-    return Predicted(region_map, guideline_map, region, guideline, used_weights, distance), list(ms)
+        # the prediction's quality is judged with the paper's prior constants and the fields set explicitly
+        quality = prediction_quality(region, guideline_map, request.grid_map.obstacles, grid, request.quality_config)
+        record["prediction_quality"] = quality
+        ran, swaps = fall_back(ms, quality, settings.fallback)
+    if swaps:
+        record["fallback"] = {"requested": [f.requested for f in swaps], "ran": swaps[0].ran, "reasons": quality["reasons"]}
+    if any(m.n_qi for m in ran):
+        record["qi_distance"] = "model" if distance is not None else "straight line"
+    return Predicted(region_map, guideline_map, region, guideline, used_weights, distance, tuple(ran), tuple(swaps),
+                     record)

@@ -22,9 +22,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import MapFormatError, NoPathError, PointError
-from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
+from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning, planning_grid
 from ndrql.maps.world import world_to_pixel
-from ndrql.maps.readers import load_map, read_movingai_scen
+from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
@@ -75,8 +75,10 @@ class GridSetup:
         return out
 
 
-def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, crop: bool = False) -> GridMap:
-    """A :class:`GridMap` from a path (any supported format), a ``GridMap`` or a 2-D array (non-zero = obstacle)."""
+def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, crop: bool = False,
+             max_pixels: int = MAX_MAP_PIXELS) -> GridMap:
+    """A :class:`GridMap` from a path (any supported format; larger than ``max_pixels`` refused before it is
+    decoded), a ``GridMap`` or a 2-D array (non-zero = obstacle)."""
     if isinstance(map_or_path, GridMap):
         return map_or_path
     if isinstance(map_or_path, np.ndarray):
@@ -84,7 +86,7 @@ def read_map(map_or_path: Any, *, invert: bool = False, threshold: float = 128, 
             raise MapFormatError(f"a map array must be non-empty and 2-D, got shape {map_or_path.shape}")
         return GridMap(map_or_path != 0, source="array")
     if isinstance(map_or_path, (str, os.PathLike)):
-        return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop)
+        return load_map(map_or_path, invert=invert, threshold=threshold, crop=crop, max_pixels=max_pixels)
     raise MapFormatError(f"cannot read a map from {type(map_or_path).__name__}; pass a file path, a GridMap or a 2-D array")
 
 
@@ -92,7 +94,8 @@ def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> t
     """Start and goal ``(row, col)`` of scenario ``index`` in a MovingAI ``.scen`` file, checked against the map."""
     scenarios = read_movingai_scen(scen)
     if not 0 <= index < len(scenarios):
-        raise MapFormatError(f"scenario {index} not in {scen} (it has {len(scenarios)} scenarios, 0..{len(scenarios) - 1})")
+        raise MapFormatError(f"scenario {index} not in {scen}: it has scenarios 0..{len(scenarios) - 1}"
+                             if scenarios else f"{scen} has no scenarios")
     s = scenarios[index]
     if grid_map.shape != (s.height, s.width):
         raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "
@@ -124,10 +127,17 @@ def world_point(grid_map: GridMap, given: Sequence[float] | None, name: str) -> 
     """A ``(x, y[, yaw])`` world point (metres) as a map pixel and its yaw."""
     if given is None:
         return None, None
-    vals = [float(v) for v in given]
+    try:
+        vals = [float(v) for v in given]
+    except (TypeError, ValueError):
+        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians") from None
     if len(vals) not in (2, 3):
-        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {tuple(given)!r}")
-    return world_to_pixel(grid_map, vals[0], vals[1], name), (vals[2] if len(vals) == 3 else None)
+        raise PointError(f"{name} must be (x, y) or (x, y, yaw) in metres and radians, got {len(vals)} numbers")
+    r, c = world_to_pixel(grid_map, vals[0], vals[1], name)
+    if grid_map.obstacles[r, c]:  # said in the units it was given in; a ROS map's unknown space is an obstacle
+        raise PointError(f"{name} ({vals[0]:g}, {vals[1]:g}) m is on an obstacle or in unknown space of the map "
+                         f"(pixel {r},{c}); give a point in known free space")
+    return (r, c), (vals[2] if len(vals) == 3 else None)
 
 
 def place_points(grid_map: GridMap, start: Sequence[int] | None, goal: Sequence[int] | None, *,
@@ -215,6 +225,32 @@ def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Poi
                         source_start=start, source_goal=goal, snapped=(snapped[0], snapped[1]), cell_px=(s, s))
 
 
+def inflated(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, float]:
+    """The map's obstacles inflated by the robot's radius (read-only), and that radius in pixels."""
+    radius_px = radius_to_px(settings.robot_radius, grid_map.resolution)
+    check_map = inflate(grid_map.obstacles, radius_px) if radius_px >= 1 else np.array(grid_map.obstacles, dtype=bool)
+    check_map.setflags(write=False)
+    return check_map, radius_px
+
+
+def map_grid(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, str]:
+    """The blocked cells of the whole map under ``settings`` when no route is given (``size`` an integer),
+    and a line naming the grid: what ``map info`` shows without start and goal."""
+    check_map, radius_px = inflated(grid_map, settings)
+    size = int(settings.grid_size)
+    if settings.grid == "area":
+        blocked = planning_grid(check_map, size)
+        rule = "area (the paper's: area-averaged, blocked at >= half obstacle)"
+        cell = f"{grid_map.height / blocked.shape[0]:.2f}x{grid_map.width / blocked.shape[1]:.2f} px"
+    else:
+        blocked = conservative_grid(check_map, size)
+        rule = "safe (square cells, a cell blocked when any pixel is an obstacle)"
+        cell = _units(cell_size_px(check_map.shape, size), grid_map.resolution)
+    radius = f", robot radius {_units(radius_px, grid_map.resolution)}" if radius_px > 0 else ""
+    return blocked, (f"planning grid: {rule}, {blocked.shape[0]}x{blocked.shape[1]} cells of {cell} "
+                     f"(size {size}{radius})")
+
+
 def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSettings) -> tuple[PlanningGrid, GridSetup]:
     """The planning grid for ``start``/``goal`` (checked map pixels) under ``settings``, and how it was made.
 
@@ -224,9 +260,7 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
     import time
 
     t0 = time.perf_counter()
-    radius_px = radius_to_px(settings.robot_radius, grid_map.resolution)
-    check_map = inflate(grid_map.obstacles, radius_px) if radius_px >= 1 else grid_map.obstacles
-    check_map.setflags(write=False)
+    check_map, radius_px = inflated(grid_map, settings)
     _check_clearance(check_map, grid_map, (start, goal), radius_px)
     size = settings.grid_size
     auto = None
@@ -255,3 +289,15 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
                       f"(crop the map around start and goal for a smaller grid)", SlowGridWarning, stacklevel=2)
     return pg, GridSetup(rule=settings.grid, size=int(size), radius_px=radius_px, check_map=check_map, auto=auto,
                          seconds=time.perf_counter() - t0)
+
+
+def grid_text(setup: GridSetup, grid: PlanningGrid, resolution: float | None = None) -> str:
+    """One line naming the grid a command used: rule, shape, cell size, size (auto or given), robot radius."""
+    sr, sc = grid.cell_size
+    cell = (f"{sr:.2f}" if abs(sr - sc) < 1e-9 else f"{sr:.2f}x{sc:.2f}") + " px" + \
+        (f" = {sr * resolution:.3g} m" if resolution is not None and abs(sr - sc) < 1e-9 else "")
+    how = "size auto" if setup.auto is not None else f"size {setup.size}"
+    rule = ("safe (square cells, a cell blocked when any pixel is an obstacle)" if setup.rule == "safe"
+            else "area (the paper's: area-averaged, blocked at >= half obstacle)")
+    radius = f", robot radius {_units(setup.radius_px, resolution)}" if setup.radius_px > 0 else ""
+    return f"planning grid: {rule}, {grid.shape[0]}x{grid.shape[1]} cells of {cell} ({how}{radius})"

@@ -13,7 +13,7 @@ import numpy as np
 
 from ndrql.maps.grid import GridMap, PlanningGrid
 from ndrql.pipeline.problem import GridSetup
-from ndrql.pipeline.route import Route, make_route
+from ndrql.pipeline.route import Route, make_route, octile_cost
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.results import PlanResult, summarize
@@ -52,12 +52,23 @@ class PlannedRun(PlanResult):
 
     route: Route | None = field(default=None, compare=False, repr=False)
     """The learned path on the full map (``None`` when the run found no path)."""
+    requested_method: str | None = None
+    """The method asked for: :attr:`method` itself, or the NDR method the fallback replaced."""
+    fallback_reason: str | None = None
+    """Why :attr:`method` ran instead of :attr:`requested_method` (``None``: it was the one asked for)."""
 
     def to_dict(self, include_records: bool = False) -> dict[str, Any]:
         """The run's JSON form (the route is added by :meth:`PlanReport.to_dict`)."""
         out = super().to_dict(include_records=include_records)
         out.pop("route", None)
+        out["requested_method"] = self.requested_method or self.method
+        out["fallback_reason"] = self.fallback_reason
         return out
+
+    @property
+    def fell_back(self) -> bool:
+        """Whether another method ran than the one asked for."""
+        return self.fallback_reason is not None
 
     @property
     def success(self) -> bool:
@@ -120,6 +131,13 @@ class PlanReport:
     """How the map became the planning grid (rule, size, robot radius) and the map paths were checked on."""
     settings: PlanSettings = PlanSettings()
     """The settings of this plan."""
+    request: Any = field(default=None, repr=False, compare=False)
+    """The :class:`~ndrql.pipeline.request.PlanRequest` this report answers."""
+
+    @property
+    def requested_methods(self) -> tuple[str, ...]:
+        """The methods asked for (:attr:`methods` are those that ran)."""
+        return tuple(self.request.methods) if self.request is not None else self.methods
 
     @property
     def astar_length(self) -> int:
@@ -146,6 +164,10 @@ class PlanReport:
             if "poses" in route:
                 out["path_world"] = route["poses"]
             out["route"] = route
+            out["octile_cost"] = round(octile_cost(r.route.pixels), 4)
+            auto = self.setup.auto if self.setup is not None else None
+            if auto is not None and auto.full_length > 0:  # the scenario batch's ratio: octile over octile
+                out["octile_ratio"] = round(out["octile_cost"] / auto.full_length, 5)
         else:
             out["collisions"] = []
         return out
@@ -173,6 +195,7 @@ class PlanReport:
             "snapped": {"start": pg.snapped[0], "goal": pg.snapped[1]},
             "astar_length": self.astar_length,
             "methods": list(self.methods),
+            "requested_methods": list(self.requested_methods),
             "seeds": list(self.seeds),
             "config": dataclasses.asdict(self.config),
             "prior_config": dataclasses.asdict(self.prior_config),
@@ -197,13 +220,20 @@ class PlanReport:
         }
         if self.setup is not None:
             out["planning_grid"] = self.setup.to_dict(pg, gm.resolution)
+        if self.request is not None:  # what was asked for, every default decided (the builder's record)
+            out["request"] = self.request.to_dict()
         return out
 
 
 def planned_runs(results: Sequence[PlanResult], check_map: np.ndarray, grid: PlanningGrid, grid_map: GridMap,
-                 smooth: bool, start_yaw: float | None = None, goal_yaw: float | None = None) -> list[PlannedRun]:
+                 smooth: bool, start_yaw: float | None = None, goal_yaw: float | None = None,
+                 fallbacks: Sequence[Any] = ()) -> list[PlannedRun]:
     """Each run with its learned path on the full map (:func:`~ndrql.pipeline.route.make_route`); runs
-    whose seeds agree on the path share one route (it is checked once)."""
+    whose seeds agree on the path share one route (it is checked once). ``fallbacks``: the
+    :class:`~ndrql.pipeline.predictions.Fallback` records, which name the method each replaced run was asked for."""
+    swapped = {}
+    for f in fallbacks:
+        swapped.setdefault(f.ran, f)
     routes: dict[tuple[tuple[int, int], ...], Route] = {}
     runs = []
     for r in results:
@@ -214,6 +244,8 @@ def planned_runs(results: Sequence[PlanResult], check_map: np.ndarray, grid: Pla
                 routes[key] = make_route(check_map, grid, r.path, grid_map, smooth=smooth, start_yaw=start_yaw,
                                          goal_yaw=goal_yaw)
             route = routes[key]
-        fields = {f.name: getattr(r, f.name) for f in dataclasses.fields(r)}
-        runs.append(PlannedRun(**fields, route=route))
+        fields = {f.name: getattr(r, f.name) for f in dataclasses.fields(PlanResult)}
+        fb = swapped.get(r.method)
+        runs.append(PlannedRun(**fields, route=route, requested_method=fb.requested if fb else r.method,
+                               fallback_reason=fb.reason if fb else None))
     return runs

@@ -5,8 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_GRID_SIZE
+from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
+from ndrql.maps.readers import MAX_MAP_PIXELS
 from ndrql.maps.safe import DEFAULT_MAX_SIZE
 from ndrql.model.predict import BACKENDS
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES, check_count as check_symmetries
@@ -23,23 +24,25 @@ SLOW_SIZE = 256
 class PlanSettings:
     """How a map becomes a planning problem, and the limits that guard it.
 
-    The defaults are for a user's own map (safe grid, ``size="auto"``, smoothing on);
-    :meth:`paper` gives the paper's setting used on the dataset and by the reproduction commands.
+    A field left unset (``None``, fallback ``auto``) is decided by
+    :func:`~ndrql.pipeline.request.build_request` from the input: on a user's own map the safe grid,
+    ``size="auto"``, smoothing on and the IQL fallback for one method; on a dataset sample the paper's
+    setting, :meth:`paper` (used by the reproduction commands).
     """
 
-    grid: str = "safe"
-    """Planning-grid rule: safe (square cells, blocked if any pixel is an obstacle) or area (the paper's >= 0.5 rule)."""
+    grid: str | None = None
+    """Planning-grid rule: safe (square cells, blocked if any pixel is an obstacle) or area (the paper's >= 0.5 rule); default: safe on a user's map, area on a dataset sample."""
     size: int | str | None = None
     """Cells on the map's longer side, or auto (the coarsest safe grid that keeps the route); default: auto for safe, 50 for area."""
     robot_radius: float = 0.0
     """Robot radius: obstacles are inflated by it before planning (metres on maps with a resolution, else pixels)."""
     smooth: bool | None = None
-    """Shortcut the learned path by line of sight on the full map (default: on for the safe grid, off for area)."""
-    fallback: str | None = "IQL"
-    """Method to plan with instead of an NDR method when the model's prediction is uninformative (None: keep it)."""
+    """Shortcut the learned path by line of sight on the full map (default: on for a user's map, off for a dataset sample)."""
+    fallback: str | None = "auto"
+    """Method to plan with instead of an NDR method when the model's prediction is uninformative (None: keep it; default auto: IQL for one method on a user's map, none on a dataset sample or with several methods)."""
     tolerance: float = 0.08
     """size auto: how much longer than the map's own shortest route the grid's route may be."""
-    max_map_pixels: int = 4096 * 4096
+    max_map_pixels: int = MAX_MAP_PIXELS
     """Largest map accepted, in pixels; larger maps are refused (crop or downscale them first)."""
     max_size: int = DEFAULT_MAX_SIZE
     """Largest planning grid (cells on the longer side); Q-learning's episode cap is 4 x cells, so big grids take long."""
@@ -53,7 +56,7 @@ class PlanSettings:
     """Grid-mode models: average the prediction over this many orientations of the grid (1, 2, 4 or 8; one forward pass each, in one batch)."""
 
     def __post_init__(self) -> None:
-        if self.grid not in GRID_RULES:
+        if self.grid is not None and self.grid not in GRID_RULES:
             raise NdrqlError(f"unknown planning grid rule {self.grid!r}; valid: {', '.join(GRID_RULES)}")
         size = self.size
         if isinstance(size, str):
@@ -65,30 +68,33 @@ class PlanSettings:
             else:
                 size = "auto"
             object.__setattr__(self, "size", size)
-        if size == "auto" and self.grid != "safe":
+        if size == "auto" and self.grid == "area":
             raise NdrqlError("size auto needs the safe grid (--grid safe); the area rule takes a size such as 50")
         if isinstance(size, bool) or (size not in (None, "auto") and not isinstance(size, int)):
             raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}")
         if isinstance(size, int):
-            if size < 2:
-                raise NdrqlError(f"the planning grid size must be at least 2, got {size}")
+            if not MIN_GRID_SIZE <= size <= MAX_GRID_SIZE:
+                raise NdrqlError(f"the planning grid size must be in {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, got {size}")
             if size > self.max_size:
                 raise NdrqlError(f"the planning grid size {size} is larger than the limit {self.max_size} "
-                                 f"(Q-learning's episode cap grows with the cells; raise the limit to go further)")
+                                 f"(Q-learning's episode cap grows with the cells; raise it with --max-size, up to "
+                                 f"{MAX_GRID_SIZE})")
         if not self.robot_radius >= 0 or self.robot_radius == float("inf"):
             raise NdrqlError(f"the robot radius must be a number >= 0, got {self.robot_radius}")
         if not 0 <= self.tolerance < 10:
             raise NdrqlError(f"the size auto tolerance must be in [0, 10), got {self.tolerance}")
         if self.max_map_pixels < 1:
             raise NdrqlError(f"max_map_pixels must be positive, got {self.max_map_pixels}")
-        if self.fallback is not None:
+        if isinstance(self.fallback, str) and self.fallback.strip().lower() == "none":
+            object.__setattr__(self, "fallback", None)
+        if self.fallback is not None and self.fallback != "auto":
             fb = get_method(self.fallback)
             if fb.needs_ndr:
                 raise NdrqlError(f"the fallback {fb.name} uses the model itself; give a method without it (QL, IQL, ...)")
             object.__setattr__(self, "fallback", fb.name)
 
-        if not 2 <= self.max_size <= MAX_GRID_SIZE:
-            raise NdrqlError(f"the grid size limit must be in 2..{MAX_GRID_SIZE}, got {self.max_size}")
+        if not MIN_GRID_SIZE <= self.max_size <= MAX_GRID_SIZE:
+            raise NdrqlError(f"the grid size limit must be in {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, got {self.max_size}")
 
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
@@ -97,7 +103,7 @@ class PlanSettings:
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":
         """The paper's setting (docs/method.md): area rule, 50 cells, no smoothing, no fallback; used on the dataset."""
-        kw = {"grid": "area", "size": PLANNING_SIZE, "smooth": False, "fallback": None}
+        kw: dict = {"grid": "area", "size": PLANNING_SIZE, "smooth": False, "fallback": None}
         kw.update(overrides)
         return cls(**kw)
 
@@ -105,10 +111,10 @@ class PlanSettings:
     def grid_size(self) -> int | str:
         """The size in effect: the given one, else auto (safe) or 50 (area)."""
         if self.size is None:
-            return "auto" if self.grid == "safe" else PLANNING_SIZE
+            return PLANNING_SIZE if self.grid == "area" else "auto"
         return self.size
 
     @property
     def smoothing(self) -> bool:
         """Whether the learned path is shortcut on the full map (default: on for safe, off for area)."""
-        return (self.grid == "safe") if self.smooth is None else bool(self.smooth)
+        return (self.grid != "area") if self.smooth is None else bool(self.smooth)

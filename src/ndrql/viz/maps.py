@@ -76,11 +76,15 @@ def plot_endpoints(ax: Any, start: Sequence[float], goal: Sequence[float], *, si
 
 
 def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, path_cells: Sequence[Sequence[int]],
-                         source_start: Sequence[int], source_goal: Sequence[int], *, title: str | None = None) -> list[Any]:
+                         source_start: Sequence[int], source_goal: Sequence[int], *, title: str | None = None,
+                         cell_size: tuple[float, float] | None = None,
+                         path_points: Sequence[Sequence[float]] | None = None) -> list[Any]:
     """The source map, the planning grid's blocked cells (shaded) and the A* path on the planning grid, in source
     pixels, in the style of ``plan``'s figures (:mod:`ndrql.viz.style`: A* blue and dashed, legend below the map).
 
-    Cell centres are converted with :func:`ndrql.maps.grid.cell_to_point`; returns every artist drawn.
+    Cell centres are converted with :func:`ndrql.maps.grid.cell_to_point` (the area grid), or drawn as
+    ``path_points`` (map pixels) when given; ``cell_size``: square cells of that many pixels (the safe
+    grid, which may reach past the map). Returns every artist drawn.
     """
     from matplotlib.patches import Patch
 
@@ -88,9 +92,10 @@ def plot_planning_result(ax: Any, obstacles: np.ndarray, blocked: np.ndarray, pa
     h, w = obstacles.shape
     artists: list[Any] = []
     artists.append(plot_occupancy(ax, obstacles, color=OBSTACLE_COLOR, zorder=1))
+    sr, sc = cell_size if cell_size is not None else (h / blocked.shape[0], w / blocked.shape[1])
     artists.append(plot_occupancy(ax, blocked, color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA,
-                                  extent=(-0.5, w - 0.5, h - 0.5, -0.5), zorder=2))
-    pts = [cell_to_point(c, (h, w), blocked.shape) for c in path_cells]
+                                  extent=(-0.5, blocked.shape[1] * sc - 0.5, blocked.shape[0] * sr - 0.5, -0.5), zorder=2))
+    pts = path_points if path_points is not None else [cell_to_point(c, (h, w), blocked.shape) for c in path_cells]
     artists += plot_path(ax, pts, color=ASTAR_COLOR, linewidth=2.0, label=f"A* ({len(path_cells) - 1} moves)")
     artists[-1].set_linestyle("--")
     artists += plot_endpoints(ax, source_start, source_goal)

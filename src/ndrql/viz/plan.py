@@ -143,12 +143,14 @@ def _astar(report: Any) -> list[list[int]]:
 
 
 def _run_title(r: Any) -> str:
+    asked = getattr(r, "requested_method", None)
+    name = r.method if asked in (None, r.method) else f"{r.method} (fallback for {asked})"
     collides = getattr(r, "route", None) is not None and r.route.collides
     tail = f"; PATH COLLIDES ({len(r.route.final_collisions)} segments)" if collides else ""
     if r.converged:
-        return (f"{r.method} seed {r.seed}: converged, {r.convergence_steps:,} steps\n"
+        return (f"{name} seed {r.seed}: converged, {r.convergence_steps:,} steps\n"
                 f"path {r.path_length} moves = {r.length_ratio:.2f} x A*{tail}")
-    return f"{r.method} seed {r.seed}: NOT converged in {r.episodes:,} episodes{tail}"
+    return f"{name} seed {r.seed}: NOT converged in {r.episodes:,} episodes{tail}"
 
 
 def _grid_kw(report: Any, r: Any) -> dict[str, Any]:

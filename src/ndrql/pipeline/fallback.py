@@ -1,0 +1,96 @@
+"""Whether the model's prediction can guide planning, and the method that runs instead when it cannot.
+
+:func:`prediction_quality` judges a prediction on the planning grid; :func:`fall_back` swaps each NDR
+method for the request's fallback when the prediction is uninformative, records the swap as a
+:class:`Fallback` (each run then carries ``requested_method`` and ``fallback_reason``) and warns with a
+:class:`~ndrql.errors.FallbackWarning`: the method that runs is never silently another.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from ndrql.errors import FallbackWarning
+from ndrql.maps.grid import PlanningGrid
+from ndrql.planning.methods import Method, get_method
+from ndrql.planning.priors import adaptive_threshold
+
+#: The region threshold (Eq. 7) below which the prediction is called uninformative. 0: only a region
+#: that joins start and goal at no threshold at all is; measured as ``plan`` runs on generated
+#: development maps (``studies/plan_defaults``), NDR-QL beat IQL on every map a cut of 0.3-0.6 sent to
+#: IQL (Eq. 7 thresholds down to 0.00), so any cut only lost maps (0.5 lost 8 of 36).
+MIN_THRESHOLD = 0.0
+#: Largest share of the guideline's probability mass that may lie on obstacle pixels.
+MAX_GUIDE_ON_OBSTACLES = 0.5
+
+
+def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
+                       grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
+    """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
+
+    Uninformative when no region threshold (>= :data:`MIN_THRESHOLD`, which is 0) makes the region connect
+    start and goal on the planning grid (Eq. 7's search, ``cfg`` a :class:`~ndrql.planning.config.PriorConfig`),
+    or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
+    the map (the model draws its path through walls).
+    """
+    thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
+    reasons = []
+    if thd is None or thd < MIN_THRESHOLD:
+        shown = "none" if thd is None else f"{thd:.2f}"
+        floor = f" >= {MIN_THRESHOLD}" if MIN_THRESHOLD > 0 else ""
+        reasons.append(f"no region threshold{floor} connects start and goal (Eq. 7 threshold {shown})")
+    on_obstacles = None
+    if guideline is not None:
+        mass = float(np.sum(guideline))
+        if mass > 0:
+            on_obstacles = float(np.sum(guideline, where=np.asarray(obstacles, dtype=bool))) / mass
+            if on_obstacles > MAX_GUIDE_ON_OBSTACLES:
+                reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
+        else:
+            reasons.append("the guideline is empty")
+    return {"informative": not reasons, "threshold": thd, "guideline_on_obstacles": on_obstacles,
+            "reasons": reasons}
+
+
+@dataclass(frozen=True)
+class Fallback:
+    """An NDR method that did not run because the prediction was uninformative, and what ran instead."""
+
+    requested: str
+    """The method asked for."""
+    ran: str
+    """The method that ran instead."""
+    reason: str
+    """Why (the prediction's quality, :func:`prediction_quality`)."""
+
+
+def fall_back(ms: Sequence[Method], quality: dict[str, Any], fallback: str | None) -> tuple[list[Method], list[Fallback]]:
+    """The methods to run after judging the prediction (``quality``): when it is uninformative and
+    ``fallback`` is set, each NDR method is replaced by the fallback, unless that one runs anyway; and
+    the replacements made (:func:`warn_fallbacks` tells the caller)."""
+    if quality["informative"] or fallback is None:
+        return list(ms), []
+    fb = get_method(fallback)
+    if any(m.name == fb.name for m in ms):
+        return list(ms), []
+    reason = "the prediction is uninformative: " + "; ".join(quality["reasons"])
+    out: list[Method] = []
+    swaps: list[Fallback] = []
+    for m in ms:
+        m2 = fb if m.needs_ndr else m
+        if m2 is not m:
+            swaps.append(Fallback(m.name, fb.name, reason))
+        if all(x.name != m2.name for x in out):
+            out.append(m2)
+    return out, swaps
+
+
+def warn_fallbacks(swaps: Sequence[Fallback], stacklevel: int = 2) -> None:
+    """One :class:`~ndrql.errors.FallbackWarning` per replaced method, pointing at the caller's line."""
+    for f in swaps:
+        warnings.warn(f"{f.requested} did not run, {f.ran} ran instead ({f.reason}; fallback none keeps the "
+                      f"model's priors)", FallbackWarning, stacklevel=stacklevel + 1)

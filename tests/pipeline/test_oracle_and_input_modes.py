@@ -173,7 +173,7 @@ def test_prediction_files_with_broken_grid_arrays_are_one_line_errors(ndrql_exe,
         assert_one_line_error(r, needle)
     r = run_cli(ndrql_exe, "predict", tmp_path / "m.npy", "--start", "10,10", "--goal", "110,150", "--size", "1",
                 "--out", tmp_path / "p")
-    assert_one_line_error(r, "the planning grid size must be in 2..1024, got 1")  # every command's bounds
+    assert_one_line_error(r, "--size must be an integer in 2..1,024")  # every command's bounds
     assert not (tmp_path / "p").exists()
     cut = np.zeros((100, 100), bool)
     cut[50, :] = True  # no grid joins the two halves: the grid-mode model has nothing to predict on

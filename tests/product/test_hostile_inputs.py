@@ -63,7 +63,7 @@ def work(tmp_path: Path) -> Path:
     return tmp_path
 
 
-ASTAR = ("astar", "small.png", "--start", "1,1", "--goal", "90,100")
+ASTAR = ("astar", "small.png", "--start", "1,1", "--goal", "90,100", "--grid", "area")  # the paper's grid: 86 moves
 
 
 # --- 1. outputs: never replace what is at the target ------------------------------------------------
@@ -224,14 +224,14 @@ def test_npy_and_movingai_headers_claiming_huge_maps(ndrql_exe, work):
 
 def test_one_row_map_of_16m_pixels_plans_in_bounded_memory(ndrql_exe, work):
     Image.new("L", (16_777_216, 1), 255).save(work / "wide.png", optimize=True)  # 16 KB file
-    r = run(ndrql_exe, "astar", "wide.png", "--start", "0,0", "--goal", "0,16777215", cwd=work, cap=True)
+    r = run(ndrql_exe, "astar", "wide.png", "--start", "0,0", "--goal", "0,16777215", "--grid", "area", cwd=work, cap=True)
     assert "out of memory" not in r.stderr and "MemoryError" not in r.stderr
     assert r.returncode in (0, 2) and len(r.stderr.splitlines()) <= 1, r.stderr[-2000:]
 
 
 @pytest.mark.parametrize("args, pattern", [
     (("plan", "small.png", "--start", "1,1", "--goal", "90,100", "--seeds", "1000000000"), r"--seeds must be .* 1\.\.10,000"),
-    (("astar", "small.png", "--start", "1,1", "--goal", "90,100", "--size", "20000"), r"--size must be .* 1\.\.1,024"),
+    (("astar", "small.png", "--start", "1,1", "--goal", "90,100", "--size", "20000"), r"--size must be .* 2\.\.1,024"),
     (("map", "info", "small.png", "--size", "0"), r"--size must be"),
     (("demo", "--seeds", "100000000"), r"--seeds must be"),
     (("plan", "small.png", "--start", "1,1", "--goal", "90,100", "--workers", "100000"), r"--workers must be"),
@@ -342,7 +342,7 @@ def test_truncated_dataset_cache_is_decoded_again(ndrql_exe, work, model_weights
 
 def test_argparse_errors_are_one_line(ndrql_exe, work):
     one_error(run(ndrql_exe, "plan", "--bogus", cwd=work), r"unrecognized arguments: --bogus")
-    one_error(run(ndrql_exe, "astar", "--size", "x" * 100_000, cwd=work), r"invalid int value: 'x+\.\.\.")
+    one_error(run(ndrql_exe, "astar", "--size", "x" * 100_000, cwd=work), r"invalid grid_size value: 'x+\.\.\.")
     one_error(run(ndrql_exe, "map", cwd=work), r"required: ACTION|the following arguments are required")
     one_error(run(ndrql_exe, "nope", cwd=work), r"invalid choice")
 

@@ -8,7 +8,7 @@ from typing import Any
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, check_dpi,
                               check_outputs, load_sample_problem, map_info, parse_point, save_figure, use_example,
                               warnings_to_stderr, write_json)
-from ndrql.cli.options import add_command
+from ndrql.cli.options import add_command, grid_size
 from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
 from ndrql.maps.astar import astar4, astar8
@@ -58,7 +58,7 @@ def add_grid_arguments(parser: argparse.ArgumentParser, size_default: str, rule:
         parser.add_argument("--grid", choices=GRID_RULES, default=None,
                             help="planning-grid rule: safe (a cell blocked when any pixel is an obstacle) or area "
                             "(the paper's) (default: safe for a map file, area for --sample)")
-    parser.add_argument("--size", default=None, metavar="N|auto",
+    parser.add_argument("--size", type=grid_size, default=None, metavar="N|auto",
                         help=f"cells on the map's longer side, {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, or auto (safe grid: the "
                         f"coarsest that keeps the route, as plan picks it) (default: {size_default})")
     parser.add_argument("--robot-radius", type=float, default=None, metavar="R",

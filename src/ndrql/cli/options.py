@@ -19,6 +19,16 @@ def add_command(subparsers: argparse._SubParsersAction, name: str, *, help: str,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
+def grid_size(text: str) -> int | str:
+    """``--size N|auto``: an integer or ``auto`` (argparse says ``invalid grid_size value`` otherwise; the bounds
+    are checked with the request, :class:`~ndrql.pipeline.settings.PlanSettings`)."""
+    if str(text).strip().lower() == "auto":
+        return "auto"
+    if len(str(text)) > 12:
+        raise ValueError("too long")
+    return int(text)
+
+
 def add_seed_options(parser: argparse.ArgumentParser, *, seeds: int, seeds_help: str, workers: int | None) -> None:
     """``--seeds N`` (``seeds_help``), ``--seed S`` (the first seed: runs use seeds S..S+N-1) and ``--workers N``
     (default ``workers``; ``None``: all cores)."""

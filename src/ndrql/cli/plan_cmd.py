@@ -10,7 +10,7 @@ from ndrql.api import PlanSettings, build_request, run_request
 from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
                               check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
                               warnings_to_stderr, write_json)
-from ndrql.cli.options import add_command, add_config_flags, add_seed_options
+from ndrql.cli.options import add_command, add_config_flags, add_seed_options, grid_size
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
 from ndrql.errors import FallbackWarning, NdrqlError
@@ -90,7 +90,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g = p.add_argument_group("planning grid and path on the map")
     g.add_argument("--grid", choices=GRID_RULES, default=None,
                    help=f"{docs['grid']} (default: safe for a map file, area for --sample)")
-    g.add_argument("--size", default=None, metavar="N|auto",
+    g.add_argument("--size", type=grid_size, default=None, metavar="N|auto",
                    help=f"cells on the map's longer side, or auto: the coarsest safe grid whose route stays within "
                    f"{settings.tolerance:.0%}% of the map's own shortest route (default: auto for safe, 50 for area; "
                    f"at most --max-size)")

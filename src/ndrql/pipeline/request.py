@@ -170,7 +170,7 @@ def request_settings(settings: PlanSettings | None = None, *, sample: Mapping[st
 def _check_reader_options(source: Any, invert: bool, threshold: float, crop: bool) -> None:
     """Reader options that the map would ignore are errors (a ROS map has its own thresholds)."""
     try:
-        check_finite(threshold, "--threshold (the image threshold)")
+        check_finite(threshold, "--threshold")
     except ValueError as exc:
         raise NdrqlError(str(exc)) from None
     path = os.fspath(source).lower() if isinstance(source, (str, os.PathLike)) else None

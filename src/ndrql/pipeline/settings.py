@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ndrql.errors import NdrqlError
+from ndrql.errors import NdrqlError, brief
 from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.maps.readers import MAX_MAP_PIXELS
@@ -64,17 +64,19 @@ class PlanSettings:
                 try:
                     size = int(size)
                 except ValueError:
-                    raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}") from None
+                    raise NdrqlError(f"--size must be an integer in {MIN_GRID_SIZE}..{MAX_GRID_SIZE:,} or auto, "
+                                     f"got {brief(self.size)}") from None
             else:
                 size = "auto"
             object.__setattr__(self, "size", size)
         if size == "auto" and self.grid == "area":
             raise NdrqlError("size auto needs the safe grid (--grid safe); the area rule takes a size such as 50")
         if isinstance(size, bool) or (size not in (None, "auto") and not isinstance(size, int)):
-            raise NdrqlError(f"the planning grid size must be an integer or auto, got {self.size!r}")
+            raise NdrqlError(f"--size must be an integer in {MIN_GRID_SIZE}..{MAX_GRID_SIZE:,} or auto, got {brief(self.size)}")
         if isinstance(size, int):
             if not MIN_GRID_SIZE <= size <= MAX_GRID_SIZE:
-                raise NdrqlError(f"the planning grid size must be in {MIN_GRID_SIZE}..{MAX_GRID_SIZE}, got {size}")
+                raise NdrqlError(f"--size must be an integer in {MIN_GRID_SIZE}..{MAX_GRID_SIZE:,} (planning-grid cells on "
+                                 f"the map's longer side) or auto, got {size}")
             if size > self.max_size:
                 raise NdrqlError(f"the planning grid size {size} is larger than the limit {self.max_size} "
                                  f"(Q-learning's episode cap grows with the cells; raise it with --max-size, up to "

@@ -17,6 +17,7 @@ import importlib
 import sys
 from typing import NoReturn
 
+from ndrql.cli.outputs import guard
 from ndrql.cli.text import plain, short_usage
 from ndrql.version import __version__
 from ndrql.errors import MissingDependency, NdrqlError, require_torch
@@ -95,6 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
+        guard(args)  # every output checked against every input and each other, before any work
         code = int(args.func(args) or 0)
         sys.stdout.flush()
         return code

@@ -9,18 +9,21 @@ radius, in one cell, ...) is reported on its line and in its record and does not
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import time
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, Sequence
 
 from ndrql.api import solve
 from ndrql.errors import NdrqlError
 from ndrql.io import json_text
+from ndrql.io.jsonl import BatchLog
 from ndrql.maps.readers import read_movingai_scen
 from ndrql.pipeline.route import octile_cost
+
+#: The signature at the start of every ``--jsonl`` record (:class:`ndrql.io.jsonl.BatchLog`).
+LOG_FORMAT = "ndrql-plan-batch/1"
 
 
 def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
@@ -40,45 +43,6 @@ def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
     if not (0 <= lo < hi <= count):
         raise NdrqlError(f"--index {text} is outside the scenarios 0..{count - 1} of the file")
     return list(range(lo, hi))
-
-
-def _done(path: Path, key: dict[str, Any]) -> dict[int, dict[str, Any]]:
-    """Records already in a JSON-lines file of the same run (same map, scenarios, method, seed, settings)."""
-    if not path.exists():
-        return {}
-    out: dict[int, dict[str, Any]] = {}
-    good = 0
-    with open(path, "rb") as f:
-        lines = f.read().split(b"\n")
-    for i, raw in enumerate(lines):
-        if not raw.strip():
-            continue
-        try:
-            rec = json.loads(raw)
-        except ValueError:
-            if i >= len(lines) - 2:  # a last line cut short by an interruption: dropped and redone
-                break
-            raise NdrqlError(f"{path} line {i + 1} is not JSON; give another --jsonl file") from None
-        if {k: rec.get(k) for k in key} != key:
-            raise NdrqlError(f"{path} holds results of another run ({', '.join(f'{k} {rec.get(k)}' for k in key)}); "
-                             f"give another --jsonl file")
-        out[int(rec["scenario"])] = rec
-        good += len(raw) + 1
-    if good < path.stat().st_size:  # drop the cut line so appends start on a fresh line
-        with open(path, "r+b") as f:
-            f.truncate(good)
-    return out
-
-
-def _append(path: Path, record: dict[str, Any]) -> None:
-    """One JSON line, written in one call and flushed to disk (a crash leaves at most a cut last line)."""
-    line = (json_text(record, indent=None, strict=False) + "\n").encode()
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-    try:
-        os.write(fd, line)
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def _record(index: int, scen: Any, key: dict[str, Any], report: Any, seconds: float) -> dict[str, Any]:
@@ -130,8 +94,6 @@ def summary(records: Sequence[dict[str, Any]]) -> list[str]:
 def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, method: str, seed: int,
               settings: Any, jsonl: str | None, echo: Any, solve_kw: dict[str, Any]) -> int:
     """Run the chosen scenarios of ``scen_path`` on ``grid_map``; print a line each and a summary."""
-    from tqdm import tqdm
-
     scenarios = read_movingai_scen(scen_path)
     if not scenarios:
         raise NdrqlError(f"{scen_path} has no scenarios")
@@ -144,7 +106,20 @@ def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, m
     key = {"map": str(grid_map.source), "scen": str(scen_path), "method": method, "seed": seed,
            "grid_rule": settings.grid, "size": str(settings.grid_size), "robot_radius": settings.robot_radius}
     out = Path(jsonl) if jsonl else None
-    done = _done(out, key) if out is not None else {}
+    with BatchLog(out, LOG_FORMAT, key, "scenario", _jsonl_text) if out is not None else nullcontext() as log:
+        return _run(grid_map, scenarios, indices, log, key, scen_path, method, seed, settings, echo, solve_kw)
+
+
+def _jsonl_text(record: dict[str, Any]) -> str:
+    return json_text(record, indent=None, strict=False)
+
+
+def _run(grid_map: Any, scenarios: Any, indices: list[int], log: Any, key: dict[str, Any], scen_path: str, method: str,
+         seed: int, settings: Any, echo: Any, solve_kw: dict[str, Any]) -> int:
+    from tqdm import tqdm
+
+    out = log.path if log is not None else None
+    done = log.done if log is not None else {}
     records = [done[i] for i in indices if i in done]
     if records:
         echo(f"resuming: {len(records)} of {len(indices)} scenarios already in {out}")
@@ -160,8 +135,8 @@ def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, m
             rec = {**key, "scenario": i, "start": list(s.start), "goal": list(s.goal), "optimal": s.optimal_length,
                    "converged": False, "success": False, "error": " ".join(str(exc).split())[:300],
                    "seconds": round(time.perf_counter() - t, 3)}
-        if out is not None:
-            _append(out, rec)
+        if log is not None:
+            log.append(rec)
         records.append(rec)
         tqdm.write(_line(rec), file=_stream(echo))
     records.sort(key=lambda r: int(r["scenario"]))

@@ -20,9 +20,9 @@ import numpy as np
 
 from ndrql.errors import MapFormatError, brief
 from ndrql.maps.grid import GridMap
+from ndrql.maps.ros_yaml import YAML_SUFFIXES, map_files, ros_doc, ros_image  # noqa: F401 (map_files: re-exported)
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pbm", ".bmp", ".tif", ".tiff")
-YAML_SUFFIXES = (".yaml", ".yml")
 MOVINGAI_FREE = frozenset(".GS")
 MOVINGAI_BLOCKED = frozenset("@OTW")
 ROS_MODES = ("trinary", "scale", "raw")
@@ -142,17 +142,9 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
     bounding box of the known cells (the origin moves with it). Row 0 is the image's top row; the
     YAML origin is the pose of the lower-left pixel, kept as given.
     """
-    import yaml
-
     path = Path(path)
     _require_file(path)
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError, ValueError, RecursionError) as exc:
-        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
-        raise MapFormatError(f"cannot parse ROS map YAML {path}: {reason}") from None
-    if not isinstance(doc, dict):
-        raise MapFormatError(f"ROS map {path}: expected a mapping of keys, got {type(doc).__name__}")
+    doc = ros_doc(path)
     missing = [k for k in ROS_REQUIRED_KEYS if k not in doc]
     if missing:
         raise MapFormatError(f"ROS map {path}: missing key(s) {', '.join(missing)}")
@@ -179,10 +171,7 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
         raise MapFormatError(f"ROS map {path}: 'mode' must be one of {', '.join(ROS_MODES)}, got {brief(mode)}")
     if mode not in ROS_MODES:
         raise MapFormatError(f"ROS map {path}: unknown mode {brief(mode)}; valid: {', '.join(ROS_MODES)}")
-    image = doc["image"]
-    if not isinstance(image, str) or not image.strip():
-        raise MapFormatError(f"ROS map {path}: 'image' must be a file name, got {brief(image)}")
-    image_path = Path(image) if Path(image).is_absolute() else path.parent / image
+    image_path = ros_image(path, doc)
     if not image_path.exists():
         raise MapFormatError(f"ROS map {path}: image file not found: {image_path}")
 

@@ -13,8 +13,8 @@ import math
 
 from ndrql.errors import brief
 
-__all__ = ["MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "check_finite", "check_int",
-           "check_seeds"]
+__all__ = ["MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "available_cores", "check_finite",
+           "check_int", "check_seeds", "check_threads"]
 
 SEED_LIMIT = 2**63
 """Seeds are ``0 <= seed < 2**63``: numpy, torch and the planning kernel all take them as 64-bit integers."""
@@ -22,8 +22,19 @@ MAX_RUNS = 10_000
 """Most seeds in one command (runs per method)."""
 MAX_WORKERS = 256
 """Most worker processes in one pool."""
-MAX_THREADS = 1024
-"""Most threads for a forward pass or training."""
+def available_cores() -> int:
+    """CPU cores this process may run on (its affinity where the system tells it, else the core count)."""
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+MAX_THREADS = available_cores()
+"""Most threads for a forward pass or training: the cores this process may use (more only slow it
+down, and tens of thousands crash the thread pools of torch and ONNX Runtime)."""
 MAX_GRID_SIZE = 1024
 """Largest planning grid for A* and ``map info`` (cells on a side; Q-learning has its own, smaller limit)."""
 
@@ -44,6 +55,15 @@ def check_finite(value: object, name: str, lo: float = -math.inf, hi: float = ma
         return float(value)  # type: ignore[arg-type]
     where = "" if (lo, hi) == (-math.inf, math.inf) else f" in [{lo:g}, {hi:g}]"
     raise ValueError(f"{name} must be a finite number{where}, got {brief(value)}")
+
+
+def check_threads(value: object, name: str = "threads", lo: int = 1) -> int:
+    """``value`` if it is a thread count in ``lo..MAX_THREADS`` (the cores; ``lo=0`` allows "as is")."""
+    ok = isinstance(value, int) and not isinstance(value, bool)
+    if ok and lo <= value <= MAX_THREADS:  # type: ignore[operator]
+        return value  # type: ignore[return-value]
+    raise ValueError(f"{name} must be an integer in {lo}..{MAX_THREADS} (the CPU cores this process may use), "
+                     f"got {brief(value)}")
 
 
 def check_seeds(first: object, count: object, first_name: str = "--seed", count_name: str = "--seeds") -> range:

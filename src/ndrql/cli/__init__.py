@@ -83,7 +83,14 @@ def _format_warning(message: object, category: type, filename: str, lineno: int,
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; bad input gives one line on stderr and exit code 2, a warning one ``ndrql: warning:`` line."""
+    """Run the CLI; bad input gives one line on stderr and exit code 2, a warning one ``ndrql: warning:`` line.
+
+    Ctrl-C gives ``ndrql: interrupted`` and exit code 130 (also inside the compiled kernel, where it
+    surfaces as a ``SystemError``); outputs are written atomically, so they stay as they were. A
+    closed pipe on stdout exits quietly (141); any other error writing (a full disk, a closed
+    stdout) is one line, exit code 2. Warnings from other libraries (numpy, torch) are held back
+    and shown after a successful run, so an error is the only line a failed command prints.
+    """
     import warnings
 
     warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
@@ -95,17 +102,67 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    held: list[str] = []
+    shown_before = warnings.showwarning
+
+    def show(message: object, category: type, filename: str, lineno: int, file: object = None, line: object = None) -> None:
+        text = _format_warning(message, category, filename, lineno)
+        if _ours(filename):
+            sys.stderr.write(text)
+        elif text not in held:
+            held.append(text)
+
+    warnings.showwarning = show
+    try:
+        code = _run(parser, args)
+    finally:
+        warnings.showwarning = shown_before
+    if code == 0:
+        sys.stderr.write("".join(held))
+    return code
+
+
+def _ours(filename: str) -> bool:
+    """Whether a warning comes from ndrql's own code (shown at once) rather than a library's."""
+    import os
+
+    return f"{os.sep}ndrql{os.sep}" in str(filename)
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Ctrl-C, also when compiled code turned it into a ``SystemError`` (its cause or context)."""
+    seen = 0
+    while exc is not None and seen < 16:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc = exc.__cause__ or exc.__context__  # type: ignore[assignment]
+        seen += 1
+    return False
+
+
+def _error(message: object, code: int = 2) -> int:
+    print(f"ndrql: error: {one_line(message)}", file=sys.stderr)
+    return code
+
+
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """Guard the outputs, run the subcommand and turn every failure into one line and an exit code."""
     try:
         guard(args)  # every output checked against every input and each other, before any work
         code = int(args.func(args) or 0)
-        sys.stdout.flush()
+        if sys.stdout is not None:
+            sys.stdout.flush()
         return code
     except BrokenPipeError:  # `ndrql ... | head`: the reader left; stop quietly like other Unix tools
         _silence_stdout()
         return 141
+    except KeyboardInterrupt:
+        print("ndrql: interrupted", file=sys.stderr)
+        return 130
     except (NdrqlError, ValueError, OverflowError) as exc:
-        print(f"ndrql: error: {one_line(exc)}", file=sys.stderr)
-        return 2
+        return _error(exc)
+    except RecursionError:
+        return _error("the input is nested too deeply to read")
     except ImportError as exc:  # a torch-only command in a light install (pip install ndrql): say what to install
         if exc.name is not None and exc.name.split(".")[0] != "torch":
             raise
@@ -113,15 +170,19 @@ def main(argv: list[str] | None = None) -> int:
         try:
             require_torch(_chosen_parser(parser, args).prog + (f" {target}" if isinstance(target, str) else ""))
         except MissingDependency as missing:
-            print(f"ndrql: error: {one_line(missing)}", file=sys.stderr)
-            return 2
+            return _error(missing)
         raise
     except MemoryError:
-        print("ndrql: error: out of memory", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("ndrql: interrupted", file=sys.stderr)
-        return 130
+        return _error("out of memory", 1)
+    except OSError as exc:  # writing stdout on a full disk, a file vanishing under us, ...
+        _silence_stdout()
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else " (standard output)"
+        return _error(f"cannot go on: {exc.strerror or type(exc).__name__}{where}")
+    except SystemError as exc:
+        if _interrupted(exc):
+            print("ndrql: interrupted", file=sys.stderr)
+            return 130
+        raise
 
 
 def _chosen_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
@@ -144,7 +205,7 @@ def _silence_stdout() -> None:
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):
+    except (OSError, ValueError, AttributeError):
         pass
 
 

@@ -191,6 +191,8 @@ def map_info(grid_map: GridMap) -> dict[str, Any]:
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as indented JSON through :func:`ndrql.io.write_json` (``-`` writes to stdout)."""
     if str(path) == "-":
+        if sys.stdout is None:
+            raise NdrqlError("standard output is closed; give --json a file name")
         sys.stdout.write(json_text(data) + "\n")
         return Path("-")
     return io_write_json(path, data)

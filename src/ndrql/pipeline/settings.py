@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_GRID_SIZE
+from ndrql.limits import MAX_GRID_SIZE, check_threads
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.maps.safe import DEFAULT_MAX_SIZE
 from ndrql.model.predict import BACKENDS
@@ -93,6 +93,7 @@ class PlanSettings:
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
         check_symmetries(self.symmetries, NdrqlError)
+        check_threads(self.threads, "threads (--threads)")
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":

@@ -43,8 +43,11 @@ MAX_MESSAGE = 400
 
 
 def one_line(message: object) -> str:
-    """``message`` on one line of at most :data:`MAX_MESSAGE` characters."""
+    """``message`` on one line of at most :data:`MAX_MESSAGE` characters, control characters escaped
+    (a file name from a map file cannot retitle or recolour the terminal)."""
     text = " ".join(str(message).split())
+    if not text.isprintable():
+        text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
     return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 3] + "..."
 
 
@@ -178,11 +181,16 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         _silence_stdout()
         where = f" ({exc.filename})" if getattr(exc, "filename", None) else " (standard output)"
         return _error(f"cannot go on: {exc.strerror or type(exc).__name__}{where}")
-    except SystemError as exc:
-        if _interrupted(exc):
+    except Exception as exc:  # a bug: one line that says so (NDRQL_DEBUG=1 shows the traceback)
+        if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as a SystemError
             print("ndrql: interrupted", file=sys.stderr)
             return 130
-        raise
+        import os
+
+        if os.environ.get("NDRQL_DEBUG"):
+            raise
+        return _error(f"internal error ({type(exc).__name__}: {exc}); please report it with the command "
+                      f"(NDRQL_DEBUG=1 shows where)", 1)
 
 
 def _chosen_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from typing import Any
 
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, check_dpi,
@@ -14,6 +15,7 @@ from ndrql.limits import MAX_GRID_SIZE, check_int
 from ndrql.maps.astar import astar4, astar8
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid, grid_to_strings
 from ndrql.maps.readers import read_movingai_scen
+from ndrql.maps.scenarios import scenario_doubts
 from ndrql.viz.maps import plot_endpoints, plot_occupancy, plot_path, plot_planning_result
 from ndrql.viz.style import ASTAR_COLOR, legend_below
 
@@ -54,6 +56,8 @@ def _apply_scen(args: argparse.Namespace) -> tuple[Any, Any]:
         raise MapFormatError(f"scenario {idx} not in {path}: it has scenarios 0..{len(scenarios) - 1}"
                              if scenarios else f"{path} has no scenarios")
     scen = scenarios[idx]
+    for doubt in scenario_doubts([scen], args.map or "", path):
+        warnings.warn(doubt, stacklevel=1)
     args.start = args.start or f"{scen.start[0]},{scen.start[1]}"
     args.goal = args.goal or f"{scen.goal[0]},{scen.goal[1]}"
     problem = resolve_problem(args)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, Sequence
@@ -20,6 +21,7 @@ from ndrql.errors import NdrqlError
 from ndrql.io import json_text
 from ndrql.io.jsonl import BatchLog
 from ndrql.maps.readers import read_movingai_scen
+from ndrql.maps.scenarios import scenario_doubts
 from ndrql.pipeline.route import octile_cost
 
 #: The signature at the start of every ``--jsonl`` record (:class:`ndrql.io.jsonl.BatchLog`).
@@ -98,6 +100,8 @@ def run_batch(grid_map: Any, scen_path: str, index: str | None, all_: bool, *, m
     if not scenarios:
         raise NdrqlError(f"{scen_path} has no scenarios")
     indices = parse_indices(index, len(scenarios), all_)
+    for doubt in scenario_doubts([scenarios[i] for i in indices], str(grid_map.source), scen_path):
+        warnings.warn(doubt, stacklevel=1)
     for i in indices:
         s = scenarios[i]
         if grid_map.shape != (s.height, s.width):

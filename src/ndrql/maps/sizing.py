@@ -27,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ndrql.errors import NoPathError
+from ndrql.errors import NoPathError, PointError
 from ndrql.maps.astar import shortest_path8
 from ndrql.maps.grid import Cell, nearest_free_bfs
 from ndrql.maps.lines import segment_free
@@ -177,6 +177,9 @@ def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int
     the tolerance, the connected size with the best ratio is chosen (``within_tolerance=False``); when
     none is connected, :class:`NoPathError` says where the bottleneck is and what to do.
     """
+    if tuple(int(v) for v in start) == tuple(int(v) for v in goal):  # every grid puts them in one cell
+        raise PointError(f"start and goal are the same pixel {tuple(int(v) for v in start)}, so they fall in the same "
+                         f"planning cell at any grid size; nothing to plan (give two different points)")
     trials: list[SizeTrial] = []
     sizes = ladder(free_check.shape, max_size)
     if not sizes:

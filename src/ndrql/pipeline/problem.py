@@ -25,6 +25,7 @@ from ndrql.errors import MapFormatError, NoPathError, PointError
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
 from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import load_map, read_movingai_scen
+from ndrql.maps.scenarios import scenario_doubts
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
@@ -97,6 +98,8 @@ def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> t
     if grid_map.shape != (s.height, s.width):
         raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "
                              f"the map is {grid_map.width}x{grid_map.height}")
+    for doubt in scenario_doubts([s], str(grid_map.source), scen):
+        warnings.warn(doubt, stacklevel=2)
     info = {"scenario": {"file": str(scen), "index": index, "optimal_length": s.optimal_length}}
     return (int(s.start[0]), int(s.start[1])), (int(s.goal[0]), int(s.goal[1])), info
 

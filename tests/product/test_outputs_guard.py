@@ -46,7 +46,7 @@ def work(tmp_path: Path) -> Path:
                                           "occupied_thresh: 0.65\nfree_thresh: 0.196\nnegate: 0\n")
     rows = ["." * 120] * 100
     (tmp_path / "arena.map").write_text("type octile\nheight 100\nwidth 120\nmap\n" + "\n".join(rows) + "\n")
-    (tmp_path / "arena.map.scen").write_text("version 1\n0\tarena.map\t120\t100\t1\t1\t100\t90\t110.0\n")
+    (tmp_path / "arena.map.scen").write_text("version 1\n0\tarena.map\t120\t100\t1\t1\t100\t90\t140.0\n")
     (tmp_path / "sub").mkdir()
     (tmp_path / "link.png").symlink_to("block.png")
     os.link(tmp_path / "block.png", tmp_path / "hard.png")

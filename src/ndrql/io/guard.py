@@ -112,6 +112,11 @@ def _check_one(out: Output) -> None:
     target = Path(out.path)
     if target.exists() and not target.is_dir():
         raise OutputError(f"{out.flag} {shown(out.path)}: a file is in the way of the folder")
+    existing = next((p for p in (target, *target.parents) if p.exists()), Path("."))
+    if not existing.is_dir():
+        raise OutputError(f"{out.flag} {shown(out.path)}: a file is in the way ({shown(existing)})")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputError(f"{out.flag} {shown(out.path)}: cannot write there (Permission denied)")
 
 
 def _folder_receives(folder: Output, where: _Where, target: _Where) -> bool:

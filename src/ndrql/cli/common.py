@@ -9,6 +9,7 @@ source pixels, and a description for reports). Every bad input raises an
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 from contextlib import contextmanager
@@ -238,14 +239,17 @@ def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[flo
 @contextmanager
 def warnings_to_stderr() -> Iterator[None]:
     """Show warnings raised inside the block as ``ndrql: warning: ...`` lines on stderr."""
+    failed = True
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
             yield
+            failed = False
         finally:
             seen = set()
             for w in caught:
                 msg = str(w.message)
-                if msg not in seen:
+                ours = f"{os.sep}ndrql{os.sep}" in str(w.filename)
+                if msg not in seen and (ours or not failed):  # a failed command: only ndrql's own warnings
                     seen.add(msg)
                     print(f"ndrql: warning: {msg}", file=sys.stderr)

@@ -44,6 +44,33 @@ def _check_problem(blocked: np.ndarray, start, goal) -> tuple[np.ndarray, tuple[
     return blocked, cells[0], cells[1]
 
 
+def interruptible(fn, *args):
+    """``fn(*args)`` on a helper thread while this one waits, so Ctrl-C is felt at once.
+
+    The compiled kernel releases the GIL and never returns to Python until the run ends; called
+    directly, a run with a huge episode cap could not be interrupted. The helper thread is a daemon:
+    after Ctrl-C the command exits (``ndrql: interrupted``, 130) without waiting for it.
+    """
+    import threading
+
+    box: list = []
+
+    def call() -> None:
+        try:
+            box.append((True, fn(*args)))
+        except BaseException as exc:  # handed to the waiting thread
+            box.append((False, exc))
+
+    worker = threading.Thread(target=call, name="ndrql-kernel", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.25)
+    ok, value = box[0]
+    if not ok:
+        raise value
+    return value
+
+
 def astar_length(blocked: np.ndarray, start, goal) -> int:
     """Optimal 4-connected length (moves) by A*; raises :class:`NoPathError` when unreachable."""
     return int(astar4(blocked, start, goal).moves)
@@ -89,7 +116,8 @@ def run_plan(
     q = np.array(priors.q0, dtype=np.float64, order="C", copy=True)
     s_idx = rules.cell_index(start, w)
     g_idx = rules.cell_index(goal, w)
-    n_ep, steps, rets, succ, glen, conv_ep, conv_steps, path_len, path = kernel.train(
+    n_ep, steps, rets, succ, glen, conv_ep, conv_steps, path_len, path = interruptible(
+        kernel.train,
         nxt,
         s_idx,
         g_idx,

@@ -10,11 +10,12 @@ Layering: standard library and :mod:`ndrql.errors` only; any layer may use it.
 from __future__ import annotations
 
 import math
+import numbers
 
 from ndrql.errors import brief
 
-__all__ = ["MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "available_cores", "check_finite",
-           "check_int", "check_seeds", "check_threads"]
+__all__ = ["MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEED_LIMIT", "available_cores", "check_cell",
+           "check_finite", "check_int", "check_seeds", "check_threads"]
 
 SEED_LIMIT = 2**63
 """Seeds are ``0 <= seed < 2**63``: numpy, torch and the planning kernel all take them as 64-bit integers."""
@@ -64,6 +65,28 @@ def check_threads(value: object, name: str = "threads", lo: int = 1) -> int:
         return value  # type: ignore[return-value]
     raise ValueError(f"{name} must be an integer in {lo}..{MAX_THREADS} (the CPU cores this process may use), "
                      f"got {brief(value)}")
+
+
+def check_cell(point: object, name: str) -> tuple[int, int]:
+    """``(row, col)`` as two ints: integers (numpy's too) or whole floats; ``ValueError`` for anything else
+    (``(0.7, 0)`` is not truncated to row 0, a bool is not a number, a third coordinate is refused)."""
+    try:
+        parts = tuple(point)  # type: ignore[arg-type]
+    except TypeError:
+        parts = ()
+    out = []
+    for v in parts:
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):
+            break
+        if isinstance(v, numbers.Integral):
+            out.append(int(v))
+        elif math.isfinite(float(v)) and float(v).is_integer():
+            out.append(int(float(v)))
+        else:
+            break
+    if len(parts) != 2 or len(out) != 2:
+        raise ValueError(f"{name} must be (row, col), two integers, got {brief(point) if len(parts) != 2 else parts}")
+    return out[0], out[1]
 
 
 def check_seeds(first: object, count: object, first_name: str = "--seed", count_name: str = "--seeds") -> range:

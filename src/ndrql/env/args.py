@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ndrql.errors import NdrqlError, PointError, brief
-from ndrql.limits import MAX_GRID_SIZE, SEED_LIMIT
+from ndrql.limits import MAX_GRID_SIZE, SEED_LIMIT, check_cell
 
 #: Largest ``cell_px`` (pixels per cell when rendering): a 1024-cell grid at 64 px is 65,536 px a side.
 MAX_CELL_PX = 64
@@ -43,16 +43,13 @@ def check_map_px(map_px: Any, size: int) -> int | None:
 
 
 def check_point(point: Any, name: str) -> tuple[int, int] | None:
-    """``(row, col)`` as integers (``None`` passes); a float, a bool or a third coordinate is refused."""
+    """``(row, col)`` as integers (``None`` passes); :func:`ndrql.limits.check_cell`'s rule, as :class:`PointError`."""
     if point is None:
         return None
     try:
-        parts = tuple(point)
-    except TypeError:
-        raise PointError(f"{name} must be (row, col), two integers, got {brief(point)}") from None
-    if len(parts) != 2 or not all(isinstance(v, numbers.Integral) and not isinstance(v, bool) for v in parts):
-        raise PointError(f"{name} must be (row, col), two integers, got {brief(point) if len(parts) != 2 else parts}")
-    return int(parts[0]), int(parts[1])
+        return check_cell(point, name)
+    except ValueError as exc:
+        raise PointError(str(exc)) from None
 
 
 def check_seed(seed: Any) -> None:

@@ -104,7 +104,7 @@ def _to_8bit_scale(arr: np.ndarray, path: Path) -> np.ndarray:
         lo, hi = int(arr.min(initial=0)), int(arr.max(initial=0))
         if lo < 0 or hi > 65535:
             raise MapFormatError(f"image {path} has integer values outside 0..65535 ({lo}..{hi}); save it as 8 or 16 bit")
-        if hi <= 255:
+        if 0 < hi <= 255:
             import warnings
 
             warnings.warn(f"{path} is a 16-bit image whose values are all <= 255: read on the 16-bit scale "

@@ -22,6 +22,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import MapFormatError, NoPathError, PointError
+from ndrql.limits import check_cell
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning
 from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import load_map, read_movingai_scen
@@ -112,9 +113,9 @@ def check_points(grid_map: GridMap, start: Sequence[int], goal: Sequence[int]) -
         if p is None:
             raise PointError(f"no {name} given (ROW,COL in map pixels)")
         try:
-            r, c = (int(v) for v in p)
-        except (TypeError, ValueError):
-            raise PointError(f"{name} must be (row, col), got {p!r}") from None
+            r, c = check_cell(p, name)  # (0.7, 0) is not row 0
+        except ValueError as exc:
+            raise PointError(str(exc)) from None
         if not (0 <= r < h and 0 <= c < w):
             raise PointError(f"{name} {r},{c} is outside the map (rows 0..{h - 1}, cols 0..{w - 1})")
         if grid_map.obstacles[r, c]:

@@ -102,29 +102,25 @@ def test_check_cell(value):
 NUMBERS = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**12, 10**12), st.booleans())
 
 
-@FUZZ
-@given(st.fixed_dictionaries({}, optional={k: NUMBERS for k in ("alpha", "epsilon", "gamma", "reward_goal",
-                                                                  "reward_collision", "reward_revisit", "max_episodes",
-                                                                  "window", "max_steps")}))
-def test_ql_config_accepts_only_finite_bounded_values(kw):
-    try:
-        cfg = QLConfig(**kw)
-    except ValueError:
-        return
-    for name in ("alpha", "epsilon", "gamma", "reward_goal", "reward_collision", "reward_revisit"):
-        assert math.isfinite(getattr(cfg, name)) and abs(getattr(cfg, name)) <= 1e6
-    assert 1 <= cfg.max_episodes <= 10**9 and not isinstance(cfg.window, bool)
+QL_FIELDS = ("alpha", "epsilon", "gamma", "reward_goal", "reward_collision", "reward_revisit", "max_episodes", "window",
+             "max_steps")
+PRIOR_FIELDS = ("r0", "r_max", "g_row", "omega_qi", "mask_low", "thd_step", "region_dilation")
 
 
 @FUZZ
-@given(st.fixed_dictionaries({}, optional={k: NUMBERS for k in ("r0", "r_max", "g_row", "omega_qi", "mask_low",
-                                                                  "thd_step", "region_dilation")}))
-def test_prior_config_accepts_only_finite_values(kw):
+@given(st.sampled_from([QLConfig, PriorConfig]).flatmap(lambda cls: st.tuples(st.just(cls), st.fixed_dictionaries(
+    {}, optional={k: NUMBERS for k in (QL_FIELDS if cls is QLConfig else PRIOR_FIELDS)}))))
+def test_configs_accept_only_finite_bounded_values(case):
+    cls, kw = case
     try:
-        cfg = PriorConfig(**kw)
+        cfg = cls(**kw)
     except ValueError:
         return
-    assert all(math.isfinite(getattr(cfg, k)) for k in kw)
+    for name, value in kw.items():
+        got = getattr(cfg, name)
+        assert got is None or (math.isfinite(got) and abs(got) <= (1e9 if name in ("max_episodes", "window",
+                                                                                 "max_steps") else 1e6))
+        assert not isinstance(value, bool)
 
 
 @FUZZ

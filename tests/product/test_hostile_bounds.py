@@ -84,9 +84,14 @@ def test_ctrl_c_is_interrupted_130_and_leaves_no_output(ndrql_exe, work):
             "--window", "1000000000", "--max-episodes", "1000000000", "--json", "out.json"]
     proc = subprocess.Popen(args, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    time.sleep(15)  # start-up, map, grid, then Q-learning that never converges: interrupted wherever it is
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=600)
+    try:
+        time.sleep(15)  # start-up, map, grid, then Q-learning that never converges: interrupted wherever it is
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:  # never leave the run behind when the test fails
+            proc.kill()
+            proc.wait()
     assert proc.returncode == 130, err[-2000:]
     assert err.strip().splitlines()[-1] == "ndrql: interrupted" and "Traceback" not in err
     assert not (work / "out.json").exists()

@@ -111,7 +111,7 @@ def _check_one(out: Output) -> None:
         return
     target = Path(out.path)
     if target.exists() and not target.is_dir():
-        raise OutputError(f"{out.flag} {shown(out.path)}: a file is in the way of the folder")
+        raise OutputError(f"{out.flag} {shown(out.path)}: cannot create folder {shown(out.path)}: a file is in the way")
     existing = next((p for p in (target, *target.parents) if p.exists()), Path("."))
     if not existing.is_dir():
         raise OutputError(f"{out.flag} {shown(out.path)}: a file is in the way ({shown(existing)})")

@@ -218,3 +218,9 @@ def test_a_pickled_checkpoint_gives_no_advice_to_load_it_unsafely(ndrql_exe, wor
     line = assert_one_line_error(run(ndrql_exe, work, "plan", "block.png", *POINTS, "--weights", "evil.pt",
                                      "--backend", "torch"))
     assert "weights_only" not in line and "False" not in line, line
+
+
+def test_a_prior_file_that_needs_unpickling_gives_no_advice_to_load_it_unsafely(ndrql_exe, work):
+    line = assert_one_line_error(run(ndrql_exe, work, "plan", "block.png", *POINTS, "--method", "N-Q",
+                                     "--prior-from", "block.png"), "unpickling")
+    assert "allow_pickle" not in line and "trust" not in line, line

@@ -142,12 +142,12 @@ def _against_inputs(out: Output, where: _Where, inputs: Sequence[tuple[Input, _W
                                   f"destroy it")
         elif out.folder:
             if _same(where, iw):
-                raise _clash(out, f"is the input {inp.flag} {shown(inp.path)}")
+                raise _clash(out, f"is one of the inputs ({inp.flag} {shown(inp.path)})")
             if _folder_receives(out, where, iw):
                 raise _clash(out, f"would receive a file named like the input {inp.flag} {shown(inp.path)}, "
                                   f"replacing it")
         elif _same(where, iw):
-            raise _clash(out, f"is the input {inp.flag} {shown(inp.path)}: writing it would destroy it")
+            raise _clash(out, f"is one of the inputs ({inp.flag} {shown(inp.path)}): writing it would destroy it")
 
 
 def _against_outputs(checked: Sequence[tuple[Output, _Where]]) -> None:

@@ -42,3 +42,13 @@ def test_reset_refuses_a_fractional_point():
     with pytest.raises(NdrqlError, match="two integers"):
         env.reset(options={"start": (0.7, 0)})
     assert env.reset(options={"start": (np.int64(0), 1)})[1]["start"] == (0, 1)
+
+
+def test_a_grid_beyond_the_size_limit_and_huge_frames_are_refused():
+    with pytest.raises(NdrqlError, match="at most 1024 cells"):
+        gym.make(ENV_ID, grid=np.zeros((20000, 20000), bool))
+    with pytest.raises(NdrqlError, match="frames of 65,536 px"):
+        gym.make(ENV_ID, grid=np.zeros((1024, 1024), bool), render_mode="rgb_array", cell_px=64)
+    env = gym.make(ENV_ID, grid=np.zeros((4, 4), bool), render_mode="rgb_array", cell_px=64)
+    env.reset()
+    assert env.render().shape[:2] == (256, 256)

@@ -17,6 +17,8 @@ from ndrql.limits import MAX_GRID_SIZE, SEED_LIMIT, check_cell
 
 #: Largest ``cell_px`` (pixels per cell when rendering): a 1024-cell grid at 64 px is 65,536 px a side.
 MAX_CELL_PX = 64
+#: Largest side of a rendered frame (pixels): ``cell_px`` times the grid's longer side.
+MAX_FRAME_PX = 8192
 #: Largest generated map side (``map_px``), as the readers' default limit (4096 x 4096 pixels).
 MAX_MAP_PX = 4096
 
@@ -35,6 +37,21 @@ def check_size(size: Any) -> int:
 def check_cell_px(cell_px: Any) -> int:
     """Pixels per cell in ``rgb_array`` rendering."""
     return _int(cell_px, "cell_px", 1, MAX_CELL_PX)
+
+
+def check_grid_shape(grid: Any) -> None:
+    """A ``grid`` given in cells: at most :data:`ndrql.limits.MAX_GRID_SIZE` a side (``None`` passes)."""
+    if grid is not None:
+        shape = np.shape(grid)
+        if len(shape) == 2 and max(shape) > MAX_GRID_SIZE:
+            raise NdrqlError(f"grid must be at most {MAX_GRID_SIZE} cells a side, got {shape[0]}x{shape[1]}")
+
+
+def check_frame(cell_px: int, shape: tuple[int, ...]) -> None:
+    """``rgb_array`` frames of at most :data:`MAX_FRAME_PX` a side."""
+    if cell_px * max(shape) > MAX_FRAME_PX:
+        raise NdrqlError(f"cell_px {cell_px} on a {shape[0]}x{shape[1]} grid draws frames of {cell_px * max(shape):,} px "
+                         f"a side, more than {MAX_FRAME_PX:,}; give a smaller cell_px")
 
 
 def check_map_px(map_px: Any, size: int) -> int | None:

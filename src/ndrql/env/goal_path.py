@@ -9,7 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ndrql.env.args import check_cell_px, check_map_px, check_point, check_seed, check_size
+from ndrql.env.args import check_cell_px, check_frame, check_map_px, check_point, check_seed, check_size
 from ndrql.env.grid_path import check_options
 from ndrql.env.observe import (CHANNELS, PRIOR_CHANNELS, PRIORS, VIEWS, ego_view, full_view, goal_vector,
                                grid_image, ndr_prior, oracle_prior)
@@ -128,6 +128,8 @@ class GoalGridPathEnv(gym.Env):
         self.size = check_size(size)
         self.grid_rule = grid_rule
         cell_px = check_cell_px(cell_px)
+        if render_mode == "rgb_array":
+            check_frame(cell_px, (self.size, self.size))
         map_px = check_map_px(map_px, self.size)
         self.source = self._make_source(source, families, map_px, data, split)
         self.view = view

@@ -9,7 +9,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ndrql.env.args import check_cell_px, check_point, check_rewards, check_seed, check_size
+from ndrql.env.args import (check_cell_px, check_frame, check_grid_shape, check_point, check_rewards, check_seed,
+                             check_size)
 from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
 from ndrql.errors import NdrqlError, PointError
@@ -134,7 +135,10 @@ class GridPathEnv(gym.Env):
         self.config = config or QLConfig()
         start, goal = check_point(start, "start"), check_point(goal, "goal")
         cell_px = check_cell_px(cell_px)
+        check_grid_shape(grid)
         self.problem = self._new_problem(map, grid, start, goal, None)
+        if render_mode == "rgb_array":
+            check_frame(cell_px, self.problem.blocked.shape)
         h, w = self.problem.blocked.shape
         self.r_c = np.zeros((h, w)) if r_c is None else np.asarray(r_c, dtype=np.float64)
         if self.r_c.shape != (h, w):
@@ -221,6 +225,7 @@ class GridPathEnv(gym.Env):
         if opts:
             for name in ("start", "goal"):
                 check_point(opts.get(name), name)
+            check_grid_shape(opts.get("grid"))
             if "map" in opts and "grid" in opts:
                 raise NdrqlError("give either map or grid in the reset options, not both")
             problem = self._new_problem(opts.get("map"), opts.get("grid"), opts.get("start"), opts.get("goal"),

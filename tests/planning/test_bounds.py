@@ -60,7 +60,7 @@ def test_prior_numbers_must_be_finite_numbers(field, value):
 
 
 @pytest.mark.parametrize("kw", [{"max_episodes": 0}, {"max_episodes": MAX_EPISODES + 1}, {"max_episodes": 2.5},
-                                {"max_steps": 0}, {"window": True}, {"max_steps": 10**12}])
+                                {"max_steps": 0}, {"window": True}, {"max_steps": 10**12}, {"max_episodes": 10**8}])
 def test_counts_are_bounded_integers(kw):
     with pytest.raises(ValueError):
         QLConfig(**kw)

@@ -46,7 +46,7 @@ def parse_point(text: str, name: str = "point") -> Cell:
     """Parse ``"row,col"`` (integers, spaces allowed) into ``(row, col)``; :class:`PointError` otherwise."""
     shown = repr(str(text)[:40]) + ("..." if len(str(text)) > 40 else "")
     parts = [p.strip() for p in str(text).split(",", 2)]
-    if len(parts) != 2 or not all(len(p) <= 12 for p in parts):
+    if len(parts) != 2 or not all(len(p) <= 12 and p.isascii() for p in parts):  # ASCII digits only
         raise PointError(f"{name} must be ROW,COL (two integers), got {shown}")
     try:
         return (int(parts[0]), int(parts[1]))

@@ -13,6 +13,7 @@ the file unbounded (:func:`ndrql.errors.brief`; a 600-byte YAML alias bomb stays
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -382,6 +383,8 @@ def load_map(path: str | Path, *, invert: bool = False, threshold: float = 128, 
     ``invert`` and ``threshold`` apply to plain images, ``crop`` to ROS maps; a map of more than
     ``max_pixels`` pixels (``None``: no limit) is refused before it is decoded.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise MapFormatError(f"a map is a file path, got {brief(path)}")
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in IMAGE_SUFFIXES:

@@ -7,9 +7,11 @@ from dataclasses import dataclass, fields
 
 from ndrql.planning import rules
 
-#: Largest :attr:`QLConfig.max_episodes` and :attr:`QLConfig.max_steps`; a run's memory does not grow
-#: with them (its records grow as it goes), only the time a run that never converges may take.
-MAX_EPISODES = 10**9
+#: Largest :attr:`QLConfig.max_episodes`: a run's records grow as it goes (25 bytes an episode), so a
+#: run that converges early costs nothing for a high cap, and one that never converges stays under 250 MB.
+MAX_EPISODES = 10**7
+#: Largest :attr:`QLConfig.max_steps` and :attr:`QLConfig.window` (they allocate nothing).
+MAX_STEPS = 10**9
 #: Largest magnitude of a reward or prior constant: Q-values stay far from overflow (``r / (1 - gamma)``).
 MAX_MAGNITUDE = 1e6
 
@@ -22,7 +24,7 @@ def check_numbers(obj: object, names: tuple[str, ...], bound: float = MAX_MAGNIT
             raise ValueError(f"{name} must be a finite number in [-{bound:g}, {bound:g}], got {str(v)[:40]}")
 
 
-def _check_count(value: object, name: str, lo: int = 1, hi: int = MAX_EPISODES) -> None:
+def _check_count(value: object, name: str, lo: int = 1, hi: int = MAX_STEPS) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
         raise ValueError(f"{name} must be an integer in {lo}..{hi:,}, got {str(value)[:40]}")
 
@@ -60,7 +62,7 @@ class QLConfig:
             raise ValueError(f"gamma must be in [0, 1), got {self.gamma}")
         if self.max_steps is not None:
             _check_count(self.max_steps, "max_steps")
-        _check_count(self.max_episodes, "max_episodes")
+        _check_count(self.max_episodes, "max_episodes", hi=MAX_EPISODES)
         _check_count(self.window, "window")
 
     def steps_cap(self, cells: int) -> int:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ndrql.errors import PointError
+from ndrql.limits import check_seeds
 from ndrql.maps.astar import astar4
 from ndrql.planning import rng, rules
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -102,6 +103,7 @@ def run_plan(
     """
     t0 = time.perf_counter()
     m = get_method(method)
+    check_seeds(seed.item() if isinstance(seed, np.integer) else seed, 1, "seed")  # the kernel takes 64-bit seeds
     blocked, start, goal = _check_problem(blocked, start, goal)
     opt = int(astar) if astar is not None else astar_length(blocked, start, goal)
     if priors is None:

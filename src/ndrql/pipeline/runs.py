@@ -9,7 +9,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_RUNS, check_seeds
+from ndrql.limits import MAX_RUNS, MAX_WORKERS, check_seeds
 from ndrql.maps.grid import PlanningGrid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
@@ -63,8 +63,8 @@ def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray |
 def check_workers(workers: int | None) -> int:
     """Worker processes for the runs (default: all cores); :class:`NdrqlError` below 1."""
     n = default_workers() if workers is None else int(workers)
-    if n < 1:
-        raise NdrqlError(f"workers must be >= 1, got {workers}")
+    if not 1 <= n <= MAX_WORKERS:
+        raise NdrqlError(f"workers must be in 1..{MAX_WORKERS}, got {workers}")
     return n
 
 

@@ -297,6 +297,9 @@ def method_configs(preset: Preset | None, method: str, ql: QLConfig = QLConfig()
     """Constants of ``method``: ``ql``/``priors`` without a preset; with one, its entry for the
     method (on a grid of ``grid`` cells per side, :meth:`Preset.setting`), on which the fields of
     ``ql``/``priors`` that differ from the defaults win (the API's rule)."""
+    for given, cls, name in ((ql, QLConfig, "config"), (priors, PriorConfig, "prior_config")):
+        if not isinstance(given, cls):
+            raise PresetError(f"{name} must be a {cls.__name__}, got {brief(given)}")
     if preset is None:
         return ql, priors
     from dataclasses import fields

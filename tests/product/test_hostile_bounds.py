@@ -86,7 +86,7 @@ def test_ctrl_c_is_interrupted_130_and_leaves_no_output(ndrql_exe, work):
     Image.fromarray(arr).save(work / "maze.png")
     env = {**os.environ, "NDRQL_CACHE": str(work / ".cache")}
     args = [*ndrql_exe, "plan", "maze.png", "--start", "1,1", "--goal", "298,298", "--method", "QL", "--size", "150",
-            "--window", "1000000000", "--max-episodes", "1000000000", "--json", "out.json"]
+            "--window", "1000000000", "--max-episodes", "10000000", "--json", "out.json"]
     proc = subprocess.Popen(args, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:

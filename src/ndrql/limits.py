@@ -10,11 +10,13 @@ Layering: standard library and :mod:`ndrql.errors` only; any layer may use it.
 from __future__ import annotations
 
 import math
+import numbers
 
 from ndrql.errors import brief
 
 __all__ = ["DEVELOPMENT_SEEDS", "MIN_GRID_SIZE", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEALED_SEEDS",
-           "SEED_LIMIT", "TRAINING_SEEDS", "check_finite", "check_int", "check_seeds", "check_training_seed", "seed_role"]
+           "SEED_LIMIT", "TRAINING_SEEDS", "available_cores", "check_cell", "check_finite", "check_int", "check_seeds",
+           "check_threads", "check_training_seed", "seed_role"]
 
 SEED_LIMIT = 2**63
 """Seeds are ``0 <= seed < 2**63``: numpy, torch and the planning kernel all take them as 64-bit integers."""
@@ -22,8 +24,19 @@ MAX_RUNS = 10_000
 """Most seeds in one command (runs per method)."""
 MAX_WORKERS = 256
 """Most worker processes in one pool."""
-MAX_THREADS = 1024
-"""Most threads for a forward pass or training."""
+def available_cores() -> int:
+    """CPU cores this process may run on (its affinity where the system tells it, else the core count)."""
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+MAX_THREADS = available_cores()
+"""Most threads for a forward pass or training: the cores this process may use (more only slow it
+down, and tens of thousands crash the thread pools of torch and ONNX Runtime)."""
 MIN_GRID_SIZE = 2
 """Smallest planning grid (cells on a side) any command takes: one cell has nothing to plan."""
 MAX_GRID_SIZE = 1024
@@ -77,6 +90,37 @@ def check_finite(value: object, name: str, lo: float = -math.inf, hi: float = ma
         return float(value)  # type: ignore[arg-type]
     where = "" if (lo, hi) == (-math.inf, math.inf) else f" in [{lo:g}, {hi:g}]"
     raise ValueError(f"{name} must be a finite number{where}, got {brief(value)}")
+
+
+def check_threads(value: object, name: str = "threads", lo: int = 1) -> int:
+    """``value`` if it is a thread count in ``lo..MAX_THREADS`` (the cores; ``lo=0`` allows "as is")."""
+    ok = isinstance(value, int) and not isinstance(value, bool)
+    if ok and lo <= value <= MAX_THREADS:  # type: ignore[operator]
+        return value  # type: ignore[return-value]
+    raise ValueError(f"{name} must be an integer in {lo}..{MAX_THREADS} (the CPU cores this process may use), "
+                     f"got {brief(value)}")
+
+
+def check_cell(point: object, name: str) -> tuple[int, int]:
+    """``(row, col)`` as two ints: integers (numpy's too) or whole floats; ``ValueError`` for anything else
+    (``(0.7, 0)`` is not truncated to row 0, a bool is not a number, a third coordinate is refused)."""
+    try:
+        parts = tuple(point)  # type: ignore[arg-type]
+    except TypeError:
+        parts = ()
+    out = []
+    for v in parts:
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):
+            break
+        if isinstance(v, numbers.Integral):
+            out.append(int(v))
+        elif math.isfinite(float(v)) and float(v).is_integer():
+            out.append(int(float(v)))
+        else:
+            break
+    if len(parts) != 2 or len(out) != 2:
+        raise ValueError(f"{name} must be (row, col), two integers, got {brief(point) if len(parts) != 2 else parts}")
+    return out[0], out[1]
 
 
 def check_seeds(first: object, count: object, first_name: str = "--seed", count_name: str = "--seeds") -> range:

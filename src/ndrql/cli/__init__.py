@@ -18,6 +18,7 @@ import re
 import sys
 from typing import NoReturn
 
+from ndrql.cli.outputs import guard
 from ndrql.cli.text import plain, short_usage
 from ndrql.version import __version__
 from ndrql.errors import MissingDependency, NdrqlError, require_torch
@@ -43,8 +44,11 @@ MAX_MESSAGE = 400
 
 
 def one_line(message: object) -> str:
-    """``message`` on one line of at most :data:`MAX_MESSAGE` characters."""
+    """``message`` on one line of at most :data:`MAX_MESSAGE` characters, control characters escaped
+    (a file name from a map file cannot retitle or recolour the terminal)."""
     text = " ".join(str(message).split())
+    if not text.isprintable():
+        text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
     return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 3] + "..."
 
 
@@ -101,7 +105,14 @@ def _format_warning(message: object, category: type, filename: str, lineno: int,
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; bad input gives one line on stderr and exit code 2, a warning one ``ndrql: warning:`` line."""
+    """Run the CLI; bad input gives one line on stderr and exit code 2, a warning one ``ndrql: warning:`` line.
+
+    Ctrl-C gives ``ndrql: interrupted`` and exit code 130 (also inside the compiled kernel, where it
+    surfaces as a ``SystemError``); outputs are written atomically, so they stay as they were. A
+    closed pipe on stdout exits quietly (141); any other error writing (a full disk, a closed
+    stdout) is one line, exit code 2. Warnings from other libraries (numpy, torch) are held back
+    and shown after a successful run, so an error is the only line a failed command prints.
+    """
     import warnings
 
     warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
@@ -116,16 +127,67 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command in COMPILING_COMMANDS:
         _compile_notice()
+    held: list[str] = []
+    shown_before = warnings.showwarning
+
+    def show(message: object, category: type, filename: str, lineno: int, file: object = None, line: object = None) -> None:
+        text = _format_warning(message, category, filename, lineno)
+        if _ours(filename):
+            sys.stderr.write(text)
+        elif text not in held:
+            held.append(text)
+
+    warnings.showwarning = show
     try:
+        code = _run(parser, args)
+    finally:
+        warnings.showwarning = shown_before
+    if code == 0:
+        sys.stderr.write("".join(held))
+    return code
+
+
+def _ours(filename: str) -> bool:
+    """Whether a warning comes from ndrql's own code (shown at once) rather than a library's."""
+    import os
+
+    return f"{os.sep}ndrql{os.sep}" in str(filename)
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Ctrl-C, also when compiled code turned it into a ``SystemError`` (its cause or context)."""
+    seen = 0
+    while exc is not None and seen < 16:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc = exc.__cause__ or exc.__context__  # type: ignore[assignment]
+        seen += 1
+    return False
+
+
+def _error(message: object, code: int = 2) -> int:
+    print(f"ndrql: error: {one_line(message)}", file=sys.stderr)
+    return code
+
+
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """Guard the outputs, run the subcommand and turn every failure into one line and an exit code."""
+    try:
+        guard(args)  # every output checked against every input and each other, before any work
         code = int(args.func(args) or 0)
-        sys.stdout.flush()
+        if sys.stdout is not None:
+            sys.stdout.flush()
         return code
     except BrokenPipeError:  # `ndrql ... | head`: the reader left; stop quietly like other Unix tools
         _silence_stdout()
         return 141
+    except KeyboardInterrupt:
+        print("ndrql: interrupted", file=sys.stderr)
+        return 130
     except (NdrqlError, ValueError, OverflowError) as exc:
-        print(f"ndrql: error: {one_line(exc)}", file=sys.stderr)
-        return 2
+        return _error(exc)
+    except RecursionError:
+        return _error("the input is nested too deeply to read")
     except ImportError as exc:  # a torch-only command in a light install (pip install ndrql): say what to install
         if exc.name is not None and exc.name.split(".")[0] != "torch":
             raise
@@ -133,15 +195,24 @@ def main(argv: list[str] | None = None) -> int:
         try:
             require_torch(_chosen_parser(parser, args).prog + (f" {target}" if isinstance(target, str) else ""))
         except MissingDependency as missing:
-            print(f"ndrql: error: {one_line(missing)}", file=sys.stderr)
-            return 2
+            return _error(missing)
         raise
     except MemoryError:
-        print("ndrql: error: out of memory", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("ndrql: interrupted", file=sys.stderr)
-        return 130
+        return _error("out of memory", 1)
+    except OSError as exc:  # writing stdout on a full disk, a file vanishing under us, ...
+        _silence_stdout()
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else " (standard output)"
+        return _error(f"cannot go on: {exc.strerror or type(exc).__name__}{where}")
+    except Exception as exc:  # a bug: one line that says so (NDRQL_DEBUG=1 shows the traceback)
+        if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as a SystemError
+            print("ndrql: interrupted", file=sys.stderr)
+            return 130
+        import os
+
+        if os.environ.get("NDRQL_DEBUG"):
+            raise
+        return _error(f"internal error ({type(exc).__name__}: {exc}); please report it with the command "
+                      f"(NDRQL_DEBUG=1 shows where)", 1)
 
 
 #: Subcommands that run the compiled planners; on the first run after install they say that they compile.
@@ -177,7 +248,7 @@ def _silence_stdout() -> None:
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):
+    except (OSError, ValueError, AttributeError):
         pass
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import warnings
 from typing import Any
 
 from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, check_dpi,

@@ -47,7 +47,7 @@ def parse_point(text: str, name: str = "point") -> Cell:
     """Parse ``"row,col"`` (integers, spaces allowed) into ``(row, col)``; :class:`PointError` otherwise."""
     shown = repr(str(text)[:40]) + ("..." if len(str(text)) > 40 else "")
     parts = [p.strip() for p in str(text).split(",", 2)]
-    if len(parts) != 2 or not all(len(p) <= 12 for p in parts):
+    if len(parts) != 2 or not all(len(p) <= 12 and p.isascii() for p in parts):  # ASCII digits only
         raise PointError(f"{name} must be ROW,COL (two integers), got {shown}")
     try:
         return (int(parts[0]), int(parts[1]))
@@ -214,6 +214,8 @@ def map_info(grid_map: GridMap) -> dict[str, Any]:
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as indented JSON through :func:`ndrql.io.write_json` (``-`` writes to stdout)."""
     if str(path) == "-":
+        if sys.stdout is None:
+            raise NdrqlError("standard output is closed; give --json a file name")
         sys.stdout.write(json_text(data) + "\n")
         return Path("-")
     return io_write_json(path, data)
@@ -259,14 +261,17 @@ def save_figure(draw: Callable[[Any], Any], path: str | Path, figsize: tuple[flo
 @contextmanager
 def warnings_to_stderr() -> Iterator[None]:
     """Show warnings raised inside the block as ``ndrql: warning: ...`` lines on stderr."""
+    failed = True
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
             yield
+            failed = False
         finally:
             seen = set()
             for w in caught:
                 msg = str(w.message)
-                if msg not in seen:
+                ours = f"{os.sep}ndrql{os.sep}" in str(w.filename)
+                if msg not in seen and (ours or not failed):  # a failed command: only ndrql's own warnings
                     seen.add(msg)
                     print(f"ndrql: warning: {msg}", file=sys.stderr)

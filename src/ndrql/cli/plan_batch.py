@@ -9,20 +9,25 @@ radius, in one cell, ...) is reported on its line and in its record and does not
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import time
+import warnings
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, Sequence
 
 from ndrql.api import build_request, read_map, run_request
 from ndrql.errors import NdrqlError
 from ndrql.io import json_text
+from ndrql.io.jsonl import BatchLog
 from ndrql.maps.readers import read_movingai_scen
 from ndrql.pipeline.request import request_settings
+from ndrql.maps.scenarios import scenario_doubts
 from ndrql.pipeline.route import octile_cost
 from ndrql.planning.methods import get_method
+
+#: The signature at the start of every ``--jsonl`` record (:class:`ndrql.io.jsonl.BatchLog`).
+LOG_FORMAT = "ndrql-plan-batch/1"
 
 
 def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
@@ -42,45 +47,6 @@ def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
     if not (0 <= lo < hi <= count):
         raise NdrqlError(f"--index {text} is outside the scenarios 0..{count - 1} of the file")
     return list(range(lo, hi))
-
-
-def _done(path: Path, key: dict[str, Any]) -> dict[int, dict[str, Any]]:
-    """Records already in a JSON-lines file of the same run (same map, scenarios, method, seed, settings)."""
-    if not path.exists():
-        return {}
-    out: dict[int, dict[str, Any]] = {}
-    good = 0
-    with open(path, "rb") as f:
-        lines = f.read().split(b"\n")
-    for i, raw in enumerate(lines):
-        if not raw.strip():
-            continue
-        try:
-            rec = json.loads(raw)
-        except ValueError:
-            if i >= len(lines) - 2:  # a last line cut short by an interruption: dropped and redone
-                break
-            raise NdrqlError(f"{path} line {i + 1} is not JSON; give another --jsonl file") from None
-        if {k: rec.get(k) for k in key} != key:
-            raise NdrqlError(f"{path} holds results of another run ({', '.join(f'{k} {rec.get(k)}' for k in key)}); "
-                             f"give another --jsonl file")
-        out[int(rec["scenario"])] = rec
-        good += len(raw) + 1
-    if good < path.stat().st_size:  # drop the cut line so appends start on a fresh line
-        with open(path, "r+b") as f:
-            f.truncate(good)
-    return out
-
-
-def _append(path: Path, record: dict[str, Any]) -> None:
-    """One JSON line, written in one call and flushed to disk (a crash leaves at most a cut last line)."""
-    line = (json_text(record, indent=None, strict=False) + "\n").encode()
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-    try:
-        os.write(fd, line)
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def _record(index: int, scen: Any, key: dict[str, Any], report: Any, seconds: float) -> dict[str, Any]:
@@ -140,8 +106,6 @@ def run_batch(map_path: str, scen_path: str, index: str | None, all_: bool, *, f
 
     ``fields``: the keywords of :func:`~ndrql.pipeline.request.build_request` (one method, one seed): each
     scenario K is the request ``ndrql plan MAP --scen FILE:K`` makes, on the map read once."""
-    from tqdm import tqdm
-
     fields = dict(fields)
     reader = {k: fields.pop(k) for k in ("invert", "threshold", "crop") if k in fields}
     settings = request_settings(**fields)
@@ -151,6 +115,8 @@ def run_batch(map_path: str, scen_path: str, index: str | None, all_: bool, *, f
     if not scenarios:
         raise NdrqlError(f"{scen_path} has no scenarios")
     indices = parse_indices(index, len(scenarios), all_)
+    for doubt in scenario_doubts([scenarios[i] for i in indices], str(grid_map.source), scen_path):
+        warnings.warn(doubt, stacklevel=1)
     for i in indices:
         s = scenarios[i]
         if grid_map.shape != (s.height, s.width):
@@ -159,7 +125,20 @@ def run_batch(map_path: str, scen_path: str, index: str | None, all_: bool, *, f
     key = {"map": str(grid_map.source), "scen": str(scen_path), "method": method, "seed": seed,
            "grid_rule": settings.grid, "size": str(settings.grid_size), "robot_radius": settings.robot_radius}
     out = Path(jsonl) if jsonl else None
-    done = _done(out, key) if out is not None else {}
+    with BatchLog(out, LOG_FORMAT, key, "scenario", _jsonl_text) if out is not None else nullcontext() as log:
+        return _run(grid_map, scenarios, indices, log, key, scen_path, echo, fields)
+
+
+def _jsonl_text(record: dict[str, Any]) -> str:
+    return json_text(record, indent=None, strict=False)
+
+
+def _run(grid_map: Any, scenarios: Any, indices: list[int], log: Any, key: dict[str, Any], scen_path: str, echo: Any,
+         fields: dict[str, Any]) -> int:
+    from tqdm import tqdm
+
+    out = log.path if log is not None else None
+    done = log.done if log is not None else {}
     records = [done[i] for i in indices if i in done]
     if records:
         echo(f"resuming: {len(records)} of {len(indices)} scenarios already in {out}")
@@ -176,8 +155,8 @@ def run_batch(map_path: str, scen_path: str, index: str | None, all_: bool, *, f
             rec = {**key, "scenario": i, "start": list(s.start), "goal": list(s.goal), "optimal": s.optimal_length,
                    "converged": False, "success": False, "error": " ".join(str(exc).split())[:300],
                    "seconds": round(time.perf_counter() - t, 3)}
-        if out is not None:
-            _append(out, rec)
+        if log is not None:
+            log.append(rec)
         records.append(rec)
         tqdm.write(_line(rec), file=_stream(echo))
     records.sort(key=lambda r: int(r["scenario"]))

@@ -4,6 +4,7 @@ collect the searches into a preset."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -153,6 +154,27 @@ def _need_optuna() -> None:
         raise NdrqlError("ndrql tune needs Optuna: pip install 'ndrql[tune]' (or pip install optuna)") from None
 
 
+#: Optuna storage URL schemes (SQLAlchemy dialects, with or without a driver: ``postgresql+psycopg2://``).
+STORAGE_SCHEMES = ("sqlite", "postgresql", "mysql")
+
+
+def check_storage(url: str | None) -> None:
+    """``--storage``: an SQL URL Optuna can open (``sqlite:///FILE``, ``postgresql://...``, ``mysql://...``)."""
+    if url is None:
+        return
+    shown = url[:60] if url[:60].isprintable() else repr(url[:60])
+    scheme = url.split("://", 1)[0].split("+", 1)[0].lower() if "://" in url else ""
+    if scheme not in STORAGE_SCHEMES:
+        raise NdrqlError(f"--storage must be an SQL database URL ({', '.join(s + '://...' for s in STORAGE_SCHEMES)}), "
+                         f"got {shown}")
+    if scheme == "sqlite":
+        path = url.split("://", 1)[1][1:]  # sqlite:///relative or sqlite:////absolute
+        if path and path != ":memory:":
+            folder = os.path.dirname(os.path.abspath(path))
+            if not os.path.isdir(folder):
+                raise NdrqlError(f"--storage {shown}: the folder {folder} does not exist")
+
+
 def run(args: argparse.Namespace) -> int:
     check_int(args.workers, "--workers", 1, MAX_WORKERS)
     if args.export_preset is None and not args.method:
@@ -161,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
         else [get_method(args.method).name]
     if not methods:
         raise NdrqlError("--methods is empty")
+    check_storage(args.storage)  # before the maps are built: a bad URL is one line now
     if args.start_from:
         load_preset(args.start_from)  # an unknown preset is one line now, not after the maps are built
     if args.maps == "generated":

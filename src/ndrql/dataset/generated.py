@@ -15,7 +15,6 @@ bytes.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -23,7 +22,8 @@ from typing import Callable
 import numpy as np
 
 from ndrql.errors import DatasetError, NdrqlError
-from ndrql.io import save_npz, write_json
+from ndrql.io import file_digest, save_npz, write_json, write_text
+from ndrql.io.text import load_json, read_capped
 from ndrql.limits import DEVELOPMENT_SEEDS, SEALED_SEEDS, check_training_seed
 from ndrql.synth.generate import RawSample, SetSpec, generate_sample
 from ndrql.workers import process_pool
@@ -32,6 +32,8 @@ FORMAT = "ndrql-generated"
 VERSION = 1
 #: Samples per shard file.
 SHARD_SIZE = 256
+#: Largest manifest read (bytes).
+MAX_MANIFEST_BYTES = 1 << 20
 
 
 def shard_path(root: Path, k: int) -> Path:
@@ -64,21 +66,73 @@ def _write_shard(args: tuple[str, dict, int, int]) -> int:
     root, spec_dict, k, shard_size = args
     spec = SetSpec.from_dict(spec_dict)
     arrays = build_shard(spec, k, shard_size)
-    save_npz(shard_path(Path(root), k), arrays, compressed=False)
+    path = save_npz(shard_path(Path(root), k), arrays, compressed=False)
+    write_text(digest_path(Path(path)), file_digest(path) + "\n")
     return len(arrays["index"])
+
+
+#: Arrays every shard holds.
+SHARD_KEYS = ("index", "sizes", "points", "families", "map_offsets", "maps", "wp_offsets", "waypoints")
+
+
+def digest_path(path: Path) -> Path:
+    """The file holding the SHA-256 of the shard ``path`` (as for the dataset cache)."""
+    return path.with_name(path.name + ".sha256")
+
+
+def read_shard(root: Path, k: int, count: int, shard_size: int) -> dict[str, np.ndarray]:
+    """The arrays of shard ``k``, checked (digest when recorded, keys, lengths, offsets); :class:`DatasetError`
+    naming the file and how to rebuild it when it is missing, damaged or inconsistent."""
+    path = shard_path(root, k)
+    if not path.exists():
+        raise DatasetError(f"{root} is incomplete (no {path.name}); run the same `ndrql data generate` again to finish it")
+    why = _shard_problem(path, k, count, shard_size)
+    if isinstance(why, str):
+        raise DatasetError(f"damaged shard {path} ({why}); delete it and run the same `ndrql data generate --out "
+                           f"{root} ...` again to rebuild it")
+    return why
+
+
+def _shard_problem(path: Path, k: int, count: int, shard_size: int) -> dict[str, np.ndarray] | str:
+    """The shard's arrays, or why they cannot be used."""
+    try:
+        recorded = digest_path(path).read_text().strip()
+    except FileNotFoundError:
+        recorded = None  # written without a digest (killed in between): trusted when it checks out
+    except OSError as exc:
+        return f"unreadable digest ({exc.strerror})"
+    if recorded is not None and file_digest(path) != recorded:
+        return "its SHA-256 does not match the one recorded"
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if set(z.files) != set(SHARD_KEYS):
+                return f"arrays {sorted(z.files)[:10]}, expected {list(SHARD_KEYS)}"
+            arrays = {key: z[key] for key in SHARD_KEYS}
+    except Exception as exc:  # zipfile, zlib, numpy: many types for a cut or corrupt file
+        return type(exc).__name__
+    n = min(count, (k + 1) * shard_size) - k * shard_size
+    index, mo, wo = arrays["index"], arrays["map_offsets"], arrays["wp_offsets"]
+    ok = (index.shape == (n,) and np.array_equal(index, np.arange(k * shard_size, k * shard_size + n))
+          and arrays["sizes"].shape == (n,) and arrays["points"].shape == (n, 4) and arrays["families"].shape == (n,)
+          and mo.shape == (n + 1,) and wo.shape == (n + 1,) and int(mo[0]) == 0 and int(wo[0]) == 0
+          and bool(np.all(np.diff(mo) >= 0)) and bool(np.all(np.diff(wo) >= 0))
+          and int(mo[-1]) == arrays["maps"].size and int(wo[-1]) == len(arrays["waypoints"])
+          and bool(np.all(arrays["sizes"] > 0))
+          and bool(np.all(np.diff(mo) * 8 >= arrays["sizes"].astype(np.int64) ** 2)))
+    return arrays if ok else "its arrays do not fit together"
 
 
 def read_manifest(root: str | Path) -> dict:
     """The manifest of a generated set; :class:`DatasetError` when missing or not one."""
     path = Path(root) / "manifest.json"
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise DatasetError(f"not a generated set (no manifest.json): {root}") from None
-    except (OSError, ValueError) as exc:
-        raise DatasetError(f"unreadable manifest {path}: {type(exc).__name__}") from None
+    if not path.exists():
+        raise DatasetError(f"not a generated set (no manifest.json): {root}")
+    data = load_json(read_capped(path, "manifest", MAX_MANIFEST_BYTES, DatasetError), f"manifest {path}", DatasetError)
     if not isinstance(data, dict) or data.get("format") != FORMAT or data.get("version") != VERSION:
         raise DatasetError(f"{path} is not a version-{VERSION} {FORMAT} manifest")
+    size = data.get("shard_size")
+    if isinstance(size, bool) or not isinstance(size, int) or not 1 <= size <= 1 << 20 or "spec" not in data:
+        raise DatasetError(f"{path} is damaged (shard size or spec); run `ndrql data generate` into a new folder")
     return data
 
 
@@ -146,7 +200,8 @@ def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bo
             raise NdrqlError(f"--out {root} is a non-empty directory without a manifest; choose an empty or new one")
         root.mkdir(parents=True, exist_ok=True)
         write_json(root / "manifest.json", manifest, indent=1)
-    todo = [k for k in range(n_shards(spec.count, shard_size)) if not shard_path(root, k).exists()]
+    todo = [k for k in range(n_shards(spec.count, shard_size))  # missing or damaged shards are (re)written
+            if not shard_path(root, k).exists() or isinstance(_shard_problem(shard_path(root, k), k, spec.count, shard_size), str)]
     done = spec.count - sum(min(spec.count, (k + 1) * shard_size) - k * shard_size for k in todo)
     if log and done:
         log(f"resuming: {done} of {spec.count} samples already in {root}")
@@ -180,19 +235,16 @@ class GeneratedSet:
     def load(cls, root: str | Path) -> "GeneratedSet":
         root = Path(root)
         manifest = read_manifest(root)
-        spec = SetSpec.from_dict(manifest["spec"])
+        try:
+            spec = SetSpec.from_dict(manifest["spec"])
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise DatasetError(f"{root}/manifest.json holds no valid set spec ({type(exc).__name__}: "
+                               f"{str(exc)[:120]}); run `ndrql data generate` into a new folder") from None
         shard_size = int(manifest["shard_size"])
         parts: dict[str, list[np.ndarray]] = {}
         for k in range(n_shards(spec.count, shard_size)):
-            path = shard_path(root, k)
-            if not path.exists():
-                raise DatasetError(f"{root} is incomplete (no {path.name}); run the same `ndrql data generate` again to finish it")
-            try:
-                with np.load(path) as z:
-                    for key in z.files:
-                        parts.setdefault(key, []).append(z[key])
-            except (OSError, ValueError) as exc:
-                raise DatasetError(f"damaged shard {path} ({type(exc).__name__}); delete it and run `ndrql data generate` again") from None
+            for key, arr in read_shard(root, k, spec.count, shard_size).items():
+                parts.setdefault(key, []).append(arr)
 
         def offsets(key: str) -> np.ndarray:
             out, base = [np.zeros(1, np.int64)], 0

@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ndrql.env.args import check_cell_px, check_frame, check_map_px, check_point, check_seed, check_size
 from ndrql.env.grid_path import check_options
 from ndrql.env.observe import (CHANNELS, PRIOR_CHANNELS, PRIORS, VIEWS, ego_view, full_view, goal_vector,
                                grid_image, ndr_prior, oracle_prior)
@@ -124,8 +125,12 @@ class GoalGridPathEnv(gym.Env):
         check_count(symmetries, NdrqlError)
         if view == "ego" and (int(view_size) < 3 or int(view_size) % 2 == 0):
             raise NdrqlError(f"view_size must be an odd number >= 3, got {view_size}")
-        self.size = int(size)
+        self.size = check_size(size)
         self.grid_rule = grid_rule
+        cell_px = check_cell_px(cell_px)
+        if render_mode == "rgb_array":
+            check_frame(cell_px, (self.size, self.size))
+        map_px = check_map_px(map_px, self.size)
         self.source = self._make_source(source, families, map_px, data, split)
         self.view = view
         self.view_size = int(view_size) if view == "ego" else self.size
@@ -206,9 +211,12 @@ class GoalGridPathEnv(gym.Env):
     # -- the Gymnasium API -----------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        check_seed(seed)
         super().reset(seed=seed)
         opts = check_options(options, RESET_OPTIONS)
         if opts:
+            for name in ("start", "goal"):
+                check_point(opts.get(name), name)
             missing = [k for k in RESET_OPTIONS if k not in opts]
             if missing:
                 raise NdrqlError(f"reset options need map, start and goal together (missing: {', '.join(missing)})")

@@ -9,6 +9,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ndrql.env.args import (check_cell_px, check_frame, check_grid_shape, check_point, check_rewards, check_seed,
+                             check_size)
 from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
 from ndrql.errors import NdrqlError, PointError
@@ -138,15 +140,22 @@ class GridPathEnv(gym.Env):
             raise NdrqlError("size, grid_rule and robot_radius turn a map into a grid: give map (or drop them)")
         # a map file plans on the grid `ndrql plan` builds: safe, size auto (fixed at reset for the same shape)
         self.grid_rule = grid_rule or "safe"
+        if size is not None and not (isinstance(size, str) and size.strip().lower() == "auto"):
+            size = check_size(size)  # the bounds every command shares
         self.size: int | str = size if size is not None else ("auto" if self.grid_rule == "safe" else PLANNING_SIZE)
         self.robot_radius = float(robot_radius)
         self.config = config or QLConfig()
+        start, goal = check_point(start, "start"), check_point(goal, "goal")
+        cell_px = check_cell_px(cell_px)
+        check_grid_shape(grid)
         self.problem = self._new_problem(map, grid, start, goal, None)
+        if render_mode == "rgb_array":
+            check_frame(cell_px, self.problem.blocked.shape)
         h, w = self.problem.blocked.shape
         self.r_c = np.zeros((h, w)) if r_c is None else np.asarray(r_c, dtype=np.float64)
         if self.r_c.shape != (h, w):
             raise NdrqlError(f"r_c must have the grid's shape {(h, w)}, got {self.r_c.shape}")
-        self._r_flat = np.ascontiguousarray(self.r_c).ravel()
+        self._r_flat = np.ascontiguousarray(check_rewards(self.r_c)).ravel()
         self.random_start = bool(random_start)
         self.render_mode = render_mode
         self.cell_px = int(cell_px)
@@ -232,9 +241,13 @@ class GridPathEnv(gym.Env):
     # -- the Gymnasium API -----------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        check_seed(seed)
         super().reset(seed=seed)
         opts = check_options(options, RESET_OPTIONS)
         if opts:
+            for name in ("start", "goal"):
+                check_point(opts.get(name), name)
+            check_grid_shape(opts.get("grid"))
             if "map" in opts and "grid" in opts:
                 raise NdrqlError("give either map or grid in the reset options, not both")
             problem = self._new_problem(opts.get("map"), opts.get("grid"), opts.get("start"), opts.get("goal"),

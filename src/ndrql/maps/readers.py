@@ -13,30 +13,39 @@ the file unbounded (:func:`ndrql.errors.brief`; a 600-byte YAML alias bomb stays
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ndrql.errors import MapFormatError, brief
+from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import GridMap
+from ndrql.maps.ros_yaml import YAML_SUFFIXES, map_files, ros_doc, ros_image  # noqa: F401 (map_files: re-exported)
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pbm", ".bmp", ".tif", ".tiff")
-YAML_SUFFIXES = (".yaml", ".yml")
 MOVINGAI_FREE = frozenset(".GS")
 MOVINGAI_BLOCKED = frozenset("@OTW")
 ROS_MODES = ("trinary", "scale", "raw")
 ROS_REQUIRED_KEYS = ("image", "resolution", "origin", "occupied_thresh", "free_thresh")
 #: Largest map read by default (pixels): 4096 x 4096. Raise it with ``max_pixels`` (``--max-pixels``).
 MAX_MAP_PIXELS = 4096 * 4096
+#: Most one side of a map may exceed the other (times): a safe grid's cells are at most twice the
+#: shorter side, and at most :data:`ndrql.limits.MAX_GRID_SIZE` (1024) cells fit on the longer one.
+MAX_ASPECT = 2 * MAX_GRID_SIZE
 
 
 def check_pixels(height: int, width: int, max_pixels: int | None, path: Path) -> None:
-    """:class:`MapFormatError` when a ``height`` x ``width`` map exceeds ``max_pixels`` (``None``: no limit)."""
+    """:class:`MapFormatError` when a ``height`` x ``width`` map exceeds ``max_pixels`` (``None``: no limit)
+    or is too thin to plan on (one side more than :data:`MAX_ASPECT` times the other), from the header."""
     if max_pixels is not None and height * width > max_pixels:
         raise MapFormatError(
             f"{path}: map is {height}x{width} = {height * width:,} pixels, more than the limit of {max_pixels:,}; "
             f"crop or downscale it, or raise --max-pixels")
+    if max(height, width) > MAX_ASPECT * max(1, min(height, width)):
+        raise MapFormatError(f"{path}: map is {height}x{width}, one side more than {MAX_ASPECT:,} times the other: "
+                             f"too thin to plan on; crop it")
 
 
 def _require_file(path: Path) -> None:
@@ -47,10 +56,13 @@ def _require_file(path: Path) -> None:
 
 
 def _decode_image(path: Path, max_pixels: int | None = MAX_MAP_PIXELS) -> np.ndarray:
-    """Decode an image to a float array of shape (H, W) or (H, W, C) with values in 0..255.
+    """Decode an image to an array of shape (H, W) or (H, W, C) on the 8-bit scale 0..255.
 
-    Alpha is kept as the last channel for ROS ``scale`` mode; 16-bit images are scaled to 0..255.
-    The size is checked against ``max_pixels`` from the header, before decoding.
+    One rule per pixel, whatever the other pixels hold: 8-bit values as they are; integer images of
+    more bits (16-bit PNG, TIFF) on 0..65535, scaled by 255 / 65535; float images on 0..1 (0 black,
+    1 white), scaled by 255. NaN or infinite values, and values outside the scale, are refused.
+    Alpha is kept as the last channel for ROS ``scale`` mode. The size is checked against
+    ``max_pixels`` from the header, before decoding.
     """
     import warnings
 
@@ -77,23 +89,41 @@ def _decode_image(path: Path, max_pixels: int | None = MAX_MAP_PIXELS) -> np.nda
         raise MapFormatError(f"cannot read image {path}: {reason}") from exc
     if arr.ndim not in (2, 3) or arr.shape[0] < 1 or arr.shape[1] < 1:
         raise MapFormatError(f"cannot read image {path}: unexpected shape {arr.shape}")
-    arr = arr.astype(np.float64)
-    if mode.startswith("I") or mode == "F":
-        top = 65535.0 if arr.max(initial=0) > 255 else 255.0
-        arr = np.clip(arr * (255.0 / top), 0, 255)
+    return _to_8bit_scale(arr, path)
+
+
+def _to_8bit_scale(arr: np.ndarray, path: Path) -> np.ndarray:
+    """The pixel rule of :func:`_decode_image`: 0..255 (8-bit images kept as uint8), each pixel by itself."""
+    if arr.dtype.kind == "f":
+        if not np.isfinite(arr).all():
+            raise MapFormatError(f"image {path} has NaN or infinite pixels; give every pixel a value")
+        if arr.min(initial=0.0) < 0 or arr.max(initial=0.0) > 1:
+            raise MapFormatError(f"float image {path} has values outside 0..1 (0 black, 1 white): "
+                                 f"{float(arr.min()):g}..{float(arr.max()):g}; scale it to 0..1 or save it as 8-bit")
+        return arr.astype(np.float64) * 255.0
+    if arr.dtype.kind in "iu" and arr.dtype.itemsize > 1:
+        lo, hi = int(arr.min(initial=0)), int(arr.max(initial=0))
+        if lo < 0 or hi > 65535:
+            raise MapFormatError(f"image {path} has integer values outside 0..65535 ({lo}..{hi}); save it as 8 or 16 bit")
+        if 0 < hi <= 255:
+            import warnings
+
+            warnings.warn(f"{path} is a 16-bit image whose values are all <= 255: read on the 16-bit scale "
+                          f"(0..65535), every pixel is dark; save it as 8-bit if 255 means white", stacklevel=3)
+        return arr.astype(np.float64) * (255.0 / 65535.0)
     return arr
 
 
 def _gray(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """Split a decoded image into gray (mean of the colour channels) and alpha (or ``None``)."""
     if arr.ndim == 2:
-        return arr, None
+        return arr.astype(np.float64), None
     channels = arr.shape[2]
     if channels == 2:  # LA
-        return arr[..., 0], arr[..., 1]
+        return arr[..., 0].astype(np.float64), arr[..., 1]
     if channels == 4:  # RGBA
-        return arr[..., :3].mean(axis=2), arr[..., 3]
-    return arr[..., :3].mean(axis=2), None
+        return arr[..., :3].mean(axis=2, dtype=np.float64), arr[..., 3]
+    return arr[..., :3].mean(axis=2, dtype=np.float64), None
 
 
 def read_image(path: str | Path, invert: bool = False, threshold: float = 128,
@@ -142,17 +172,9 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
     bounding box of the known cells (the origin moves with it). Row 0 is the image's top row; the
     YAML origin is the pose of the lower-left pixel, kept as given.
     """
-    import yaml
-
     path = Path(path)
     _require_file(path)
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError, ValueError, RecursionError) as exc:
-        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
-        raise MapFormatError(f"cannot parse ROS map YAML {path}: {reason}") from None
-    if not isinstance(doc, dict):
-        raise MapFormatError(f"ROS map {path}: expected a mapping of keys, got {type(doc).__name__}")
+    doc = ros_doc(path)
     missing = [k for k in ROS_REQUIRED_KEYS if k not in doc]
     if missing:
         raise MapFormatError(f"ROS map {path}: missing key(s) {', '.join(missing)}")
@@ -179,10 +201,7 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
         raise MapFormatError(f"ROS map {path}: 'mode' must be one of {', '.join(ROS_MODES)}, got {brief(mode)}")
     if mode not in ROS_MODES:
         raise MapFormatError(f"ROS map {path}: unknown mode {brief(mode)}; valid: {', '.join(ROS_MODES)}")
-    image = doc["image"]
-    if not isinstance(image, str) or not image.strip():
-        raise MapFormatError(f"ROS map {path}: 'image' must be a file name, got {brief(image)}")
-    image_path = Path(image) if Path(image).is_absolute() else path.parent / image
+    image_path = ros_image(path, doc)
     if not image_path.exists():
         raise MapFormatError(f"ROS map {path}: image file not found: {image_path}")
 
@@ -364,6 +383,8 @@ def load_map(path: str | Path, *, invert: bool = False, threshold: float = 128, 
     ``invert`` and ``threshold`` apply to plain images, ``crop`` to ROS maps; a map of more than
     ``max_pixels`` pixels (``None``: no limit) is refused before it is decoded.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise MapFormatError(f"a map is a file path, got {brief(path)}")
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in IMAGE_SUFFIXES:

@@ -27,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ndrql.errors import NoPathError
+from ndrql.errors import NoPathError, PointError
 from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.astar import shortest_path8
 from ndrql.maps.grid import Cell, nearest_free_bfs
@@ -193,6 +193,9 @@ def choose_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int
     (``within_tolerance=False``). When none is connected, :class:`NoPathError` says where the narrowest
     passage is, how wide, in pixels and metres (``resolution``, metres per pixel), and what to pass.
     """
+    if tuple(int(v) for v in start) == tuple(int(v) for v in goal):  # every grid puts them in one cell
+        raise PointError(f"start and goal are the same pixel {tuple(int(v) for v in start)}, so they fall in the same "
+                         f"planning cell at any grid size; nothing to plan (give two different points)")
     trials: list[SizeTrial] = []
     sizes = ladder(free_check.shape, max_size)
     if not sizes:

@@ -63,8 +63,9 @@ def world_to_pixel(grid_map: GridMap, x: float, y: float, name: str = "point") -
     res, x0, y0, yaw = _frame(grid_map)
     cy, sy = math.cos(yaw), math.sin(yaw)
     dx, dy = cy * (x - x0) + sy * (y - y0), -sy * (x - x0) + cy * (y - y0)
-    col = math.floor(dx / res)
-    row = grid_map.height - 1 - math.floor(dy / res)
+    inside = all(math.isfinite(v) and abs(v) < 1e15 for v in (dx / res, dy / res))  # 1e308 m: off, not a crash
+    col = math.floor(dx / res) if inside else -1
+    row = grid_map.height - 1 - math.floor(dy / res) if inside else -1
     if not (0 <= row < grid_map.height and 0 <= col < grid_map.width):
         x_lo, y_lo = x0, y0
         raise PointError(f"{name} ({x:g}, {y:g}) m is off the map (it covers {grid_map.width * res:g} x "

@@ -36,7 +36,10 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
     try:
         data = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises many types for corrupt or foreign files
-        raise CheckpointError(f"cannot read checkpoint {path}: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}") from None
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        if "weights only" in first.lower() or "weights_only" in str(exc) or type(exc).__name__ == "UnpicklingError":
+            first = "it holds Python objects besides tensors and plain values, which ndrql refuses to load (loading them could run code)"
+        raise CheckpointError(f"cannot read checkpoint {path}: {first or type(exc).__name__}") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not an ndrql checkpoint (no '{FORMAT}' header)")
     if data.get("format_version") != FORMAT_VERSION:

@@ -89,11 +89,21 @@ class OnnxRunner:
         self.path = Path(onnx_path)
         self.session = open_session(self.path, threads)
         self.config = graph_config(self.session, self.path)
+        inputs = self.session.get_inputs()
+        shape = list(inputs[0].shape) if len(inputs) == 1 and inputs[0].name == "x" else None
+        if shape is None or len(shape) != 4 or any(isinstance(d, int) for d in (shape[0], shape[2], shape[3])) \
+                or len(self.session.get_outputs()) not in (2, 3):
+            raise NdrqlError(f"{self.path} is not a graph ndrql can run (it needs one input 'x' of any batch and "
+                             f"side, and 2 or 3 outputs; found {[(i.name, i.shape) for i in inputs][:3]}); export it "
+                             f"again with `ndrql export-onnx`")
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Region and guideline probabilities (B, H, W), and the raw goal-distance output (B, H, W) of a graph
         that has one (``None`` otherwise)."""
-        region, guide, *dist = self.session.run(None, {"x": np.ascontiguousarray(x, np.float32)})
+        try:
+            region, guide, *dist = self.session.run(None, {"x": np.ascontiguousarray(x, np.float32)})
+        except Exception as exc:  # onnxruntime's own error types: a graph that does not fit its input
+            raise NdrqlError(f"the graph {self.path} cannot run on this input: {str(exc).splitlines()[0][:200]}") from None
         return _sigmoid(region)[:, 0], _sigmoid(guide)[:, 0], (dist[0][:, 0] if dist else None)
 
 

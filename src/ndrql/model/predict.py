@@ -21,6 +21,7 @@ import numpy as np
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import DISTANCE_UNIT, cell_means, manhattan_pixels, cells_to_map, from_model_output, grid_input, to_model_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
+from ndrql.limits import check_threads
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
@@ -163,6 +164,7 @@ class Predictor:
         exported once (torch) or run on torch. Without torch, whatever needs it is one clear error."""
         if backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {backend!r}; valid: {', '.join(BACKENDS)}")
+        check_threads(threads, "threads", 0)
         if symmetries != 1:
             return cls.load(path, threads, backend).with_symmetries(symmetries)
         path = resolve_weights(path)

@@ -22,9 +22,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from ndrql.errors import MapFormatError, NoPathError, PointError
+from ndrql.limits import check_cell
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning, planning_grid
 from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
+from ndrql.maps.scenarios import scenario_doubts
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
@@ -100,6 +102,8 @@ def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> t
     if grid_map.shape != (s.height, s.width):
         raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "
                              f"the map is {grid_map.width}x{grid_map.height}")
+    for doubt in scenario_doubts([s], str(grid_map.source), scen):
+        warnings.warn(doubt, stacklevel=2)
     info = {"scenario": {"file": str(scen), "index": index, "optimal_length": s.optimal_length}}
     return (int(s.start[0]), int(s.start[1])), (int(s.goal[0]), int(s.goal[1])), info
 
@@ -112,9 +116,9 @@ def check_points(grid_map: GridMap, start: Sequence[int], goal: Sequence[int]) -
         if p is None:
             raise PointError(f"no {name} given (ROW,COL in map pixels)")
         try:
-            r, c = (int(v) for v in p)
-        except (TypeError, ValueError):
-            raise PointError(f"{name} must be (row, col), got {p!r}") from None
+            r, c = check_cell(p, name)  # (0.7, 0) is not row 0
+        except ValueError as exc:
+            raise PointError(str(exc)) from None
         if not (0 <= r < h and 0 <= c < w):
             raise PointError(f"{name} {r},{c} is outside the map (rows 0..{h - 1}, cols 0..{w - 1})")
         if grid_map.obstacles[r, c]:

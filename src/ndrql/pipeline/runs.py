@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from typing import Callable, Sequence
 
 import numpy as np
 
 from ndrql.errors import NdrqlError
+from ndrql.limits import MAX_RUNS, MAX_WORKERS, check_seeds
 from ndrql.maps.grid import PlanningGrid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
@@ -30,11 +32,18 @@ def methods_named(methods: Sequence[str | Method] | str) -> list[Method]:
 
 
 def seeds_given(seeds: Sequence[int] | int) -> list[int]:
-    """A list of seeds, or ``N`` for ``0..N-1``; :class:`NdrqlError` for none."""
-    out = list(range(int(seeds))) if isinstance(seeds, (int, np.integer)) else [int(s) for s in seeds]
+    """A list of seeds, or ``N`` for ``0..N-1``; :class:`NdrqlError` for none, ``ValueError`` beyond the CLI's
+    bounds (at most :data:`ndrql.limits.MAX_RUNS` seeds, each an integer in ``0 .. 2**63 - 1``)."""
+    if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+        if int(seeds) < 1:
+            raise NdrqlError("no seed given")
+        return list(check_seeds(0, int(seeds), "seed", "seeds"))
+    out = list(itertools.islice(seeds, MAX_RUNS + 1))
     if not out:
         raise NdrqlError("no seed given")
-    return out
+    if len(out) > MAX_RUNS:
+        raise ValueError(f"seeds: at most {MAX_RUNS:,} seeds per call")
+    return [int(check_seeds(s.item() if isinstance(s, np.integer) else s, 1, "each seed")[0]) for s in out]
 
 
 def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray | None, guideline: np.ndarray | None,
@@ -54,8 +63,8 @@ def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray |
 def check_workers(workers: int | None) -> int:
     """Worker processes for the runs (default: all cores); :class:`NdrqlError` below 1."""
     n = default_workers() if workers is None else int(workers)
-    if n < 1:
-        raise NdrqlError(f"workers must be >= 1, got {workers}")
+    if not 1 <= n <= MAX_WORKERS:
+        raise NdrqlError(f"workers must be in 1..{MAX_WORKERS}, got {workers}")
     return n
 
 

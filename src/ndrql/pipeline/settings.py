@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ndrql.errors import NdrqlError, brief
-from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE
+from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, check_threads
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.maps.readers import MAX_MAP_PIXELS
 from ndrql.maps.safe import DEFAULT_MAX_SIZE
@@ -101,6 +101,7 @@ class PlanSettings:
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
         check_symmetries(self.symmetries, NdrqlError)
+        check_threads(self.threads, "threads (--threads)")
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":

@@ -2,9 +2,31 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 from ndrql.planning import rules
+
+#: Largest :attr:`QLConfig.max_episodes`: a run's records grow as it goes (25 bytes an episode), so a
+#: run that converges early costs nothing for a high cap, and one that never converges stays under 250 MB.
+MAX_EPISODES = 10**7
+#: Largest :attr:`QLConfig.max_steps` and :attr:`QLConfig.window` (they allocate nothing).
+MAX_STEPS = 10**9
+#: Largest magnitude of a reward or prior constant: Q-values stay far from overflow (``r / (1 - gamma)``).
+MAX_MAGNITUDE = 1e6
+
+
+def check_numbers(obj: object, names: tuple[str, ...], bound: float = MAX_MAGNITUDE) -> None:
+    """``ValueError`` unless each field in ``names`` is a finite number of magnitude at most ``bound``."""
+    for name in names:
+        v = getattr(obj, name)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > bound:
+            raise ValueError(f"{name} must be a finite number in [-{bound:g}, {bound:g}], got {str(v)[:40]}")
+
+
+def _check_count(value: object, name: str, lo: int = 1, hi: int = MAX_STEPS) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in {lo}..{hi:,}, got {str(value)[:40]}")
 
 
 @dataclass(frozen=True)
@@ -31,18 +53,17 @@ class QLConfig:
     """Eq. 1 scenario 3: moving into a cell already visited in this episode."""
 
     def __post_init__(self) -> None:
+        check_numbers(self, ("alpha", "epsilon", "gamma", "reward_collision", "reward_goal", "reward_revisit"))
         if not 0.0 < self.alpha <= 1.0:
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
         if not 0.0 <= self.epsilon <= 1.0:
             raise ValueError(f"epsilon must be in [0, 1], got {self.epsilon}")
         if not 0.0 <= self.gamma < 1.0:
             raise ValueError(f"gamma must be in [0, 1), got {self.gamma}")
-        if self.max_steps is not None and self.max_steps < 1:
-            raise ValueError(f"max_steps must be >= 1, got {self.max_steps}")
-        if self.max_episodes < 1:
-            raise ValueError(f"max_episodes must be >= 1, got {self.max_episodes}")
-        if self.window < 1:
-            raise ValueError(f"window must be >= 1, got {self.window}")
+        if self.max_steps is not None:
+            _check_count(self.max_steps, "max_steps")
+        _check_count(self.max_episodes, "max_episodes", hi=MAX_EPISODES)
+        _check_count(self.window, "window")
 
     def steps_cap(self, cells: int) -> int:
         """``max_steps`` resolved for a grid of ``cells`` cells (default ``4 * cells``)."""
@@ -86,6 +107,8 @@ class PriorConfig:
     among equally distant moves; 0 = the straight line alone."""
 
     def __post_init__(self) -> None:
+        check_numbers(self, ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start",
+                             "thd_step", "region_dilation", "guideline_ties"))
         for name in ("omega_crf", "omega_qi", "thd_start"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:

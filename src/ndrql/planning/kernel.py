@@ -66,6 +66,28 @@ def _rollout(q, nxt, start, goal, seen, rmark, path, max_moves):
     return -1
 
 
+@nb.njit(cache=True)
+def _grown_int(a, cap, fill):
+    """``a`` copied into a longer int64 array of ``cap`` entries, the new ones ``fill``."""
+    out = np.full(cap, fill, dtype=np.int64)
+    out[: a.size] = a
+    return out
+
+
+@nb.njit(cache=True)
+def _grown_float(a, cap):
+    out = np.zeros(cap, dtype=np.float64)
+    out[: a.size] = a
+    return out
+
+
+@nb.njit(cache=True)
+def _grown_bool(a, cap):
+    out = np.zeros(cap, dtype=np.bool_)
+    out[: a.size] = a
+    return out
+
+
 @nb.njit(cache=True, nogil=True)
 def train(
     nxt,
@@ -90,7 +112,7 @@ def train(
     flat per-cell rewards; ``eps_thr`` from :func:`ndrql.planning.rng.eps_threshold`.
 
     Returns ``(n_episodes, steps, returns, success, greedy_len, conv_episode, conv_steps, path_len,
-    path)``: per-episode arrays of length ``max_episodes`` (valid up to ``n_episodes``), where
+    path)``: per-episode arrays (valid up to ``n_episodes``; they grow as the run goes), where
     ``greedy_len`` is the greedy rollout's length after the episode (-1 if it failed);
     ``conv_episode`` is the 0-based convergence episode (-1 if none), ``conv_steps`` the training
     steps summed up to and including it; ``path[0..path_len]`` the last successful greedy path
@@ -106,10 +128,11 @@ def train(
     seen = np.zeros(cells, dtype=np.int32)
     cur = np.empty(cells + 1, dtype=np.int64)
     best = np.empty(cells + 1, dtype=np.int64)
-    steps = np.zeros(max_episodes, dtype=np.int64)
-    returns = np.zeros(max_episodes, dtype=np.float64)
-    success = np.zeros(max_episodes, dtype=np.bool_)
-    greedy_len = np.full(max_episodes, -1, dtype=np.int64)
+    cap = min(max_episodes, 1024)  # the records grow as the run goes: memory follows the episodes run, not the cap
+    steps = np.zeros(cap, dtype=np.int64)
+    returns = np.zeros(cap, dtype=np.float64)
+    success = np.zeros(cap, dtype=np.bool_)
+    greedy_len = np.full(cap, -1, dtype=np.int64)
     mask32 = np.uint64(0xFFFFFFFF)
     thr = np.uint64(eps_thr)
     best_len = -1
@@ -155,6 +178,12 @@ def train(
                 break
             q[s, a] += alpha * (r + gamma * _max_q(q, s2) - q[s, a])
             s = s2
+        if ep >= cap:
+            cap = min(max_episodes, 2 * cap)
+            steps = _grown_int(steps, cap, 0)
+            returns = _grown_float(returns, cap)
+            success = _grown_bool(success, cap)
+            greedy_len = _grown_int(greedy_len, cap, -1)
         steps[ep] = n
         returns[ep] = ret
         success[ep] = reached

@@ -203,4 +203,7 @@ def load_prior_file(path: str) -> tuple[np.ndarray, np.ndarray]:
     except FileNotFoundError:
         raise NdrqlError(f"prior file not found: {path}") from None
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise NdrqlError(f"cannot read prior file {path}: {exc}") from None
+        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+        if "pickle" in reason.lower():  # numpy's advice to load it unsafely is not repeated
+            reason = "not an .npz of plain arrays (reading it would need unpickling, which ndrql refuses)"
+        raise NdrqlError(f"cannot read prior file {path}: {reason}") from None

@@ -36,7 +36,6 @@ Layering: depends on :mod:`ndrql.planning.config`, :mod:`ndrql.planning.methods`
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass, field, replace
@@ -46,6 +45,7 @@ from typing import Any, Mapping
 
 from ndrql.errors import NdrqlError, brief
 from ndrql.io import write_json
+from ndrql.io.text import MAX_TEXT_BYTES, load_json, read_capped
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import get_method
 
@@ -277,13 +277,7 @@ def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Prese
         path = Path(key)
         if not path.is_file():
             raise PresetError(f"unknown preset {brief(key)}: give {', '.join(BUILTIN)} or a preset JSON file")
-    try:
-        text = path.read_text(encoding="utf-8")
-        data = json.loads(text)
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PresetError(f"cannot read preset {brief(str(path))}: {exc.__class__.__name__}") from None
-    except json.JSONDecodeError as exc:
-        raise PresetError(f"preset {brief(str(path))} is not valid JSON (line {exc.lineno})") from None
+    data = load_json(read_capped(path, "preset", MAX_TEXT_BYTES, PresetError), f"preset {brief(str(path))}", PresetError)
     return preset_from_dict(data, source=str(path) if key not in BUILTIN else key)
 
 
@@ -303,6 +297,9 @@ def method_configs(preset: Preset | None, method: str, ql: QLConfig = QLConfig()
     """Constants of ``method``: ``ql``/``priors`` without a preset; with one, its entry for the
     method (on a grid of ``grid`` cells per side, :meth:`Preset.setting`), on which the fields of
     ``ql``/``priors`` that differ from the defaults win (the API's rule)."""
+    for given, cls, name in ((ql, QLConfig, "config"), (priors, PriorConfig, "prior_config")):
+        if not isinstance(given, cls):
+            raise PresetError(f"{name} must be a {cls.__name__}, got {brief(given)}")
     if preset is None:
         return ql, priors
     from dataclasses import fields

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ndrql.errors import PointError
+from ndrql.limits import check_seeds
 from ndrql.maps.astar import astar4
 from ndrql.planning import rng, rules
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -42,6 +43,33 @@ def _check_problem(blocked: np.ndarray, start, goal) -> tuple[np.ndarray, tuple[
     if cells[0] == cells[1]:
         raise PointError(f"start and goal are the same planning cell {cells[0]}")
     return blocked, cells[0], cells[1]
+
+
+def interruptible(fn, *args):
+    """``fn(*args)`` on a helper thread while this one waits, so Ctrl-C is felt at once.
+
+    The compiled kernel releases the GIL and never returns to Python until the run ends; called
+    directly, a run with a huge episode cap could not be interrupted. The helper thread is a daemon:
+    after Ctrl-C the command exits (``ndrql: interrupted``, 130) without waiting for it.
+    """
+    import threading
+
+    box: list = []
+
+    def call() -> None:
+        try:
+            box.append((True, fn(*args)))
+        except BaseException as exc:  # handed to the waiting thread
+            box.append((False, exc))
+
+    worker = threading.Thread(target=call, name="ndrql-kernel", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.25)
+    ok, value = box[0]
+    if not ok:
+        raise value
+    return value
 
 
 def astar_length(blocked: np.ndarray, start, goal) -> int:
@@ -75,6 +103,7 @@ def run_plan(
     """
     t0 = time.perf_counter()
     m = get_method(method)
+    check_seeds(seed.item() if isinstance(seed, np.integer) else seed, 1, "seed")  # the kernel takes 64-bit seeds
     blocked, start, goal = _check_problem(blocked, start, goal)
     opt = int(astar) if astar is not None else astar_length(blocked, start, goal)
     if priors is None:
@@ -89,7 +118,8 @@ def run_plan(
     q = np.array(priors.q0, dtype=np.float64, order="C", copy=True)
     s_idx = rules.cell_index(start, w)
     g_idx = rules.cell_index(goal, w)
-    n_ep, steps, rets, succ, glen, conv_ep, conv_steps, path_len, path = kernel.train(
+    n_ep, steps, rets, succ, glen, conv_ep, conv_steps, path_len, path = interruptible(
+        kernel.train,
         nxt,
         s_idx,
         g_idx,

@@ -24,7 +24,9 @@ import numpy as np
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.buildings import office, ros_scan, warehouse
+from ndrql.synth.cities import city, corridor_maze, dungeon, floor
 from ndrql.synth.layouts import expand_grid, perfect_maze, recursive_division
+from ndrql.synth.natural import cave, outdoor
 from ndrql.synth.shapes import (check_px, check_range, disc, feature_px, fill_to_density, loguniform, paint_rects,
                                 random_rects, redraw_oriented, redraw_until_open, scatter_batch, trap_box, trap_rects)
 
@@ -343,7 +345,13 @@ def _family(fn: Callable[..., np.ndarray]) -> Family:
 FAMILIES: dict[str, Family] = {f.name: f for f in map(_family, (
     blocks, gaps, bugtrap, bugtraps, gaps_blocks, narrow_passage,
     maze, rooms, office, scatter, warehouse, ros_scan,
+    city, cave, outdoor, corridor_maze, floor, dungeon,
 ))}
+
+#: The families of maps people plan on at scale (city, caves, open ground, mazes of any corridor width,
+#: large floors, dungeons; :mod:`ndrql.synth.cities`, :mod:`ndrql.synth.natural`). The shipped ``general``
+#: model trained on the twelve before them.
+LARGE_FAMILIES = ("city", "cave", "outdoor", "corridor_maze", "floor", "dungeon")
 
 
 def family_names() -> tuple[str, ...]:

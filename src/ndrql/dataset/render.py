@@ -63,15 +63,15 @@ def input_side(mode: str, n: int) -> int:
     return PX_PER_CELL * n + (1 if mode == "map" else 0)
 
 
-def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int) -> tuple[np.ndarray, Point, Point]:
-    """The planning grid as the model's input: 4 px per cell, padded with obstacles to ``4n`` square."""
-    side = PX_PER_CELL * n
+def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int,
+               px: int = PX_PER_CELL) -> tuple[np.ndarray, Point, Point]:
+    """The planning grid as the model's input: ``px`` (default 4) px per cell, padded with obstacles to ``px n`` square."""
+    side = px * n
     img = np.ones((side, side), bool)
-    up = np.kron(np.asarray(blocked, np.uint8), np.ones((PX_PER_CELL, PX_PER_CELL), np.uint8)).astype(bool)
+    up = np.kron(np.asarray(blocked, np.uint8), np.ones((px, px), np.uint8)).astype(bool)
     img[:up.shape[0], :up.shape[1]] = up
-    mid = PX_PER_CELL // 2
-    return img, (start_cell[0] * PX_PER_CELL + mid, start_cell[1] * PX_PER_CELL + mid), \
-        (goal_cell[0] * PX_PER_CELL + mid, goal_cell[1] * PX_PER_CELL + mid)
+    mid = px // 2
+    return img, (start_cell[0] * px + mid, start_cell[1] * px + mid), (goal_cell[0] * px + mid, goal_cell[1] * px + mid)
 
 
 def place_cells(obstacles: np.ndarray, blocked: np.ndarray, start: Point, goal: Point, n: int) -> tuple[Point, Point] | None:

@@ -22,6 +22,9 @@ from .test_families import maze_lattice
 
 EIGHT = np.ones((3, 3), bool)
 
+#: SHA-256 of samples 0..17 of ``large-dev-128`` (one of each family), when the sets were registered.
+PINNED_DEV_128_FIRST_18 = "b9fd328a0cbe39ad49d46393020640162e60a0c8474d8397ba9bedec91db15b8"
+
 #: Families whose free space is one 8-connected area by construction (pockets joined or filled).
 ONE_AREA = ("city", "cave", "outdoor", "floor", "dungeon")
 
@@ -175,3 +178,25 @@ def test_join_free_areas_on_a_hand_made_map():
 def test_carve_segments_square_pen():
     mask = carve_segments((10, 10), [((2, 1), (2, 7))], 3)
     assert mask.sum() == 3 * 9 and mask[1:4, 0:9].all()  # rows 1-3, columns 0-8
+
+
+def first_samples_digest(spec: SetSpec, count: int) -> str:
+    """SHA-256 of samples 0..count-1 of ``spec`` as ``studies/large_view/hash_sets.py`` hashes a whole set."""
+    from ndrql.io import data_digest
+
+    parts = []
+    for i in range(count):
+        raw = generate_sample(spec, i)
+        parts += [np.packbits(raw.obstacles), np.array([raw.obstacles.shape[0], *raw.start, *raw.goal], np.int64),
+                  np.asarray(raw.waypoints, np.int64)]
+    return data_digest(*parts)
+
+
+def test_the_large_sets_are_pinned():
+    """The registered large-grid sets hash their maps (``sha256``); a change to any family that would change
+    them changes the first sample of that family, one per family here (sample i is family i % 18)."""
+    from ndrql.experiments.transfer import eval_spec
+
+    spec = eval_spec("large-dev-128")
+    assert spec.seed == 900101 and len(spec.families) == 18 and set(LARGE_FAMILIES) <= set(spec.families)
+    assert first_samples_digest(spec, 18) == PINNED_DEV_128_FIRST_18

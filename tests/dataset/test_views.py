@@ -90,3 +90,45 @@ def test_distance_in_planning_cells():
     vi = view_input(b, (0, 0), (7, 7), GridView())
     assert np.array_equal(view_distance_cells(np.zeros((32, 32)), vi),
                           np.abs(np.arange(8) - 7)[:, None] + np.abs(np.arange(8) - 7)[None, :])
+
+
+def test_render_grid_native_view_is_unchanged():
+    from ndrql.dataset.render import render_grid
+
+    obstacles = np.zeros((160, 160), bool)
+    obstacles[60:70, 20:140] = True
+    a = render_grid(obstacles, (5, 5), (150, 150), 40)
+    b = render_grid(obstacles, (5, 5), (150, 150), 40, GridView())
+    for f in ("obstacles", "guideline", "region", "distance"):
+        assert np.array_equal(getattr(a, f), getattr(b, f))
+    assert (a.start, a.goal) == (b.start, b.goal)
+
+
+@pytest.mark.parametrize("view, side, px", [(GridView("cap", 80), 80, 2), (GridView("coarse", 20), 80, 4)])
+def test_render_grid_under_a_view_draws_what_the_view_shows(view, side, px):
+    """Input, start and goal as :func:`view_input` draws them; labels drawn at the view's px per seen cell;
+    the distance label in the 4 px cells the model perceives."""
+    from ndrql.dataset.render import render_grid
+    from ndrql.maps.safe import conservative_grid
+
+    obstacles = np.zeros((160, 160), bool)
+    obstacles[60:70, 0:140] = True  # a wall with a way round on the right
+    r = render_grid(obstacles, (5, 5), (150, 5), 40, view)
+    blocked = conservative_grid(obstacles, 40)
+    vi = view_input(blocked, (1, 1), (37, 1), view)
+    assert r.obstacles.shape == (side, side) and np.array_equal(r.obstacles, vi.image)
+    assert (r.start, r.goal) == (vi.start, vi.goal)
+    assert r.guideline[r.start] and r.guideline[r.goal] and not (r.guideline & r.obstacles).all()
+    assert r.region.sum() > r.guideline.sum()
+    # the goal's own cell is 0 moves away, the start's is the seen grid's BFS distance times px / 4
+    assert r.distance[r.goal] == 0
+    seen = merge_cells(blocked, vi.factor)
+    from ndrql.maps.grid import bfs_distances
+    moves = bfs_distances(seen, (vi.goal[0] // px, vi.goal[1] // px))[vi.start[0] // px, vi.start[1] // px]
+    assert r.distance[r.start] == pytest.approx(moves * px / 4)
+
+
+def test_view_side():
+    assert GridView().side(256) == 1024
+    assert GridView("cap", 512).side(256) == 512 and GridView("cap", 512).side(100) == 400
+    assert GridView("coarse", 128).side(256) == 512 and GridView("coarse", 128).side(200) == 400

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels
+from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels, merge_cells
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import area_downscale
 
@@ -62,6 +62,11 @@ class GridView:
         """Planning cells merged along each side into one cell the model sees (1 unless ``coarse`` and ``n > limit``)."""
         return -(-n // self.limit) if self.kind == "coarse" and n > self.limit else 1
 
+    def side(self, n: int) -> int:
+        """Side in px of the model's input for a square grid of ``n`` cells."""
+        seen = -(-n // self.factor(n))
+        return self.px_per_cell(seen) * seen
+
     def px_per_cell(self, n: int) -> int:
         """Pixels per (possibly merged) cell in the model's input for a grid of ``n`` cells."""
         if self.kind == "cap":
@@ -83,18 +88,6 @@ class ViewInput:
     """Planning cells per seen cell, along each side."""
     shape: tuple[int, int]
     """The planning grid's shape."""
-
-
-def merge_cells(blocked: np.ndarray, f: int) -> np.ndarray:
-    """``f`` x ``f`` cells into one, free when any of them is free (padding counts as blocked)."""
-    blocked = np.asarray(blocked, bool)
-    if f == 1:
-        return blocked
-    h, w = blocked.shape
-    H, W = -(-h // f), -(-w // f)
-    pad = np.ones((H * f, W * f), bool)
-    pad[:h, :w] = blocked
-    return pad.reshape(H, f, W, f).all(axis=(1, 3))
 
 
 def view_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, view: GridView = GridView()) -> ViewInput:

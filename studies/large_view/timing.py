@@ -4,7 +4,7 @@
     OMP_NUM_THREADS=1 PYTHONPATH=src nice -n 10 python studies/large_view/timing.py \\
         --sizes 32,64,128,256,512 --views native,cap:512,coarse:128 --repeat 3
 
-For each size ``n`` a city map of ``4n`` px (the first seed that connects) on its safe grid of ``n`` cells; the time is the
+For each size ``n`` an outdoor map of ``4n`` px (the first seed that connects) on its safe grid of ``n`` cells; the time is the
 whole view path (draw the input, encode it, forward, bring region, guideline and distance back to the
 grid), median of ``--repeat`` runs after one warm-up, for one orientation and for ``--symmetries``
 (what ``plan`` averages over by default). The load average is printed with it: on a shared machine the
@@ -55,7 +55,7 @@ def main() -> int:
     for n in (int(x) for x in args.sizes.split(",")):
         for seed in range(50):  # the first seed whose start and goal connect on the grid
             rng = np.random.default_rng(seed)
-            obstacles = generate_map("city", rng, 4 * n, 4 * n)
+            obstacles = generate_map("outdoor", rng, 4 * n, 4 * n)
             pair = sample_endpoints(rng, obstacles)
             blocked = conservative_grid(obstacles, n)
             cells = None if pair is None else place_cells(obstacles, blocked, *pair, n)

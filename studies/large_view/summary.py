@@ -53,14 +53,23 @@ def table(records: list[dict]) -> str:
 
 
 def by_family(records: list[dict]) -> str:
+    """Per family: maps uninformative under each view, and on the planned maps NDR-QL / IQL with plan's
+    fallback (geometric mean over the family's planned maps; oracle / IQL last)."""
     done = [r for r in records if not r["skipped"]]
     views = list(done[0]["views"]) if done else []
-    lines = ["| family | maps | " + " | ".join(f"{v} uninf." for v in views) + " |",
-             "|---|---:|" + "---:|" * len(views)]
+    lines = ["| family | maps | " + " | ".join(f"{v} uninf." for v in views) + " | planned | "
+             + " | ".join(f"{v} NDR/IQL" for v in views) + " | oracle/IQL |",
+             "|---|---:|" + "---:|" * (2 * len(views) + 2)]
     for fam in dict.fromkeys(r["family"] for r in done):
         rows = [r for r in done if r["family"] == fam]
+        planned = [r for r in rows if "steps" in r]
+        iql = [np.mean(r["steps"]["IQL"]) for r in planned]
+        ratio = [geo([1.0 if r["views"][v]["uninformative"] else np.mean(r["steps"][v]) / q
+                      for r, q in zip(planned, iql)]) for v in views]
         lines.append(f"| {fam} | {len(rows)} | " + " | ".join(
-            str(sum(r["views"][v]["uninformative"] for r in rows)) for v in views) + " |")
+            str(sum(r["views"][v]["uninformative"] for r in rows)) for v in views) + f" | {len(planned)} | "
+            + " | ".join(f"{x:.2f}" for x in ratio)
+            + f" | {geo([np.mean(r['steps']['oracle']) / q for r, q in zip(planned, iql)]):.2f} |")
     return "\n".join(lines)
 
 

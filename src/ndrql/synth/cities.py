@@ -14,9 +14,8 @@ import numpy as np
 from scipy import ndimage
 from scipy.sparse.csgraph import minimum_spanning_tree
 
-from ndrql.errors import NdrqlError
 from ndrql.synth.buildings import office, warehouse
-from ndrql.synth.layouts import expand_grid, perfect_maze
+from ndrql.synth.layouts import lattice_rows, perfect_maze, place_lattice
 from ndrql.synth.shapes import (carve_segments, check_px, check_range, disc, feature_px, join_free_areas, loguniform,
                                 paint_rects, redraw_until_open, smooth_noise, stamp)
 
@@ -228,22 +227,13 @@ def corridor_maze(rng: np.random.Generator, height: int, width: int, *, corridor
     def draw() -> np.ndarray:
         cw = corridor if corridor is not None else int(round(loguniform(rng, 1, max(1.0, min(64.0, S / 8)))))
         ww = wall if wall is not None else (cw if rng.random() < 0.5 else int(round(loguniform(rng, 1, cw))))
-        pitch = cw + ww
-        rows, cols = (height - ww) // pitch, (width - ww) // pitch
-        if rows < 1 or cols < 1:
-            raise NdrqlError(f"a {height}x{width} map has no room for a maze with corridor {cw} and wall {ww}")
+        rows, cols = lattice_rows(height, width, cw, ww)
         grid = perfect_maze(rng, rows, cols, bias=loguniform(rng, 0.5, 2.0))
         share = loops if loops is not None else (0.0 if rng.random() < 0.5 else rng.uniform(0.0, 0.15))
         inner = np.zeros_like(grid)
         inner[1:-1:2, 2:-1:2] = True  # walls between horizontal neighbours
         inner[2:-1:2, 1:-1:2] = True  # walls between vertical neighbours
         grid &= ~(inner & (rng.random(grid.shape) < share))
-        sizes = lambda n: np.array([ww] + [cw, ww] * n)  # noqa: E731
-        img = expand_grid(grid, sizes(rows), sizes(cols))
-        out = np.ones((height, width), dtype=bool)
-        r0 = int(rng.integers(0, height - img.shape[0] + 1))
-        c0 = int(rng.integers(0, width - img.shape[1] + 1))
-        out[r0:r0 + img.shape[0], c0:c0 + img.shape[1]] = img
-        return out
+        return place_lattice(rng, grid, height, width, cw, ww)
 
     return redraw_until_open(draw)

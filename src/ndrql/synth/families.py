@@ -25,7 +25,7 @@ from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.buildings import office, ros_scan, warehouse
 from ndrql.synth.cities import city, corridor_maze, dungeon, floor
-from ndrql.synth.layouts import expand_grid, perfect_maze, recursive_division
+from ndrql.synth.layouts import lattice_rows, perfect_maze, place_lattice, recursive_division
 from ndrql.synth.natural import cave, outdoor
 from ndrql.synth.shapes import (check_px, check_range, disc, feature_px, fill_to_density, loguniform, paint_rects,
                                 random_rects, redraw_oriented, redraw_until_open, scatter_batch, trap_box, trap_rects)
@@ -256,18 +256,9 @@ def maze(rng: np.random.Generator, height: int, width: int, *, corridor: int | N
             lo = max(2.0, L / 600 - 1)
             cw = int(round(loguniform(rng, lo, max(lo, min(25.0, S / 3 - 1)))))
         ww = wall if wall is not None else int(round(loguniform(rng, 1, max(1.0, min(8.0, 1.5 * cw)))))
-        pitch = cw + ww
-        rows, cols = (height - ww) // pitch, (width - ww) // pitch
-        if rows < 1 or cols < 1:
-            raise NdrqlError(f"a {height}x{width} map has no room for a maze with corridor {cw} and wall {ww}")
+        rows, cols = lattice_rows(height, width, cw, ww)
         grid = perfect_maze(rng, rows, cols, bias=loguniform(rng, 0.4, 2.5))
-        sizes = lambda n: np.array([ww] + [cw, ww] * n)  # noqa: E731
-        img = expand_grid(grid, sizes(rows), sizes(cols))
-        out = np.ones((height, width), dtype=bool)
-        r0 = int(rng.integers(0, height - img.shape[0] + 1))
-        c0 = int(rng.integers(0, width - img.shape[1] + 1))
-        out[r0:r0 + img.shape[0], c0:c0 + img.shape[1]] = img
-        return out
+        return place_lattice(rng, grid, height, width, cw, ww)
 
     return redraw_until_open(draw)
 

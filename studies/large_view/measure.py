@@ -70,7 +70,8 @@ def steps_of(blocked, s, g, method, seeds, configs, priors) -> list[int]:
     return out
 
 
-def measure_map(predictor, case, views: list[GridView], plan: bool, seeds: list[int], configs) -> dict:
+def measure_map(predictor, case, views: list[GridView], plan: bool, seeds: list[int], configs,
+                baseline: dict | None = None) -> dict:
     oracle = oracle_priors(case, distance=True)
     label = oracle[0] >= 0.5
     on_path = oracle[1] >= 0.5
@@ -88,8 +89,11 @@ def measure_map(predictor, case, views: list[GridView], plan: bool, seeds: list[
     if plan:
         t0 = time.perf_counter()
         args = (case.blocked, case.start_cell, case.goal_cell)
-        rec["steps"] = {"IQL": steps_of(*args, "IQL", seeds, configs, None),
-                        "oracle": steps_of(*args, "NDR-QL", seeds, configs, oracle)}
+        if baseline is not None:  # the same map, grid, seeds and constants measured before: the runs are seeded
+            rec["steps"] = {k: baseline[k] for k in ("IQL", "oracle")}
+        else:
+            rec["steps"] = {"IQL": steps_of(*args, "IQL", seeds, configs, None),
+                            "oracle": steps_of(*args, "NDR-QL", seeds, configs, oracle)}
         for name, pr in priors.items():
             rec["steps"][name] = steps_of(*args, "NDR-QL", seeds, configs, pr)
         rec["plan_seconds"] = time.perf_counter() - t0
@@ -105,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="0,1")
     ap.add_argument("--weights", default=None, help="default: the shipped general model")
     ap.add_argument("--limit", type=int, default=None, help="only the first N maps of the set")
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="an earlier --out of the same set, grid and seeds: take IQL's and the oracle's steps from it")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
     spec = eval_spec(args.set)
@@ -131,7 +137,10 @@ def main(argv: list[str] | None = None) -> int:
             write_json(path, {"index": i, "family": fam, "px": int(raw.obstacles.shape[0]), "skipped": True})
             continue
         plan = planned.get(fam, 0) < args.plan_per_family
-        rec = measure_map(predictor, case, views, plan, seeds, configs)
+        base = None
+        if args.baseline is not None and (args.baseline / path.name).exists():
+            base = json.loads((args.baseline / path.name).read_text()).get("steps")
+        rec = measure_map(predictor, case, views, plan, seeds, configs, base)
         planned[fam] = planned.get(fam, 0) + plan
         write_json(path, {"index": i, "family": fam, "px": int(raw.obstacles.shape[0]), "skipped": False, **rec})
         brief = " ".join(f"{k}:{v['threshold']}" for k, v in rec["views"].items())

@@ -2,6 +2,7 @@
 """Draw a contact sheet of the map engine's families: one row per family, a few seeds at two sizes.
 
     .venv/bin/python tools/draw_families.py                      # writes docs/synth-families.png
+    .venv/bin/python tools/draw_families.py --large              # writes docs/synth-families-large.png
     .venv/bin/python tools/draw_families.py --families maze,office --sizes 201,1601 --out /tmp/sheet.png
 
 Map k of a row is ``generate_map(family, np.random.default_rng(seed k), size, size)``: the same
@@ -17,9 +18,12 @@ import numpy as np
 
 from ndrql.io import atomic_write
 from ndrql.synth import family_names, generate_map
+from ndrql.synth.families import LARGE_FAMILIES
 from ndrql.viz.maps import new_figure
 
-DEFAULT_OUT = Path(__file__).resolve().parents[1] / "docs" / "synth-families.png"
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+#: The first figure's families (every family before the large ones) and the large families' figure.
+FIRST = [f for f in family_names() if f not in LARGE_FAMILIES]
 
 
 def draw_sheet(fig, families: list[str], sizes: list[int], seeds: list[int]) -> list:
@@ -44,12 +48,17 @@ def draw_sheet(fig, families: list[str], sizes: list[int], seeds: list[int]) -> 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--families", default=",".join(family_names()), help="comma-separated family names")
-    parser.add_argument("--sizes", default="201,801", help="comma-separated map sides in px (square maps)")
+    parser.add_argument("--large", action="store_true",
+                        help="the large-map families at 256 and 1024 px into docs/synth-families-large.png")
+    parser.add_argument("--families", default=None, help="comma-separated family names (default: the first twelve)")
+    parser.add_argument("--sizes", default=None, help="comma-separated map sides in px (default: 201,801; --large 256,1024)")
     parser.add_argument("--seeds", type=int, default=4, help="seeds 0..N-1 per size")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output PNG")
+    parser.add_argument("--out", type=Path, default=None, help="output PNG")
     parser.add_argument("--dpi", type=int, default=110)
     args = parser.parse_args(argv)
+    args.families = args.families or ",".join(LARGE_FAMILIES if args.large else FIRST)
+    args.sizes = args.sizes or ("256,1024" if args.large else "201,801")
+    args.out = args.out or DOCS / ("synth-families-large.png" if args.large else "synth-families.png")
     families = [f for f in args.families.split(",") if f]
     sizes = [int(s) for s in args.sizes.split(",") if s]
     seeds = list(range(args.seeds))

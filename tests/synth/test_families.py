@@ -27,6 +27,12 @@ FRACTION = {
     "scatter": (0.045, 0.36),
     "warehouse": (0.05, 0.75),
     "ros_scan": (0.28, 0.75),
+    "city": (0.2, 0.65),
+    "cave": (0.38, 0.62),
+    "outdoor": (0.1, 0.42),
+    "corridor_maze": (0.1, 0.75),
+    "floor": (0.015, 0.3),
+    "dungeon": (0.65, 0.9),
 }
 
 

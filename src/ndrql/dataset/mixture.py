@@ -129,15 +129,16 @@ def generated_source(spec: SourceSpec, val_fraction: float = VAL_FRACTION, exclu
     return Source(spec, train, val, get)
 
 
-def render_source_sample(src: Source, i: int, mode: str, n: int) -> Rendered | None:
-    """Render sample ``i`` of ``src`` for ``mode`` at grid ``n`` (the paper's own labels at 201 px map mode)."""
+def render_source_sample(src: Source, i: int, mode: str, n: int, view=None) -> Rendered | None:
+    """Render sample ``i`` of ``src`` for ``mode`` at grid ``n`` (the paper's own labels at 201 px map mode);
+    ``view``: how a grid-mode model sees large grids (:class:`ndrql.dataset.views.GridView`, default native)."""
     obstacles, start, goal, waypoints, stored_guide = src.raw(i)
     if mode == "map" and stored_guide is not None:
         if input_side("map", n) == obstacles.shape[0] == obstacles.shape[1]:
             return Rendered(obstacles, start, goal, stored_guide, dilate_region(stored_guide))
 
         waypoints = near_optimal_path(obstacles, start, goal)
-    return render(mode, obstacles, start, goal, waypoints, n)
+    return render(mode, obstacles, start, goal, waypoints, n, view)
 
 
 def augment(r: Rendered, k: int) -> Rendered:
@@ -186,12 +187,14 @@ class Mixture:
     """Weighted sources, input mode and grid sizes: deterministic batches and a fixed validation list."""
 
     def __init__(self, sources: list[Source], mode: str, sizes: tuple[int, ...], encoding: str = "point",
-                 distance: bool = False):
+                 distance: bool = False, view=None):
         if not sources:
             raise NdrqlError("no training source")
         self.sources, self.mode, self.sizes, self.encoding = sources, mode, tuple(sizes), encoding
         self.distance = distance
         """Batches carry the goal-distance label as a fourth tensor (:func:`stack`)."""
+        self.view = view
+        """How a grid-mode model sees large grids (:class:`ndrql.dataset.views.GridView`; ``None``: native)."""
         w = np.array([s.spec.weight for s in sources], np.float64)
         self.p = w / w.sum()
         input_side(mode, sizes[0])  # validates the mode
@@ -201,12 +204,13 @@ class Mixture:
         rng = np.random.default_rng([seed, epoch, step, 7919])
         n = int(self.sizes[int(rng.integers(len(self.sizes)))])
         items = []
-        for _ in range(batch_size_for(input_side(self.mode, n), batch_size)):
+        side = self.view.side(n) if self.view is not None and self.mode == "grid" else input_side(self.mode, n)
+        for _ in range(batch_size_for(side, batch_size)):
             for _try in range(MAX_TRIES):
                 src = self.sources[int(rng.choice(len(self.sources), p=self.p))]
                 i = int(src.train_ids[int(rng.integers(len(src.train_ids)))])
                 k = int(rng.integers(8)) if augment_on else 0
-                r = render_source_sample(src, i, self.mode, n)
+                r = render_source_sample(src, i, self.mode, n, self.view)
                 if r is not None:
                     items.append(augment(r, k))
                     break
@@ -228,7 +232,7 @@ class Mixture:
                 if got >= per_source:
                     break
                 n = self.sizes[j % len(self.sizes)]
-                r = render_source_sample(src, int(i), self.mode, n)
+                r = render_source_sample(src, int(i), self.mode, n, self.view)
                 if r is not None:  # unusable at this grid (disconnected): the next held-out sample instead
                     out.append((Path(src.spec.name).name, r))
                     got += 1

@@ -63,15 +63,15 @@ def input_side(mode: str, n: int) -> int:
     return PX_PER_CELL * n + (1 if mode == "map" else 0)
 
 
-def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int) -> tuple[np.ndarray, Point, Point]:
-    """The planning grid as the model's input: 4 px per cell, padded with obstacles to ``4n`` square."""
-    side = PX_PER_CELL * n
+def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int,
+               px: int = PX_PER_CELL) -> tuple[np.ndarray, Point, Point]:
+    """The planning grid as the model's input: ``px`` (default 4) px per cell, padded with obstacles to ``px n`` square."""
+    side = px * n
     img = np.ones((side, side), bool)
-    up = np.kron(np.asarray(blocked, np.uint8), np.ones((PX_PER_CELL, PX_PER_CELL), np.uint8)).astype(bool)
+    up = np.kron(np.asarray(blocked, np.uint8), np.ones((px, px), np.uint8)).astype(bool)
     img[:up.shape[0], :up.shape[1]] = up
-    mid = PX_PER_CELL // 2
-    return img, (start_cell[0] * PX_PER_CELL + mid, start_cell[1] * PX_PER_CELL + mid), \
-        (goal_cell[0] * PX_PER_CELL + mid, goal_cell[1] * PX_PER_CELL + mid)
+    mid = px // 2
+    return img, (start_cell[0] * px + mid, start_cell[1] * px + mid), (goal_cell[0] * px + mid, goal_cell[1] * px + mid)
 
 
 def place_cells(obstacles: np.ndarray, blocked: np.ndarray, start: Point, goal: Point, n: int) -> tuple[Point, Point] | None:
@@ -90,21 +90,46 @@ def place_cells(obstacles: np.ndarray, blocked: np.ndarray, start: Point, goal: 
     return s, g
 
 
-def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> Rendered | None:
-    """``grid`` mode: conservative grid of ``n`` cells, 4 px per cell, oracle labels."""
+def merge_cells(blocked: np.ndarray, f: int) -> np.ndarray:
+    """``f`` x ``f`` cells into one, free when any of them is free (padding counts as blocked)."""
+    blocked = np.asarray(blocked, bool)
+    if f == 1:
+        return blocked
+    h, w = blocked.shape
+    H, W = -(-h // f), -(-w // f)
+    pad = np.ones((H * f, W * f), bool)
+    pad[:h, :w] = blocked
+    return pad.reshape(H, f, W, f).all(axis=(1, 3))
+
+
+def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int, view=None) -> Rendered | None:
+    """``grid`` mode: conservative grid of ``n`` cells, 4 px per cell, oracle labels.
+
+    ``view`` (a :class:`ndrql.dataset.views.GridView`; ``None`` or ``native`` is the above) draws the grid as
+    that view shows it to the model: the merged grid of a ``coarse`` view, the pixels per cell of a ``cap``
+    view; the labels are the seen grid's own path drawn at those pixels per cell (region 30 px, guideline
+    2 px, as always), the distance label in the 4 px cells the model perceives."""
     blocked = conservative_grid(obstacles, n)
     cells = place_cells(obstacles, blocked, start, goal, n)
     if cells is None:
         return None
     s, g = cells
-    img, s_px, g_px = grid_input(blocked, s, g, n)
-    region, guide = oracle_prediction(blocked, s, g, PX_PER_CELL)
+    px, factor = PX_PER_CELL, 1
+    if view is not None and str(view) != "native":
+        factor, px = view.factor(n), 0
+        blocked = merge_cells(blocked, factor)
+        px = view.px_per_cell(max(blocked.shape))
+        s, g = (s[0] // factor, s[1] // factor), (g[0] // factor, g[1] // factor)
+        if s == g:
+            return None
+    img, s_px, g_px = grid_input(blocked, s, g, max(blocked.shape), px)
+    region, guide = oracle_prediction(blocked, s, g, px)
     side = img.shape[0]
     r = np.zeros((side, side), bool)
     gl = np.zeros((side, side), bool)
     r[:region.shape[0], :region.shape[1]] = region > 0.5
     gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
-    return Rendered(img, s_px, g_px, gl, r, goal_distance_pixels(blocked, g, side))
+    return Rendered(img, s_px, g_px, gl, r, goal_distance_pixels(blocked, g, side, px))
 
 
 def manhattan_pixels(goal_px: Point, side: int) -> np.ndarray:
@@ -117,12 +142,14 @@ def manhattan_pixels(goal_px: Point, side: int) -> np.ndarray:
     return (np.abs(cells - gr)[:, None] + np.abs(cells - gc)[None, :]).astype(np.float32)
 
 
-def goal_distance_pixels(blocked: np.ndarray, goal_cell: Point, side: int) -> np.ndarray:
-    """The ``distance`` label: 4-connected moves from every cell to ``goal_cell`` drawn at 4 px per cell,
-    padded with -1 (unknown) to ``side`` square."""
+def goal_distance_pixels(blocked: np.ndarray, goal_cell: Point, side: int, px: int = PX_PER_CELL) -> np.ndarray:
+    """The ``distance`` label: 4-connected moves from every cell to ``goal_cell`` drawn at ``px`` (4) px per
+    cell, in the 4 px cells the model perceives (moves times ``px / 4``), padded with -1 (unknown) to ``side``
+    square."""
     cells = bfs_distances(blocked, goal_cell).astype(np.float32)
+    cells = np.where(cells >= 0, cells * (px / PX_PER_CELL), -1.0).astype(np.float32)
     out = np.full((side, side), -1.0, np.float32)
-    up = np.kron(cells, np.ones((PX_PER_CELL, PX_PER_CELL), np.float32))
+    up = np.kron(cells, np.ones((px, px), np.float32))
     out[:up.shape[0], :up.shape[1]] = up
     return out
 
@@ -198,10 +225,12 @@ def render_map(obstacles: np.ndarray, start: Point, goal: Point, waypoints: np.n
     return Rendered(img, tuple(s), tuple(g), guide, dilate_region(guide))
 
 
-def render(mode: str, obstacles: np.ndarray, start: Point, goal: Point, waypoints: np.ndarray | None, n: int) -> Rendered | None:
-    """Model input and labels of one map for mode ``mode`` and a grid of ``n`` cells (``None``: unusable)."""
+def render(mode: str, obstacles: np.ndarray, start: Point, goal: Point, waypoints: np.ndarray | None, n: int,
+           view=None) -> Rendered | None:
+    """Model input and labels of one map for mode ``mode`` and a grid of ``n`` cells (``None``: unusable);
+    ``view``: how a ``grid``-mode model sees a large grid (:func:`render_grid`)."""
     if mode == "grid":
-        return render_grid(obstacles, start, goal, n)
+        return render_grid(obstacles, start, goal, n, view)
     if mode == "map":
         if waypoints is None:
             raise NdrqlError("map mode needs the path's waypoints")

@@ -24,7 +24,9 @@ import numpy as np
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.buildings import office, ros_scan, warehouse
-from ndrql.synth.layouts import expand_grid, perfect_maze, recursive_division
+from ndrql.synth.cities import city, corridor_maze, dungeon, floor
+from ndrql.synth.layouts import lattice_rows, perfect_maze, place_lattice, recursive_division
+from ndrql.synth.natural import cave, outdoor
 from ndrql.synth.shapes import (check_px, check_range, disc, feature_px, fill_to_density, loguniform, paint_rects,
                                 random_rects, redraw_oriented, redraw_until_open, scatter_batch, trap_box, trap_rects)
 
@@ -254,18 +256,9 @@ def maze(rng: np.random.Generator, height: int, width: int, *, corridor: int | N
             lo = max(2.0, L / 600 - 1)
             cw = int(round(loguniform(rng, lo, max(lo, min(25.0, S / 3 - 1)))))
         ww = wall if wall is not None else int(round(loguniform(rng, 1, max(1.0, min(8.0, 1.5 * cw)))))
-        pitch = cw + ww
-        rows, cols = (height - ww) // pitch, (width - ww) // pitch
-        if rows < 1 or cols < 1:
-            raise NdrqlError(f"a {height}x{width} map has no room for a maze with corridor {cw} and wall {ww}")
+        rows, cols = lattice_rows(height, width, cw, ww)
         grid = perfect_maze(rng, rows, cols, bias=loguniform(rng, 0.4, 2.5))
-        sizes = lambda n: np.array([ww] + [cw, ww] * n)  # noqa: E731
-        img = expand_grid(grid, sizes(rows), sizes(cols))
-        out = np.ones((height, width), dtype=bool)
-        r0 = int(rng.integers(0, height - img.shape[0] + 1))
-        c0 = int(rng.integers(0, width - img.shape[1] + 1))
-        out[r0:r0 + img.shape[0], c0:c0 + img.shape[1]] = img
-        return out
+        return place_lattice(rng, grid, height, width, cw, ww)
 
     return redraw_until_open(draw)
 
@@ -343,7 +336,13 @@ def _family(fn: Callable[..., np.ndarray]) -> Family:
 FAMILIES: dict[str, Family] = {f.name: f for f in map(_family, (
     blocks, gaps, bugtrap, bugtraps, gaps_blocks, narrow_passage,
     maze, rooms, office, scatter, warehouse, ros_scan,
+    city, cave, outdoor, corridor_maze, floor, dungeon,
 ))}
+
+#: The families of maps people plan on at scale (city, caves, open ground, mazes of any corridor width,
+#: large floors, dungeons; :mod:`ndrql.synth.cities`, :mod:`ndrql.synth.natural`). The shipped ``general``
+#: model trained on the twelve before them.
+LARGE_FAMILIES = ("city", "cave", "outdoor", "corridor_maze", "floor", "dungeon")
 
 
 def family_names() -> tuple[str, ...]:

@@ -10,6 +10,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import minimum_spanning_tree
 
+from ndrql.errors import NdrqlError
 from ndrql.synth.shapes import paint_rects
 
 
@@ -41,6 +42,30 @@ def perfect_maze(rng: np.random.Generator, rows: int, cols: int, bias: float = 1
 def expand_grid(coarse: np.ndarray, row_sizes: np.ndarray, col_sizes: np.ndarray) -> np.ndarray:
     """Blow each coarse cell ``(i, j)`` up to a ``row_sizes[i] x col_sizes[j]`` block of pixels."""
     return np.repeat(np.repeat(coarse, row_sizes, axis=0), col_sizes, axis=1)
+
+
+def lattice_rows(height: int, width: int, corridor: int, wall: int) -> tuple[int, int]:
+    """Cells of a maze lattice (corridor + wall pitch, a wall all round) that fit ``height x width``; raises
+    :class:`~ndrql.errors.NdrqlError` when not even one does."""
+    pitch = corridor + wall
+    rows, cols = (height - wall) // pitch, (width - wall) // pitch
+    if rows < 1 or cols < 1:
+        raise NdrqlError(f"a {height}x{width} map has no room for a maze with corridor {corridor} and wall {wall}")
+    return rows, cols
+
+
+def place_lattice(rng: np.random.Generator, grid: np.ndarray, height: int, width: int, corridor: int,
+                  wall: int) -> np.ndarray:
+    """A maze wall grid (:func:`perfect_maze`) drawn with corridors ``corridor`` px and walls ``wall`` px wide, at a
+    random offset on a ``height x width`` map whose pixels beside the lattice are wall."""
+    rows, cols = (grid.shape[0] - 1) // 2, (grid.shape[1] - 1) // 2
+    sizes = lambda n: np.array([wall] + [corridor, wall] * n)  # noqa: E731
+    img = expand_grid(grid, sizes(rows), sizes(cols))
+    out = np.ones((height, width), dtype=bool)
+    r0 = int(rng.integers(0, height - img.shape[0] + 1))
+    c0 = int(rng.integers(0, width - img.shape[1] + 1))
+    out[r0:r0 + img.shape[0], c0:c0 + img.shape[1]] = img
+    return out
 
 
 def _valid_starts(bad: np.ndarray, lo: int, hi: int, span: int) -> np.ndarray:

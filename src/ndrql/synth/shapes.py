@@ -295,3 +295,44 @@ def trap_box(rng: np.random.Generator, h: int, w: int, size: float, area: str) -
     r = int(np.clip(rng.uniform(*rows) * h - bh / 2, margin, max(margin, h - bh - margin)))
     c = int(np.clip(rng.uniform(0.1, 0.9) * w - bw / 2, margin, max(margin, w - bw - margin)))
     return r, c, r + bh, c + bw
+
+
+def carve_segments(shape: tuple[int, int], segments: Sequence[tuple[Sequence[float], Sequence[float]]],
+                   width: int) -> np.ndarray:
+    """Mask of straight strokes ``width`` px wide (square pen) from ``p`` to ``q`` for each ``(p, q)`` in ``segments``."""
+    rects = []
+    half = (width - 1) // 2
+    for p, q in segments:
+        steps = int(max(abs(q[0] - p[0]), abs(q[1] - p[1]))) + 1
+        r = np.rint(np.linspace(p[0], q[0], steps)).astype(np.int64) - half
+        c = np.rint(np.linspace(p[1], q[1], steps)).astype(np.int64) - half
+        rects.append(np.stack([r, c, r + width, c + width], axis=1))
+    return paint_rects(shape, np.concatenate(rects) if rects else np.empty((0, 4), np.int64))
+
+
+def join_free_areas(obstacles: np.ndarray, width: int, min_area: int, most: int = 64) -> np.ndarray:
+    """Join free areas to the largest one, then fill what stays apart: every map of a family is one free area.
+
+    Each 8-connected free component of at least ``min_area`` px (the ``most`` largest) gets a straight
+    corridor ``width`` px wide from its pixel nearest to the largest component to that component
+    (as that component was before any carving); free pixels still apart from the largest component
+    afterwards become obstacles. Returns a new array.
+    """
+    out = np.array(obstacles, dtype=bool)
+    labels, n = ndimage.label(~out, structure=_EIGHT)
+    if n == 0:
+        return out
+    counts = np.bincount(labels.ravel())
+    counts[0] = 0
+    main = int(np.argmax(counts))
+    others = [int(k) for k in np.argsort(-counts, kind="stable") if k not in (0, main) and counts[k] >= max(1, min_area)]
+    if others:
+        dist, (near_r, near_c) = ndimage.distance_transform_edt(labels != main, return_indices=True)
+        segments = []
+        for k in others[:most]:
+            rows, cols = np.nonzero(labels == k)
+            i = int(np.argmin(dist[rows, cols]))
+            p = (rows[i], cols[i])
+            segments.append((p, (near_r[p], near_c[p])))
+        out &= ~carve_segments(out.shape, segments, width)
+    return ~largest_free_component(out)

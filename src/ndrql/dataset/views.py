@@ -1,0 +1,124 @@
+"""How a ``grid``-mode model sees a large planning grid: the *view* (docs/large-maps.md).
+
+The model was trained to see a planning grid at 4 px per cell (:func:`ndrql.dataset.render.grid_input`),
+so a grid of 256 cells is a 1,024 px input. A view bounds what it sees:
+
+- ``native``: 4 px per cell at every size (what ``ndrql plan`` does today);
+- ``cap:K``: at most ``K`` px: ``min(4, K // n)`` px per cell (at least 1), so ``cap:512`` shows a
+  256-cell grid at 2 px per cell and leaves grids up to 128 cells as they are;
+- ``coarse:M``: grids above ``M`` cells are first merged ``f = ceil(n / M)`` x ``f`` cells into one (a
+  merged cell is free when any of its cells is: every route of the grid stays open), the coarse grid is
+  seen at 4 px per cell, and every cell takes its merged cell's prediction.
+
+:func:`view_input` draws the model's input, :func:`view_cells` and :func:`view_distance_cells` bring
+its outputs back to the planning grid. The views only change what is drawn, not the weights.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels, merge_cells
+from ndrql.errors import NdrqlError
+from ndrql.maps.grid import area_downscale
+
+Point = tuple[int, int]
+
+#: Kinds of view (:class:`GridView`).
+VIEW_KINDS = ("native", "cap", "coarse")
+
+
+@dataclass(frozen=True)
+class GridView:
+    """A view: ``native``, ``cap`` with a largest input side ``limit`` in px, or ``coarse`` with a largest
+    grid ``limit`` in cells."""
+
+    kind: str = "native"
+    limit: int = 0
+
+    def __post_init__(self) -> None:
+        if self.kind not in VIEW_KINDS:
+            raise NdrqlError(f"unknown view {self.kind!r}; valid: native, cap:PX, coarse:CELLS")
+        if (self.kind == "native") != (self.limit == 0) or self.kind != "native" and not 2 <= self.limit <= 4096:
+            raise NdrqlError(f"view {self.kind} needs a limit of 2..4096, got {self.limit}")
+
+    @classmethod
+    def parse(cls, text: str) -> "GridView":
+        """``"native"``, ``"cap:512"`` or ``"coarse:128"`` -> a view (one clear error otherwise)."""
+        kind, _, limit = str(text).strip().partition(":")
+        if kind == "native" and not limit:
+            return cls()
+        try:
+            return cls(kind, int(limit))
+        except ValueError:
+            raise NdrqlError(f"view must be native, cap:PX or coarse:CELLS, got {text!r}") from None
+
+    def __str__(self) -> str:
+        return self.kind if self.kind == "native" else f"{self.kind}:{self.limit}"
+
+    def factor(self, n: int) -> int:
+        """Planning cells merged along each side into one cell the model sees (1 unless ``coarse`` and ``n > limit``)."""
+        return -(-n // self.limit) if self.kind == "coarse" and n > self.limit else 1
+
+    def side(self, n: int) -> int:
+        """Side in px of the model's input for a square grid of ``n`` cells."""
+        seen = -(-n // self.factor(n))
+        return self.px_per_cell(seen) * seen
+
+    def px_per_cell(self, n: int) -> int:
+        """Pixels per (possibly merged) cell in the model's input for a grid of ``n`` cells."""
+        if self.kind == "cap":
+            return int(np.clip(self.limit // max(1, n), 1, PX_PER_CELL))
+        return PX_PER_CELL
+
+
+@dataclass(frozen=True)
+class ViewInput:
+    """The model's input for one planning grid and how to bring its outputs back."""
+
+    image: np.ndarray
+    """bool (side, side), True = obstacle."""
+    start: Point
+    goal: Point
+    px: int
+    """Pixels per seen cell."""
+    factor: int
+    """Planning cells per seen cell, along each side."""
+    shape: tuple[int, int]
+    """The planning grid's shape."""
+
+
+def view_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, view: GridView = GridView()) -> ViewInput:
+    """The model's input for the planning grid ``blocked`` under ``view`` (``native``: :func:`grid_input` exactly)."""
+    n = max(np.shape(blocked))
+    f = view.factor(n)
+    seen = merge_cells(blocked, f)
+    px = view.px_per_cell(max(seen.shape))
+    s, g = (start_cell[0] // f, start_cell[1] // f), (goal_cell[0] // f, goal_cell[1] // f)
+    img, s_px, g_px = grid_input(seen, s, g, max(seen.shape), px)
+    return ViewInput(img, s_px, g_px, px, f, tuple(np.shape(blocked)))
+
+
+def _to_grid(seen: np.ndarray, vi: ViewInput) -> np.ndarray:
+    """Values per seen cell -> the planning grid (each cell takes its merged cell's value)."""
+    if vi.factor == 1:
+        return seen
+    h, w = vi.shape
+    return seen[(np.arange(h) // vi.factor)[:, None], (np.arange(w) // vi.factor)[None, :]]
+
+
+def view_cells(prob: np.ndarray, vi: ViewInput) -> np.ndarray:
+    """A probability output (side, side) -> the planning grid: the mean over each seen cell's pixels, then
+    every planning cell its seen cell's value."""
+    h, w = -(-vi.shape[0] // vi.factor), -(-vi.shape[1] // vi.factor)
+    seen = area_downscale(np.asarray(prob, np.float64)[:h * vi.px, :w * vi.px], (h, w))
+    return _to_grid(seen, vi)
+
+
+def view_distance_cells(detour: np.ndarray, vi: ViewInput) -> np.ndarray:
+    """The distance head's output (detour per pixel, :data:`~ndrql.dataset.render.DISTANCE_UNIT` units of the
+    cells the model believes it sees, 4 px each) -> goal distance in planning cells per planning cell."""
+    seen_moves = manhattan_pixels(vi.goal, vi.image.shape[0]) + DISTANCE_UNIT * np.asarray(detour, np.float64)
+    return view_cells(seen_moves, vi) * (PX_PER_CELL / vi.px) * vi.factor

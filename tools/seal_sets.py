@@ -5,7 +5,7 @@ SHA-256 (16 hex digits) of every map and every problem (map, start, goal), recor
 drawn; ``ndrql reproduce release`` refuses a sealed set whose maps no longer match. An entry that exists
 is never changed (a set is drawn once): a set missing from the file is added, one whose spec changed is
 an error. ``training``: the first ``--training-count`` samples of each training set of the scripts
-(``tools/train_general.sh``: every family, 201/401/801 px, seed 1), for the duplicate test
+(``tools/train_general.sh``: the shipped model's twelve families, 201/401/801 px, seed 1), for the duplicate test
 (tests/experiments/test_sealed_sets.py).
 
     python tools/seal_sets.py                       # add what is missing
@@ -21,16 +21,17 @@ import sys
 from ndrql.dataset.generated import GeneratedSet, build_shard, check_purpose
 from ndrql.experiments.eval_sets import digests_path, eval_set, registry, set_record
 from ndrql.io import write_json
-from ndrql.synth.families import family_names
+from ndrql.synth.families import shipped_families
 from ndrql.synth.generate import SetSpec
 
-#: The training sets the scripts generate (tools/train_general.sh: SEED=1, every family, 201/401/801 px).
+#: The training sets the scripts generate (tools/train_general.sh: SEED=1, the shipped model's twelve families,
+#: 201/401/801 px).
 TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801))}
 
 
 def training_record(seed: int, sizes: tuple[int, ...], count: int) -> dict:
     """The digests of the first ``count`` samples of a training set (sample ``i`` depends only on seed and ``i``)."""
-    spec = SetSpec(family_names(), sizes, count, seed)
+    spec = SetSpec(shipped_families(), sizes, count, seed)
     check_purpose(seed, "training")
     arrays = build_shard(spec, 0, shard_size=count)
     gs = GeneratedSet(root=digests_path().parent, spec=spec, sizes=arrays["sizes"], points=arrays["points"],

@@ -86,7 +86,12 @@ def test_ros_map_end_to_end_world_points_in_and_a_path_file_out(ndrql_exe, tmp_p
     assert first["orientation"]["w"] == pytest.approx(1.0) and last["orientation"]["z"] == pytest.approx(1.0)
     assert max(p["pose"]["position"]["x"] for p in msg["poses"]) > -5 + 0.05 * 320  # round the wall's end
     data = json.loads((tmp_path / "plan.json").read_text())
-    assert len(data["runs"][0]["path_world"]) == len(msg["poses"]) and data["runs"][0]["success"]
+    corners = data["runs"][0]["path_world"]  # the JSON keeps the route's corners; --path-out a pose per map cell
+    assert data["runs"][0]["success"] and len(msg["poses"]) > len(corners) >= 2
+    assert [round(v, 3) for v in corners[0][:2]] == [round(first["position"]["x"], 3), round(first["position"]["y"], 3)]
+    gaps = [math.dist((a["pose"]["position"]["x"], a["pose"]["position"]["y"]), (b["pose"]["position"]["x"], b["pose"]["position"]["y"]))
+            for a, b in zip(msg["poses"], msg["poses"][1:])]
+    assert max(gaps) <= 0.05 * 1.01  # about one pose per map cell (0.05 m; poses are rounded to 0.1 mm)
     js = tmp_path / "plan.json.path"
     r = run_cli(ndrql_exe, "plan", str(tmp_path / "floor.yaml"), "--method", "QL", "--start", "40,20",
                 "--goal", "260,20", "--path-out", str(js))

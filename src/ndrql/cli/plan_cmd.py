@@ -15,7 +15,7 @@ from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
 from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
-from ndrql.limits import MAX_THREADS, MAX_WORKERS, check_finite, check_int, check_seeds
+from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
@@ -189,9 +189,6 @@ def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> 
         predictions = "oracle"
     elif args.prior_from:
         predictions = load_predictions(args.prior_from)
-    if args.threads < 1:
-        raise NdrqlError(f"--threads must be >= 1, got {args.threads}")
-    check_int(args.threads, "--threads", 1, MAX_THREADS)
     return dict(methods=methods, seeds=list(seeds), weights=args.weights, predictions=predictions, preset=args.preset,
                 ql=_set_fields(args, _QL_FLAGS), priors=_set_fields(args, _PRIOR_FLAGS), grid=args.grid, size=args.size,
                 robot_radius=args.robot_radius, smooth=args.smooth, max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads, backend=args.backend,

@@ -12,7 +12,6 @@ from ndrql.cli.options import add_command
 from ndrql.dataset.render import cells_to_map
 from ndrql.errors import NdrqlError
 from ndrql.io import make_folder, save_npz
-from ndrql.limits import MAX_THREADS, check_int
 from ndrql.model.predict import BACKENDS, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.pipeline.predictions import prediction_arrays, predict_region, view_prediction
@@ -53,7 +52,6 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    check_int(args.threads, "--threads", 1, MAX_THREADS)
     dpi = check_dpi(args)
     request = grid_request(args, size=args.size, robot_radius=args.robot_radius, threads=args.threads,
                            backend=args.backend, symmetries=args.symmetries)

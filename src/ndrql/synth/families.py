@@ -345,6 +345,11 @@ FAMILIES: dict[str, Family] = {f.name: f for f in map(_family, (
 LARGE_FAMILIES = ("city", "cave", "outdoor", "corridor_maze", "floor", "dungeon")
 
 
+def shipped_families() -> tuple[str, ...]:
+    """The twelve families the shipped ``general`` model trained on: every family but :data:`LARGE_FAMILIES`."""
+    return tuple(name for name in FAMILIES if name not in LARGE_FAMILIES)
+
+
 def family_names() -> tuple[str, ...]:
     """The registered family names, in registry order."""
     return tuple(FAMILIES)

@@ -19,7 +19,7 @@ from ndrql.dataset.layout import CATEGORIES, check_root, default_root
 from ndrql.dataset.splits import train_val_split
 from ndrql.errors import DatasetError, NdrqlError
 from ndrql.io import write_text
-from ndrql.limits import MAX_THREADS, check_int
+from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, MAX_THREADS, check_int
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.weights import resolve_weights
 from ndrql.synth.oracle import ORACLE_NAME, PRIOR_SOURCES
@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
             raise NdrqlError("--symmetries averages a model's predictions; the oracle's arrays are not predicted")
         if args.split == "val":
             raise NdrqlError("--split val is a model's own validation split; with --prior-from oracle use seen or unseen")
-        check_int(args.grid, "--grid", 8, 256)
+        check_int(args.grid, "--grid", MIN_GRID_SIZE, MAX_GRID_SIZE)
     root = args.data or default_root()
     if root is None:
         raise DatasetError("no dataset found: pass --data DIR (the path-planning-dataset in its original layout)")
@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     if mode == "grid":
         from ndrql.experiments.grid_eval import evaluate_grid_model  # lazy: loads torch and scipy and tqdm
 
-        check_int(args.grid, "--grid", 8, 256)
+        check_int(args.grid, "--grid", MIN_GRID_SIZE, MAX_GRID_SIZE)
         ge = evaluate_grid_model(model, data, indices, n=args.grid, encoding=encoding,
                                  batch_size=min(args.batch_size, 16), progress=True, symmetries=args.symmetries)
         res = ge.dataset

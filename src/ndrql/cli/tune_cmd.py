@@ -12,7 +12,7 @@ from ndrql.cli.common import add_weights_argument, check_outputs
 from ndrql.cli.options import add_command
 from ndrql.dataset.layout import resolve_root
 from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
+from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.methods import get_method
 from ndrql.planning.preset import Preset, load_preset, write_preset
@@ -115,7 +115,7 @@ def _grids(args: argparse.Namespace) -> list[int]:
     if args.maps != "generated":
         return [50]
     if not args.export_preset:
-        check_int(args.grid, "--grid", 8, 512)
+        check_int(args.grid, "--grid", MIN_GRID_SIZE, MAX_GRID_SIZE)
         return [args.grid]
     try:
         sizes = [int(x) for x in args.grids.split(",") if x.strip()]
@@ -124,7 +124,7 @@ def _grids(args: argparse.Namespace) -> list[int]:
     if not sizes:
         raise NdrqlError("--grids is empty")
     for n in sizes:
-        check_int(n, "--grids", 8, 512)
+        check_int(n, "--grids", MIN_GRID_SIZE, MAX_GRID_SIZE)
     return sorted(set(sizes))
 
 

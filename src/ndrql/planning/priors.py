@@ -88,7 +88,7 @@ def region_connects(
     inside = (np.asarray(region) > thd) & ~np.asarray(blocked, dtype=bool)
     if not (inside[tuple(start)] and inside[tuple(goal)]):
         return False
-    from ndrql.maps.sizing import connected4  # the compiled A*, already loaded: no scipy import (~0.15 s)
+    from ndrql.maps.sizing import connected4  # lazy: loads numba; the compiled A*, no scipy import (~0.15 s)
 
     return connected4(~inside, tuple(start), tuple(goal))
 

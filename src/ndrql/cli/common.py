@@ -23,6 +23,7 @@ from ndrql.io import check_writable, json_text, save_figure as io_save_figure, w
 from ndrql.limits import check_finite, check_int
 from ndrql.maps.bundled import bundled_sample
 from ndrql.maps.grid import Cell, GridMap
+from ndrql.maps.problem import MapProblem
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
 from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
 from ndrql.model.symmetry import COUNTS as SYMMETRY_COUNTS
@@ -33,14 +34,19 @@ SAMPLE_SPLITS = ("train", "seen", "unseen")
 
 
 @dataclass(frozen=True)
-class Problem:
-    """A map with a start and a goal, as ``(row, col)`` source pixels."""
+class Problem(MapProblem):
+    """A :class:`~ndrql.maps.problem.MapProblem` a command read: ``obstacles`` is ``grid_map``'s, which also
+    keeps the resolution, origin and source; build it with :meth:`of`."""
 
     grid_map: GridMap
-    start: Cell
-    goal: Cell
+    """The map as read (``obstacles`` is its obstacle array)."""
     info: dict[str, Any] = field(default_factory=dict)
     """Where it came from: map file or dataset sample (split, index, category)."""
+
+    @classmethod
+    def of(cls, grid_map: GridMap, start: Cell, goal: Cell, info: dict[str, Any] | None = None) -> "Problem":
+        """The problem of ``grid_map`` from ``start`` to ``goal`` (source pixels, row-col)."""
+        return cls(grid_map.obstacles, start, goal, grid_map, {} if info is None else info)
 
 
 def parse_point(text: str, name: str = "point") -> Cell:
@@ -97,7 +103,7 @@ def load_sample_problem(spec: str) -> Problem:
         "sample": {"root": str(root), "split": split, "index": index, "category": sample.category,
                    "map_index": sample.map_index, "rrt_cost": sample.cost},
     }
-    return Problem(grid_map, tuple(sample.start), tuple(sample.goal), info)  # type: ignore[arg-type]
+    return Problem.of(grid_map, tuple(sample.start), tuple(sample.goal), info)  # type: ignore[arg-type]
 
 
 def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = False) -> None:
@@ -180,13 +186,13 @@ def resolve_problem(args: argparse.Namespace) -> Problem:
     if isinstance(loaded, Problem):
         start = parse_point(args.start, "--start") if args.start else loaded.start
         goal = parse_point(args.goal, "--goal") if args.goal else loaded.goal
-        problem = Problem(loaded.grid_map, start, goal, loaded.info)
+        problem = Problem.of(loaded.grid_map, start, goal, loaded.info)
     else:
         missing = [flag for flag in ("--start", "--goal") if not getattr(args, flag[2:])]
         if missing:
             raise PointError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels)")
-        problem = Problem(loaded, parse_point(args.start, "--start"), parse_point(args.goal, "--goal"),
-                          {"source": loaded.source})
+        problem = Problem.of(loaded, parse_point(args.start, "--start"), parse_point(args.goal, "--goal"),
+                             {"source": loaded.source})
     for name, point in (("start", problem.start), ("goal", problem.goal)):
         if not problem.grid_map.contains(point):
             h, w = problem.grid_map.shape

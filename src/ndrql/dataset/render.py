@@ -29,7 +29,7 @@ from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import whole_pixel_majority
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances, nearest_free_euclidean
 from ndrql.maps.problem import MapProblem
-from ndrql.maps.safe import conservative_grid, grid_shape
+from ndrql.maps.safe import grid_shape
 from ndrql.synth.labels import dilate_region, draw_guideline
 from ndrql.synth.oracle import oracle_prediction
 
@@ -74,20 +74,20 @@ def grid_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, n: int,
     return img, (start_cell[0] * px + mid, start_cell[1] * px + mid), (goal_cell[0] * px + mid, goal_cell[1] * px + mid)
 
 
-def place_cells(obstacles: np.ndarray, blocked: np.ndarray, start: Point, goal: Point, n: int) -> tuple[Point, Point] | None:
-    """Start and goal cells on the safe grid as ``ndrql plan`` places them (a point whose cell is blocked
-    moves to a nearby free cell it can see, :func:`ndrql.maps.sizing.place_point`); ``None`` when they
-    fall in one cell or do not connect."""
-    from ndrql.maps.sizing import place_point  # lazy: loads numba
+def connected_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> tuple[np.ndarray, Point, Point] | None:
+    """The safe grid of ``n`` cells with start and goal placed as ``ndrql plan`` places them
+    (:func:`ndrql.maps.sizing.safe_grid`: a point whose cell is blocked moves to a nearby free cell it can
+    see): ``(blocked, start_cell, goal_cell)``, or ``None`` when they fall in one cell or do not connect."""
+    from ndrql.maps.sizing import safe_grid  # lazy: loads numba
 
     try:
-        s, _ = place_point(obstacles, blocked, start, n)
-        g, _ = place_point(obstacles, blocked, goal, n)
+        pg = safe_grid(obstacles, n, start, goal)
     except NoPathError:  # no free cell at all at this size
         return None
+    blocked, s, g = pg.blocked, pg.start, pg.goal
     if s == g or blocked[s] or blocked[g] or bfs_distances(blocked, s)[g] < 0:
         return None
-    return s, g
+    return blocked, s, g
 
 
 def merge_cells(blocked: np.ndarray, f: int) -> np.ndarray:
@@ -109,11 +109,10 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int, view=N
     that view shows it to the model: the merged grid of a ``coarse`` view, the pixels per cell of a ``cap``
     view; the labels are the seen grid's own path drawn at those pixels per cell (region 30 px, guideline
     2 px, as always), the distance label in the 4 px cells the model perceives."""
-    blocked = conservative_grid(obstacles, n)
-    cells = place_cells(obstacles, blocked, start, goal, n)
-    if cells is None:
+    placed = connected_grid(obstacles, start, goal, n)
+    if placed is None:
         return None
-    s, g = cells
+    blocked, s, g = placed
     px, factor = PX_PER_CELL, 1
     if view is not None and str(view) != "native":
         factor, px = view.factor(n), 0

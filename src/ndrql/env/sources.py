@@ -31,7 +31,6 @@ from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import (MODEL_SIDE, PLANNING_SIZE, GridMap, bfs_distances, nearest_free_bfs, planning_grid,
                              point_to_cell)
 from ndrql.maps.problem import MapProblem
-from ndrql.maps.safe import conservative_grid, point_to_square_cell
 from ndrql.pipeline.problem import build_grid, read_map as read_any_map
 from ndrql.pipeline.request import request_settings
 from ndrql.pipeline.settings import GRID_RULES
@@ -113,22 +112,6 @@ def read_map(source: str | Path | GridMap | np.ndarray) -> tuple[np.ndarray, str
     return grid_map.obstacles, str(source) if isinstance(source, (str, Path)) else (grid_map.source or "map")
 
 
-def planning_cells(obstacles: np.ndarray, size: int, rule: str = "area") -> np.ndarray:
-    """The planning grid of ``obstacles`` by ``rule`` (:data:`GRID_RULES`) with ``size`` cells on the longer side."""
-    if rule == "area":
-        return planning_grid(obstacles, size)
-    if rule == "safe":
-        return conservative_grid(obstacles, size)
-    raise NdrqlError(f"unknown planning-grid rule {rule!r}; valid: {', '.join(GRID_RULES)}")
-
-
-def pixel_to_cell(point: Cell, shape: tuple[int, int], blocked_shape: tuple[int, int], size: int, rule: str) -> Cell:
-    """The planning cell of map pixel ``point`` (row, col) under ``rule``; :class:`PointError` off the map."""
-    if rule == "safe":
-        return point_to_square_cell(point, shape, size)
-    return point_to_cell(point, shape, blocked_shape)
-
-
 def map_problem(
     source: str | Path | GridMap | np.ndarray,
     start: Sequence[int],
@@ -160,7 +143,9 @@ def map_problem(
     if robot_radius:
         raise NdrqlError("robot_radius needs the safe grid (grid_rule='safe'): the paper's area grid does not inflate")
     h, w = obstacles.shape
-    blocked = planning_cells(obstacles, int(size), rule)
+    if rule != "area":
+        raise NdrqlError(f"unknown planning-grid rule {rule!r}; valid: {', '.join(GRID_RULES)}")
+    blocked = planning_grid(obstacles, int(size))
     cells, points = [], []
     for label, point in (("start", start), ("goal", goal)):
         p = _cell(point, label)
@@ -168,7 +153,7 @@ def map_problem(
             raise PointError(f"{label} {p[0]},{p[1]} is off the map (rows 0..{h - 1}, cols 0..{w - 1})")
         if obstacles[p]:
             raise PointError(f"{label} {p[0]},{p[1]} is on an obstacle of the map")
-        cells.append(_snap(blocked, pixel_to_cell(p, (h, w), blocked.shape, int(size), rule), f"{label} {p}"))
+        cells.append(_snap(blocked, point_to_cell(p, (h, w), blocked.shape), f"{label} {p}"))
         points.append(p)
     return _checked(blocked, cells[0], cells[1], source=MapProblem(obstacles, points[0], points[1]), name=name or shown)
 

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import PX_PER_CELL, from_model_output, input_side, place_cells, to_model_input
+from ndrql.dataset.render import PX_PER_CELL, connected_grid, from_model_output, input_side, to_model_input
 from ndrql.experiments.stats import share_of_oracle
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances
-from ndrql.maps.safe import cell_size_px, conservative_grid
+from ndrql.maps.safe import cell_size_px
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.dataset.render import cell_means
 from ndrql.pipeline.predictions import predict_on_grid
@@ -51,10 +51,9 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
     """The safe-grid problem of a map at ``n`` cells (or at the first of ``larger`` on which it connects,
     like ``--size auto`` from ``n`` up), or ``None`` when start and goal connect on none of them."""
     for size in (n, *larger):
-        blocked = conservative_grid(obstacles, size)
-        cells = place_cells(obstacles, blocked, start, goal, size)
-        if cells is not None:
-            return GridCase(name, group, obstacles, start, goal, size, blocked, *cells)
+        placed = connected_grid(obstacles, start, goal, size)
+        if placed is not None:
+            return GridCase(name, group, obstacles, start, goal, size, *placed)
     return None
 
 

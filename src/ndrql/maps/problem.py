@@ -4,7 +4,8 @@
 types that carry more are built on it: a generated sample adds its path
 (:class:`ndrql.synth.generate.RawSample`), a model input its labels
 (:class:`ndrql.dataset.render.Rendered`), an environment's problem keeps one as its source map
-(:class:`ndrql.env.sources.EnvProblem`).
+(:class:`ndrql.env.sources.EnvProblem`), a command's problem the map as read with its resolution and
+source (:class:`ndrql.cli.common.Problem`).
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ import numpy as np
 from ndrql.errors import NoPathError, PointError
 from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.astar import shortest_path8
-from ndrql.maps.grid import Cell, nearest_free_bfs
+from ndrql.maps.grid import Cell, PlanningGrid, nearest_free_bfs
 from ndrql.maps.lines import segment_free
 from ndrql.maps.safe import cell_centre, cell_size_px, conservative_grid, grid_shape, point_to_square_cell
 
@@ -133,6 +133,25 @@ def place_point(free_check: np.ndarray, blocked: np.ndarray, point: Sequence[int
     return nearest_free_bfs(blocked, cell), True
 
 
+def safe_grid(free_check: np.ndarray, size: int, start: Sequence[int], goal: Sequence[int]) -> PlanningGrid:
+    """The safe planning grid of ``size`` cells on the map's longer side, with start and goal placed on it.
+
+    The one builder every caller goes through (``plan``, ``astar``, ``predict``, the envs, the dataset's
+    ``grid`` mode, the experiments, ``--size auto``): the blocked cells are
+    :func:`~ndrql.maps.safe.conservative_grid` of ``free_check`` (``True`` = obstacle, already inflated by
+    the robot's radius), each map pixel ``start``/``goal`` goes to its cell or, when that is blocked, to a
+    nearby free cell (:func:`place_point`; :attr:`PlanningGrid.snapped` says which moved). Connectivity is
+    the caller's to check (each says it its own way); :class:`NoPathError` when no cell is free.
+    """
+    size = int(size)
+    blocked = conservative_grid(free_check, size)
+    s_cell, s_moved = place_point(free_check, blocked, start, size)
+    g_cell, g_moved = place_point(free_check, blocked, goal, size)
+    s = cell_size_px(free_check.shape, size)
+    return PlanningGrid(blocked=blocked, start=s_cell, goal=g_cell, source_shape=tuple(free_check.shape),
+                        source_start=tuple(start), source_goal=tuple(goal), snapped=(s_moved, g_moved), cell_px=(s, s))
+
+
 def grid_route_length(blocked: np.ndarray, start_cell: Cell, goal_cell: Cell, cell_px: float,
                       start_px: Sequence[float], goal_px: Sequence[float], centre_start: Sequence[float],
                       centre_goal: Sequence[float]) -> float | None:
@@ -149,13 +168,12 @@ def try_size(free_check: np.ndarray, start: Sequence[int], goal: Sequence[int], 
              full_length: float) -> SizeTrial:
     """Build the safe grid of ``size`` on ``free_check`` (obstacles already inflated) and measure its route."""
     shape = free_check.shape
-    blocked = conservative_grid(free_check, size)
     cell_px = cell_size_px(shape, size)
     try:
-        s_cell, _ = place_point(free_check, blocked, start, size)
-        g_cell, _ = place_point(free_check, blocked, goal, size)
+        pg = safe_grid(free_check, size, start, goal)
     except NoPathError:  # every cell blocked at this size (corridors narrower than a cell): finer sizes may open
-        return SizeTrial(size=int(size), shape=blocked.shape, cell_px=cell_px, grid_length=None, ratio=None)
+        return SizeTrial(size=int(size), shape=grid_shape(shape, size), cell_px=cell_px, grid_length=None, ratio=None)
+    blocked, s_cell, g_cell = pg.blocked, pg.start, pg.goal
     length = None
     if s_cell != g_cell:
         length = grid_route_length(blocked, s_cell, g_cell, cell_px, start, goal,

@@ -22,7 +22,7 @@ from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import DISTANCE_UNIT, cell_means, manhattan_pixels, cells_to_map, from_model_output, grid_input, to_model_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
 from ndrql.limits import check_threads
-from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px, conservative_grid
+from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
 from ndrql.model.symmetry import DEFAULT_COUNT, averaged, check_count
@@ -249,13 +249,12 @@ class Predictor:
         return Prediction(region=region, guideline=guide)
 
     def _predict_safe_grid(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None) -> Prediction:
-        from ndrql.maps.sizing import choose_size, full_route, place_point  # lazy: loads numba
+        from ndrql.maps.sizing import choose_size, full_route, safe_grid  # lazy: loads numba
 
         if size is None:
             size = choose_size(obstacles, start, goal, full_route(obstacles, start, goal).cost, DEFAULT_MAX_SIZE).size
-        blocked = conservative_grid(obstacles, int(size))
-        s, _ = place_point(obstacles, blocked, start, int(size))
-        g, _ = place_point(obstacles, blocked, goal, int(size))
+        pg = safe_grid(obstacles, int(size), start, goal)
+        blocked, s, g = pg.blocked, pg.start, pg.goal
         r, gl, d = self.predict_grid_all(blocked, s, g)
         cells = [None if a is None else cell_means(a, blocked.shape) for a in (r, gl, d)]
         cell_px = (cell_size_px(obstacles.shape, int(size)),) * 2

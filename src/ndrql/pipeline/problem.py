@@ -207,17 +207,14 @@ def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, m
 
 def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Point, size: int,
                max_size: int) -> PlanningGrid:
-    from ndrql.maps.sizing import connected4, place_point  # lazy: loads numba
+    from ndrql.maps.sizing import connected4, safe_grid  # lazy: loads numba
 
-    blocked = conservative_grid(check_map, size)
-    cells, snapped = [], []
-    for name, p in (("start", start), ("goal", goal)):
-        cell, moved = place_point(check_map, blocked, p, size)
+    pg = safe_grid(check_map, size, start, goal)
+    blocked, cells = pg.blocked, (pg.start, pg.goal)
+    for name, p, cell, moved in zip(("start", "goal"), (start, goal), cells, pg.snapped):
         if moved:
             warnings.warn(f"{name} {p[0]},{p[1]}: its cell of the safe grid touches an obstacle; planning from the "
                           f"nearest free cell {cell} (joined to the point on the full map)", SnapWarning, stacklevel=3)
-        cells.append(cell)
-        snapped.append(moved)
     s = cell_size_px(check_map.shape, size)
     if cells[0] != cells[1] and not connected4(blocked, cells[0], cells[1]):
         better = _suggest_size(check_map, start, goal, size, max_size)
@@ -225,8 +222,7 @@ def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Poi
                 else "no finer grid up to the limit does either; try --size auto for where the bottleneck is")
         raise NoPathError(f"start and goal are not connected on the {blocked.shape[0]}x{blocked.shape[1]} safe grid "
                           f"({_units(s, grid_map.resolution)} cells; a passage narrower than a cell closes): {hint}")
-    return PlanningGrid(blocked=blocked, start=cells[0], goal=cells[1], source_shape=check_map.shape,
-                        source_start=start, source_goal=goal, snapped=(snapped[0], snapped[1]), cell_px=(s, s))
+    return pg
 
 
 def inflated(grid_map: GridMap, settings: PlanSettings) -> tuple[np.ndarray, float]:

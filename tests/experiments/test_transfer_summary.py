@@ -8,9 +8,11 @@ import math
 import numpy as np
 import pytest
 
+
 from ndrql.experiments.transfer import BFS_ROW, row_configs, tuned_ql
 from ndrql.experiments.transfer_report import ROWS, against_iql, judged_threshold, plan_steps, render_tables, summarize
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.pipeline.predictions import MIN_THRESHOLD
 from ndrql.planning.preset import load_preset
 
 
@@ -40,8 +42,10 @@ def test_geomean_wins_ties_losses_pooled_and_plan_by_hand():
     # pooled: (200 + 6000 + 400) / (800 + 1200 + 600); the largest map (b: 6000 + 1200) left out: 600 / 1400
     assert d["pooled_vs_iql"]["ratio"] == pytest.approx(6600 / 2600)
     assert d["pooled_vs_iql"]["without_largest"] == pytest.approx(600 / 1400) and d["pooled_vs_iql"]["largest"] == 1
-    # plan: the model's run where the judged threshold >= 0.5, else IQL's: 100, 600 (IQL), 300 (IQL)
-    assert s["plan_vs_iql"]["ratio"] == pytest.approx((0.25 * 1 * 1) ** (1 / 3)) and s["plan_worse_than_iql"] == 0.0
+    # plan: the model's run where its region joins start and goal at some Eq. 7 threshold (plan's rule:
+    # MIN_THRESHOLD is 0), else IQL's: 100, 600 (IQL: no threshold joins them), 200 (threshold 0.41)
+    assert MIN_THRESHOLD == 0.0
+    assert s["plan_vs_iql"]["ratio"] == pytest.approx((0.25 * 1 * (2 / 3)) ** (1 / 3)) and s["plan_worse_than_iql"] == 0.0
     assert s["share"] == pytest.approx((1 - 6600 / 8000) / (1 - 560 / 8000))
     assert d["path"] == {"mean": pytest.approx(1.1), "p95": pytest.approx(1.1), "worst": pytest.approx(1.1), "not_converged": 0}
 
@@ -117,9 +121,10 @@ def test_row_configs_give_each_row_its_constants():
 
 def test_plan_steps_judge_the_prediction_by_the_papers_threshold_schedule():
     rec = {"runs": {"NDR-QL (model)": {"steps": [100], "threshold": 0.48}, "IQL": {"steps": [300]}}}
-    assert judged_threshold(rec) == 0.48 and plan_steps(rec) == [300]  # an old record: the run's own threshold
+    # an old record: the run's own threshold; plan keeps the model wherever some threshold joins start and goal
+    assert judged_threshold(rec) == 0.48 and plan_steps(rec) == [100] and plan_steps(rec, cut=0.5) == [300]
     rec["judged_threshold"] = 0.50
-    assert judged_threshold(rec) == 0.50 and plan_steps(rec) == [100]
+    assert judged_threshold(rec) == 0.50 and plan_steps(rec) == [100] and plan_steps(rec, cut=0.5) == [100]
     assert plan_steps(rec, cut=0.6) == [300] and plan_steps({**rec, "judged_threshold": None}) == [300]
 
 

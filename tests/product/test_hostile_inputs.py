@@ -365,7 +365,7 @@ def test_scenario_index_errors(ndrql_exe, work):
 @pytest.mark.parametrize("args, pattern", [
     (("astar", "small.png", "--start", "1,1", "--goal", "90,100", "--threshold", "nan"), r"--threshold must be a finite"),
     (("astar", "small.png", "--start", "1" * 5000 + ",1", "--goal", "90,100"), r"--start must be ROW,COL"),
-    (("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--threads", "0"), r"--threads must be"),
+    (("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--threads", "0"), r"threads \(--threads\) must be an integer in 1\.\."),
     (("eval", "--batch-size", "0"), r"--batch-size must be"),
     (("export-onnx", "--out", "x.onnx", "--size", "100000"), r"--size must be"),
 ])

@@ -7,6 +7,8 @@ limits (:func:`ndrql.model.registry.check_config`) when the file is read, before
 
 from __future__ import annotations
 
+import warnings
+
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +36,9 @@ def load_checkpoint(path: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise CheckpointError(f"checkpoint not found: {path}")
     try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
+        with warnings.catch_warnings():  # torch's note on a file's pickle protocol precedes our own refusal
+            warnings.filterwarnings("ignore", message="Detected pickle protocol", category=UserWarning)
+            data = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises many types for corrupt or foreign files
         first = str(exc).splitlines()[0] if str(exc) else ""
         if "weights only" in first.lower() or "weights_only" in str(exc) or type(exc).__name__ == "UnpicklingError":

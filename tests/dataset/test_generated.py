@@ -162,6 +162,27 @@ def test_mixed_multiscale_training_resumes_exactly(gen_set, tmp_path):
               tmp_path / "warm2", **quiet)
 
 
+def test_a_run_under_a_view_draws_merged_grids_and_records_the_view(gen_set, tmp_path):
+    from ndrql.dataset.views import GridView
+    from ndrql.model.checkpoint import load_checkpoint
+    from ndrql.training.config import TrainConfig
+    from ndrql.training.loop import build_mixture, train
+
+    cfg = TrainConfig(sources=f"{gen_set}:1", input_mode="grid", grid_sizes="32", view="coarse:16",
+                      model_overrides={"width": 0.25}, batch_size=2, epochs=1, steps_per_epoch=1, warmup_steps=1,
+                      bf16=False, threads=1, val_per_source=1)
+    mixture = build_mixture(cfg, progress=False)[0]
+    assert mixture.view == GridView("coarse", 16)
+    x = mixture.batch(0, 0, 0, 2)[0]
+    assert x.shape[-1] == 64  # 32 cells merged 2 x 2 into 16, drawn at 4 px per merged cell
+    train(cfg, tmp_path / "run", progress=False, log=lambda m: None)
+    assert load_checkpoint(tmp_path / "run" / "last.pt")["config"]["view"] == "coarse:16"
+    with pytest.raises(ValueError, match="--view needs --input-mode grid"):
+        TrainConfig(view="coarse:16")
+    with pytest.raises(NdrqlError, match="view must be"):
+        TrainConfig(input_mode="grid", view="tiles")
+
+
 def test_data_cli_generate_and_show(tmp_path, ndrql_exe):
     out = tmp_path / "s"
     res = run_cli(ndrql_exe, "data", "generate", "--family", "maze,rooms", "--count", "3", "--size", "96",

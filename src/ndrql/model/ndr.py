@@ -58,6 +58,8 @@ class NDRConfig:
     """Also predict the distance to the goal through free space (grid mode; units of DISTANCE_UNIT cells)."""
     distance_decoder: str = "coarse"
     """The distance head: coarse (stride-8 field + full-res correction, v4) or skips (decoded with the walls at strides 4 and 2)."""
+    view: str = "native"
+    """How a grid-mode model sees large planning grids (ndrql.dataset.views.GridView: native, cap:PX, coarse:CELLS); the view it was trained under."""
 
     @classmethod
     def from_dict(cls, data: dict) -> "NDRConfig":

@@ -51,6 +51,12 @@ def check_train_config(cfg: "TrainConfig") -> None:
         raise ValueError("--distance-decoder needs --distance-head")
     if cfg.distance_rank not in RANK_ON:
         raise ValueError(f"--distance-rank must be one of {', '.join(RANK_ON)}, got {str(cfg.distance_rank)[:40]}")
+    if cfg.view != "native":
+        from ndrql.dataset.views import GridView  # lazy: the dataset layer
+
+        GridView.parse(cfg.view)
+        if cfg.input_mode != "grid":
+            raise ValueError("--view needs --input-mode grid (a view says how the planning grid is drawn)")
     if "distance" in parts and not cfg.distance_head:
         raise ValueError("--train-only distance needs --distance-head")
 
@@ -90,7 +96,7 @@ class TrainConfig:
     augment: bool = True
     """Dihedral augmentation of map, points and labels together."""
     bf16: bool = True
-    """Mixed precision: bf16 autocast on the CPU (measured faster); on CUDA see --amp-dtype; off on MPS."""
+    """Mixed precision: bf16 autocast on a CPU with native bf16 (AVX512-BF16 or AMX; fp32 otherwise, where emulated bf16 is several times slower); on CUDA see --amp-dtype; off on MPS."""
     device: str = "auto"
     """Device: auto (CUDA when available, else CPU), cpu, cuda or mps."""
     amp_dtype: str = "auto"
@@ -125,6 +131,8 @@ class TrainConfig:
     """Kind of distance head with --distance-head: coarse (v4) or skips (decoded with the walls at strides 4 and 2); empty: the model preset's."""
     distance_rank: str = "raw"
     """Ranking term of the distance-head loss: raw (v5), raw+snapped (also ranks the detours as Eq. 6 snaps them; v6) or raw+snapped+moves (also scores each cell's greedy move; training.losses.distance_loss)."""
+    view: str = "native"
+    """How the model sees planning grids in grid mode (ndrql.dataset.views.GridView): native (4 px per cell), cap:PX or coarse:CELLS (above CELLS, cells merged so the input stays at most 4 x CELLS px); saved in the model's config."""
     train_only: str = ""
     """Train only these parts of the model (comma-separated top-level modules, e.g. distance); the rest keeps its weights and BatchNorm statistics."""
 
@@ -144,4 +152,6 @@ class TrainConfig:
             overrides["distance_head"] = True
         if self.distance_decoder:
             overrides["distance_decoder"] = self.distance_decoder
+        if self.view != "native":
+            overrides["view"] = self.view
         return preset(self.model, **overrides)

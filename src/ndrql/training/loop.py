@@ -166,7 +166,10 @@ def build_mixture(cfg: TrainConfig, progress: bool):
         else:
             sources.append(generated_source(spec, exclude=parse_families(cfg.exclude_families)))
     encoding = cfg.model_config().get("encoding") or "point"
-    mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding, distance=cfg.distance_head)
+    from ndrql.dataset.views import GridView
+
+    view = GridView.parse(cfg.view) if cfg.input_mode == "grid" and cfg.view != "native" else None
+    mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding, distance=cfg.distance_head, view=view)
     tr_ids = np.concatenate([s.train_ids for s in sources])
     va_ids = np.concatenate([s.val_ids for s in sources])
     return mixture, tr_ids, va_ids, paper
@@ -294,8 +297,9 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
             f"global batch {global_batch}, peak lr {peak:g}, {precision.describe()}")
     else:
         net = model
-        if device.type != "cpu":
-            log(f"device {device}, {precision.describe()}")
+        log(f"device {device}, {precision.describe()}"
+            + (" (this CPU has no native bf16: emulated bf16 would be several times slower)"
+               if device.type == "cpu" and cfg.bf16 and precision.dtype is None else ""))
 
     def payload(extra: dict | None = None) -> dict:
         return {

@@ -8,8 +8,8 @@ from ndrql.errors import CheckpointError
 from ndrql.model.checkpoint import load_checkpoint
 
 
-#: Model config fields a warm start may change: what the model sees and its distance head.
-_HEAD_FIELDS = ("input_mode", "distance_head", "distance_decoder")
+#: Model config fields a warm start may change: what the model sees (mode, view) and its distance head.
+_HEAD_FIELDS = ("input_mode", "distance_head", "distance_decoder", "view")
 
 
 def warm_start(model: nn.Module, path: str, model_cfg: dict) -> None:

@@ -41,6 +41,7 @@ EXTRA=${EXTRA:-}
 DISTANCE=${DISTANCE:-}
 DECODER=${DECODER:-}
 RANKING=${RANKING:-}  # not RANK: torchrun reads that one
+VIEW=${VIEW:-native}  # how the model sees large grids (ndrql.dataset.views; coarse:128 for the large-map model)
 # the shipped general model's twelve families unless FAMILIES is given (FAMILIES=all: every registered one,
 # the large-map families included, as docs/large-maps.md plans the next model)
 if [ "${FAMILIES:-}" = all ]; then
@@ -63,4 +64,4 @@ HEAD=()
 exec "$NDRQL" train --data "$DATA" --sources "paper:1,$GEN:3${EXTRA:+,$EXTRA}" --input-mode "$MODE" --grid-sizes "$GRIDS" \
     --exclude-families "$EXCLUDE" --init-weights "$INIT" --epochs "$EPOCHS" --steps-per-epoch "$STEPS" --lr "$LR" \
     --warmup-steps 100 --seed "$TRAIN_SEED" --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
-    --no-progress --run-dir "$RUN" "${HEAD[@]}" "${RESUME[@]}"
+    --view "$VIEW" --no-progress --run-dir "$RUN" "${HEAD[@]}" "${RESUME[@]}"

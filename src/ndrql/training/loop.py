@@ -166,7 +166,7 @@ def build_mixture(cfg: TrainConfig, progress: bool):
         else:
             sources.append(generated_source(spec, exclude=parse_families(cfg.exclude_families)))
     encoding = cfg.model_config().get("encoding") or "point"
-    from ndrql.dataset.views import GridView
+    from ndrql.dataset.views import GridView  # lazy: loads scipy
 
     view = GridView.parse(cfg.view) if cfg.input_mode == "grid" and cfg.view != "native" else None
     mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding, distance=cfg.distance_head, view=view)

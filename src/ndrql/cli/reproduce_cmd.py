@@ -33,6 +33,7 @@ EXAMPLES = """examples:
   ndrql reproduce transfer --grids 50,100      # the development set of generated maps: every row, every family
   ndrql reproduce transfer --preset spec --no-learned-distance   # the paper's Eq. 6 (straight line) with the general weights
   ndrql reproduce release                      # the sealed sets, once per release (counted in the checkout's ledger)
+  ndrql reproduce release --eval-set sealed-large-256 --grids 256   # the large-grid model; no QL rows above 100 cells
   ndrql reproduce scale --grids 50,100         # also on the 100x100 grid -> results/scale-g100/
   ndrql reproduce table3 --prior-from oracle   # NDR-QL with the oracle's priors (a diagnostic) -> results/table3-oracle/
   ndrql reproduce dynamic
@@ -88,6 +89,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="transfer: a development set of transfer_sets.json (default: transfer, the development report; sealed "
                    "sets are refused: only the release target reads them); release: sealed sets, comma-separated "
                    "(default: every sealed set)")
+    p.add_argument("--rows", metavar="LIST", default=None,
+                   help="transfer/release: the report's rows, comma-separated (IQL and NDR-QL (model) required), or all "
+                   "(default: every row up to 100 cells; above, every row but QL and QL (tuned): ~10^7 steps per run)")
     p.add_argument("--learned-distance", action=argparse.BooleanOptionalAction, default=True,
                    help="transfer: Eq. 6 on the model's learned distance when the weights have a distance head; "
                    "--no-learned-distance: the straight line, the paper's Eq. 6 (default: on)")
@@ -164,6 +168,7 @@ def _release(args: argparse.Namespace, opts, out: Path, log) -> str:
     from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
     from ndrql.experiments.eval_sets import sealed_names  # lazy: loads scipy
     from ndrql.experiments.release import check_sealed_names, release  # lazy: loads scipy and tqdm
+    from ndrql.experiments.transfer_report import parse_rows  # lazy: loads scipy
 
     names = check_sealed_names([n.strip() for n in args.eval_set.split(",") if n.strip()] if args.eval_set
                                else sealed_names())
@@ -172,7 +177,7 @@ def _release(args: argparse.Namespace, opts, out: Path, log) -> str:
     presets = _presets(args, "release")
     if len(presets) != 1:
         raise NdrqlError("release takes one --preset")
-    paths = release(out, names, ledger=args.ledger, allow_dirty=args.allow_dirty, weights=args.weights or "general",
+    paths = release(out, names, rows=parse_rows(args.rows), ledger=args.ledger, allow_dirty=args.allow_dirty, weights=args.weights or "general",
                     preset=presets[0], grids=parse_sizes(args.grids or "50,100"), seeds=args.seeds, seed0=args.seed,
                     workers=args.workers, executor=args.executor, progress=not args.no_progress,
                     command=opts.command, log=log)
@@ -218,6 +223,7 @@ def run(args: argparse.Namespace) -> int:
         elif target == "transfer":
             from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
             from ndrql.experiments.transfer import transfer  # lazy: loads scipy and tqdm
+            from ndrql.experiments.transfer_report import parse_rows  # lazy: loads scipy
 
             from ndrql.experiments.eval_sets import eval_spec  # lazy: loads scipy
 
@@ -226,11 +232,12 @@ def run(args: argparse.Namespace) -> int:
             if args.per_family is not None:
                 check_int(args.per_family, "--per-family", 1)
             grids = parse_sizes(args.grids or "50,100")
+            rows = parse_rows(args.rows)
             paths = run_presets(target, lambda o, d: transfer(
                 d, weights=args.weights, set_name=set_name, grids=grids, seeds=args.seeds, seed0=args.seed,
                 per_family=args.per_family, workers=args.workers, executor=args.executor, progress=not args.no_progress,
                 command=opts.command, log=log, preset=o.preset, symmetries=args.symmetries,
-                learned_distance=args.learned_distance), opts, out, _presets(args, target), log=log)
+                learned_distance=args.learned_distance, rows=rows), opts, out, _presets(args, target), log=log)
             path = ", ".join(str(x) for x in paths)
         elif target == "release":
             path = _release(args, opts, out, log)

@@ -10,7 +10,8 @@ Tables and studies (each writes ``<target>.md``, ``summary.json`` and figures un
   :mod:`~ndrql.experiments.fixed_maps`), :mod:`~ndrql.experiments.scale`,
   :mod:`~ndrql.experiments.dynamic`: Q-learning methods on dataset maps, many seeds
   (:mod:`~ndrql.experiments.planning_runs`); :mod:`~ndrql.experiments.presets` runs them per preset.
-- :mod:`~ndrql.experiments.transfer` (its figures: :mod:`~ndrql.experiments.transfer_report`),
+- :mod:`~ndrql.experiments.transfer` (its figures: :mod:`~ndrql.experiments.transfer_report`; the floors of
+  large grids and the time per stage: :mod:`~ndrql.experiments.transfer_floors`),
   :mod:`~ndrql.experiments.ceiling`, :mod:`~ndrql.experiments.grid_eval`, :mod:`~ndrql.experiments.labels_check`:
   generated maps the model never trained on, the oracle's ceiling, grid-mode F1, labels.
 - :mod:`~ndrql.experiments.eval_sets`: the registry of evaluation sets (``transfer_sets.json``: development and

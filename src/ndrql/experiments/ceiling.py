@@ -57,11 +57,24 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
     return None
 
 
+#: The largest size :func:`larger_sizes` grows a grid of at most :data:`SMALL_GRID` cells to (the figures at
+#: 50 and 100 cells were measured with it), and the largest it grows any larger grid to (the ladder's top).
+SMALL_TOP, LARGE_TOP = 128, 512
+#: Grids up to this many cells keep :data:`SMALL_TOP`.
+SMALL_GRID = 100
+
+
+def ladder_top(n: int) -> int:
+    """The largest size a map that does not connect at ``n`` cells is retried on: ``min(2n, 128)`` up to
+    :data:`SMALL_GRID` cells, ``min(2n, 512)`` above (128 would clamp a grid of 128 or more to itself)."""
+    return min(2 * n, SMALL_TOP if n <= SMALL_GRID else LARGE_TOP)
+
+
 def larger_sizes(n: int) -> tuple[int, ...]:
-    """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to ``min(2n, 128)``."""
+    """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to :func:`ladder_top`."""
     from ndrql.maps.sizing import SIZE_LADDER  # lazy: loads numba
 
-    return tuple(s for s in SIZE_LADDER if n < s <= min(2 * n, 128))
+    return tuple(s for s in SIZE_LADDER if n < s <= ladder_top(n))
 
 
 def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, ...]:

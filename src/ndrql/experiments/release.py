@@ -28,6 +28,7 @@ from typing import Callable
 from ndrql.errors import NdrqlError
 from ndrql.experiments.eval_sets import eval_set, eval_spec, registry, verify_seal
 from ndrql.experiments.transfer import transfer
+from ndrql.experiments.transfer_report import rows_at
 from ndrql.io import file_digest, write_json
 from ndrql.planning.preset import Preset
 
@@ -88,8 +89,9 @@ def release(out: str | Path, sets: list[str], *, ledger: str | Path = DEFAULT_LE
             allow_dirty: bool = False, weights: str | None = None, preset: Preset | None = None,
             grids: tuple[int, ...] = (50, 100), seeds: int = 10, seed0: int = 0, workers: int = 2,
             executor: str = "process", progress: bool = True, command: str = "",
-            log: Callable[[str], None] = print) -> list[Path]:
-    """Evaluate each sealed set of ``sets`` once (module docstring); one report per set under ``out/<set>/``."""
+            log: Callable[[str], None] = print, rows: tuple[str, ...] | None = None) -> list[Path]:
+    """Evaluate each sealed set of ``sets`` once (module docstring); one report per set under ``out/<set>/``.
+    ``rows``: the report's rows (``None``: :func:`~ndrql.experiments.transfer_report.default_rows` per grid)."""
     names = check_sealed_names(list(dict.fromkeys(sets)))
     ledger = Path(ledger)
     if not ledger.parent.is_dir():
@@ -104,7 +106,8 @@ def release(out: str | Path, sets: list[str], *, ledger: str | Path = DEFAULT_LE
     run_id = len(book["runs"]) + 1
     entry = {"run": run_id, "commit": commit + ("-dirty" if dirty else ""),
              "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), "sets": names,
-             "grids": list(grids), "seeds": [seed0, seed0 + seeds - 1], "preset": preset.name if preset else "spec",
+             "grids": list(grids), "seeds": [seed0, seed0 + seeds - 1],
+             "rows": {str(n): list(rows_at(n, rows)) for n in grids}, "preset": preset.name if preset else "spec",
              "command": command, "finished": None, "reports": {}}
     book["runs"].append(entry)
     write_json(ledger, book)  # counted before a single map is read
@@ -116,7 +119,7 @@ def release(out: str | Path, sets: list[str], *, ledger: str | Path = DEFAULT_LE
                   f"{', '.join(prior)}); this is run {run_id}, commit {entry['commit']}.\n\n")
         path = transfer(Path(out) / name, weights=weights, set_name=name, grids=grids, seeds=seeds, seed0=seed0,
                         workers=workers, executor=executor, progress=progress, command=command, log=log,
-                        preset=preset, release=True, header=header, name="release")
+                        preset=preset, release=True, header=header, name="release", rows=rows)
         entry["reports"][name] = {"path": path.as_posix(), "sha256": file_digest(path)}
         paths.append(path)
     entry["finished"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")

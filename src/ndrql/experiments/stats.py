@@ -17,8 +17,8 @@ import numpy as np
 
 from ndrql.planning.results import summarize
 
-__all__ = ["summarize", "describe", "relative_improvement", "per_map_improvement", "run_steps", "share_of_oracle", "fmt",
-           "fmt_ci", "wilson_interval", "geomean_ratio", "pooled_ratio", "compare_seeds", "outcomes", "BOOTSTRAP",
+__all__ = ["summarize", "describe", "relative_improvement", "per_map_improvement", "run_steps", "share_of_oracle", "share_of_oracle_geomean", "fmt",
+           "fmt_ci", "wilson_interval", "geomean_ratio", "pooled_ratio", "compare_seeds", "outcomes", "tally", "BOOTSTRAP",
            "TIE", "ALPHA"]
 
 #: Bootstrap resamples of the maps for an interval (seeded: the same records give the same interval).
@@ -76,6 +76,13 @@ def share_of_oracle(model_steps: Sequence[float], oracle_steps: Sequence[float],
     """
     oracle = relative_improvement(oracle_steps, baseline_steps)
     return relative_improvement(model_steps, baseline_steps) / oracle if oracle > 0 else float("nan")
+
+
+def share_of_oracle_geomean(model_ratio: float, oracle_ratio: float) -> float:
+    """The model's share of the oracle's gain over a baseline from geometric means of per-map step ratios
+    (model / baseline and oracle / baseline, :func:`geomean_ratio`): ``(1 - model) / (1 - oracle)``. NaN when
+    the oracle is not faster than the baseline (every map weighs alike, unlike :func:`share_of_oracle`)."""
+    return (1 - model_ratio) / (1 - oracle_ratio) if oracle_ratio < 1 else float("nan")
 
 
 def fmt(v: float | int | None, nd: int = 0) -> str:
@@ -174,7 +181,12 @@ def outcomes(a: Sequence[Sequence[float]], b: Sequence[Sequence[float]], tie: fl
     """Clear wins, ties and clear losses of ``a`` against ``b`` over maps (:func:`compare_seeds` on each map's
     seeds), with the share of clear wins and its Wilson interval. Keys ``wins``, ``ties``, ``losses``,
     ``maps``, ``win_share``, ``win_ci``."""
-    res = [compare_seeds(x, y, tie, alpha) for x, y in zip(a, b)]
+    return tally([compare_seeds(x, y, tie, alpha) for x, y in zip(a, b)])
+
+
+def tally(res: Sequence[int]) -> dict[str, Any]:
+    """:func:`outcomes`' figures from one result per map (``-1`` clear win, ``0`` tie, ``1`` clear loss)."""
+    res = list(res)
     wins, ties, losses = res.count(-1), res.count(0), res.count(1)
     n = len(res)
     return {"wins": wins, "ties": ties, "losses": losses, "maps": n, "win_share": wins / n if n else math.nan,

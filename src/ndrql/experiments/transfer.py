@@ -8,13 +8,19 @@ grid (default 50 and 100, the safe grid), with the same seeds, the rows of
 distance in Eq. 5, NDR-QL with the model's priors and NDR-QL with the oracle's
 (:mod:`ndrql.experiments.ceiling`). A map whose start and goal do not connect on the safe grid of ``n``
 cells is planned on the next size of ``--size auto``'s ladder that connects them, up to
-``min(2n, 128)`` (so "grid 50" means 50 cells, or 64, 80 or 100 for maps whose passages need them);
-maps that connect on none are skipped and counted per family. The figures are
-:mod:`ndrql.experiments.transfer_report`'s.
+``min(2n, 128)`` for ``n <= 100`` and ``min(2n, 512)`` above (:func:`~ndrql.experiments.ceiling.ladder_top`;
+so "grid 50" means 50 cells, or 64, 80 or 100 for maps whose passages need them); maps that connect on
+none are skipped and counted per family. Above 100 cells the rows without a prior (``QL``, ``QL (tuned)``)
+are not run unless ``rows`` asks for them (:func:`~ndrql.experiments.transfer_report.default_rows`).
+Per case the wall seconds of each stage are recorded: the prediction (forward pass and drawing on the
+grid), the A* and the BFS distance field on the grid, and each row's run (mean over seeds). The figures
+are :mod:`ndrql.experiments.transfer_report`'s, the floors and stage times of
+:mod:`ndrql.experiments.transfer_floors`.
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -27,9 +33,10 @@ from ndrql.experiments.ceiling import GridCase, grid_case, larger_sizes, model_p
 from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.eval_sets import eval_set, eval_spec
 from ndrql.experiments.sweep import Task, run_sweep
-from ndrql.experiments.transfer_report import ROWS, render_tables
+from ndrql.experiments.transfer_floors import render_large
+from ndrql.experiments.transfer_report import ROWS, not_run_note, render_tables, rows_at
 from ndrql.io import file_digest, save_figure, write_json, write_text
-from ndrql.maps.grid import PLANNING_SIZE
+from ndrql.maps.grid import PLANNING_SIZE, bfs_distances
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
@@ -37,7 +44,7 @@ from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import build_priors
 from ndrql.planning.preset import Preset, load_preset, method_configs
 from ndrql.planning.priors import adaptive_threshold, d_qi
-from ndrql.planning.runner import run_plan
+from ndrql.planning.runner import astar_length, run_plan
 from ndrql.training.metrics import f1_per_image
 from ndrql.viz.transfer import PredictionPanel, transfer_figure
 
@@ -70,22 +77,41 @@ RowConfigs = Callable[[int], dict[str, tuple[QLConfig, PriorConfig]]]
 
 
 def _runs(blocked, s, g, priors: dict, seeds: list[int], configs: dict[str, tuple[QLConfig, PriorConfig]]) -> dict:
+    """Every row of ``priors`` over ``seeds``: per row the steps, convergence and path / A* of each run, the
+    threshold, the mean wall seconds of a run (priors and training) and the caps the runs stopped at."""
     out: dict = {}
+    opt = astar_length(blocked, s, g)
     for row, pr in priors.items():
         method = row.split(" ")[0]
         ql, pc = configs[row]
         if row == BFS_ROW:  # Eq. 5 on the exact distance: IQL's rewards, its Q-table from the BFS field
             base = build_priors("IQL", blocked, s, g, cfg=pc)
             fixed = type(base)(r_c=base.r_c, q0=np.ascontiguousarray(d_qi(blocked, g, np.asarray(pr[0]))))
-            runs = [run_plan(blocked, s, g, "IQL", seed, ql, pc, priors=fixed) for seed in seeds]
+            runs = [run_plan(blocked, s, g, "IQL", seed, ql, pc, priors=fixed, astar=opt) for seed in seeds]
         else:
             region, guide, dist = prior_arrays(pr)
-            runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide, distance=dist) for seed in seeds]
+            runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide, distance=dist, astar=opt) for seed in seeds]
         out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
                     "converged": [bool(r.converged) for r in runs],
                     "ratio": [float(r.length_ratio) if r.converged and r.length_ratio is not None else None for r in runs],
-                    "threshold": runs[0].threshold}
+                    "threshold": runs[0].threshold, "seconds": float(np.mean([r.wall_time for r in runs])),
+                    "max_episodes": int(ql.max_episodes), "max_steps": ql.steps_cap(blocked.size)}
     return out
+
+
+def _timed(fn: Callable, *args):
+    """``fn(*args)`` and the wall seconds it took."""
+    t0 = time.perf_counter()
+    out = fn(*args)
+    return out, time.perf_counter() - t0
+
+
+def grid_seconds(case: GridCase) -> dict[str, float]:
+    """Wall seconds of the A* and of the BFS distance field on the case's grid (what ``plan`` computes besides
+    the prediction and the runs)."""
+    _, astar = _timed(astar_length, case.blocked, case.start_cell, case.goal_cell)
+    _, bfs = _timed(bfs_distances, case.blocked, case.goal_cell)
+    return {"astar": astar, "bfs": bfs}
 
 
 def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
@@ -102,13 +128,15 @@ def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
 def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seeds: list[int], out: Path, *,
             per_family: int | None = None, configs: RowConfigs | None = None,
             workers: int = 2, executor: str = "process", weights_id: str = "", progress: bool = True,
-            grow: bool = True, panels: list[PredictionPanel] | None = None, learned_distance: bool = True) -> list[dict]:
+            grow: bool = True, panels: list[PredictionPanel] | None = None, learned_distance: bool = True,
+            rows: tuple[str, ...] | None = None) -> list[dict]:
     """Run every (map, grid) of ``gs`` (at most ``per_family`` maps per family); one record per case.
     ``learned_distance=False``: Eq. 6 on the straight line, as in the paper, even when the weights have a
     distance head (the oracle row then also goes without its exact distance).
     With ``panels``, the first connected case of each family at the first grid is appended to it for the figure.
     ``configs``: the constants of each row on a grid of ``n`` cells, called with the size the case is
-    planned on (``lambda n: row_configs(preset, grid=n)``; default the paper's for every row)."""
+    planned on (``lambda n: row_configs(preset, grid=n)``; default the paper's for every row).
+    ``rows``: the rows to run on every grid (default :func:`~ndrql.experiments.transfer_report.default_rows`)."""
     configs = configs or (lambda n: row_configs(None))
     picked: dict[str, list[int]] = {}
     for i in range(len(gs)):
@@ -117,6 +145,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
             picked.setdefault(fam, []).append(i)
     tasks, meta = [], {}
     for n in grids:
+        run_rows = rows_at(n, rows)
         for fam, ids in picked.items():
             for i in ids:
                 raw = gs.raw(i)
@@ -125,7 +154,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 if case is None:
                     meta[key] = {"family": fam, "n": n, "skipped": True}
                     continue
-                model = model_priors(predictor, "map201" if mode == "map" else mode, case)  # what plan shows the model
+                model, predict_s = _timed(model_priors, predictor, "map201" if mode == "map" else mode, case)  # what plan shows the model
                 model = model if learned_distance else model[:2]
                 *oracle, bfs = oracle_priors(case, distance=True)  # a perfect version of what the model predicts
                 oracle = oracle + [bfs] if len(model) > 2 else oracle
@@ -135,12 +164,14 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 f1 = _f1(predictor, mode, case, raw.waypoints)
                 # plan judges the prediction with the paper's threshold schedule whatever the preset (0.99, 0.98, ...)
                 judged = adaptive_threshold(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell, PriorConfig())
-                meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged}
+                meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged,
+                             "seconds": {"prediction": predict_s, **grid_seconds(case)}}
                 priors = {"QL": None, "QL (tuned)": None, "IQL": None, BFS_ROW: [bfs.tolist()],
                           "NDR-QL (model)": [a.tolist() for a in model], "NDR-QL (oracle)": [a.tolist() for a in oracle]}
+                priors = {row: pr for row, pr in priors.items() if row in run_rows}
                 grid_id = array_digest(np.packbits(case.blocked))
                 prior_id = array_digest(*(np.asarray(a, np.float64) for a in (*model, *oracle)))
-                at_n = configs(case.n)
+                at_n = {row: c for row, c in configs(case.n).items() if row in run_rows}
                 fp = fingerprint(key, weights_id, mode, seeds, _configs_id(at_n), case.n, case.blocked.shape, grid_id,
                                  prior_id)
                 tasks.append(Task(key, _runs, (case.blocked, case.start_cell, case.goal_cell, priors, seeds, at_n), fp))
@@ -157,7 +188,7 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
              seeds: int = 10, seed0: int = 0, per_family: int | None = None, workers: int = 2, executor: str = "process",
              progress: bool = True, command: str = "", log: Callable[[str], None] = print,
              preset: Preset | None = None, symmetries: int = DEFAULT_SYMMETRIES, learned_distance: bool = True,
-             release: bool = False, header: str = "", name: str = "transfer") -> Path:
+             release: bool = False, header: str = "", name: str = "transfer", rows: tuple[str, ...] | None = None) -> Path:
     """Run the transfer report and write ``<name>.md`` and ``summary.json`` under ``out``.
 
     ``preset``: the constants of each method (``None``: the paper's for every row; a per-grid preset's
@@ -165,7 +196,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     grid-mode model's prediction averaged over that many orientations (``ndrql plan``'s default).
     ``learned_distance``: Eq. 6 on the model's distance when the weights have a distance head (``False``:
     the straight line, the paper's Eq. 6). ``release``: the set may be a sealed one (only
-    :mod:`ndrql.experiments.release` passes it); ``header``: a paragraph put first."""
+    :mod:`ndrql.experiments.release` passes it); ``header``: a paragraph put first. ``rows``: the rows run on
+    every grid (``None``: :func:`~ndrql.experiments.transfer_report.default_rows`, recorded per grid)."""
     out = Path(out)
     wpath = resolve_weights(weights or None)
     predictor = Predictor.load(wpath, threads=1, backend="torch", symmetries=symmetries)
@@ -176,7 +208,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     configs = lambda n: row_configs(preset, grid=n)  # noqa: E731
     records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, configs=configs,
                       workers=workers, executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels,
-                      learned_distance=learned_distance)
+                      learned_distance=learned_distance, rows=rows)
+    run_rows = {n: rows_at(n, rows) for n in grids}
     constants = "the paper's constants" if preset is None or preset.name == "spec" else \
         f"constants of preset {preset.name!r} (each method its own; the oracle row NDR-QL's)"
     turns = f", averaged over {symmetries} orientations" if mode == "grid" and symmetries > 1 else ""
@@ -184,7 +217,8 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
         "Eq. 6 on the straight line, the paper's (--no-learned-distance)"
     role = "sealed set" if release else "development set"
     text = (header + f"Weights {wpath.name} (input mode {mode}{turns}; {eq6}); {role} {set_name!r} {gs.spec.to_dict()}; "
-            f"seeds {seed_list[0]}..{seed_list[-1]}; {constants}.\n\n" + render_tables(records, tuple(grids)))
+            f"seeds {seed_list[0]}..{seed_list[-1]}; {constants}.\n\n" + render_tables(records, tuple(grids))
+            + render_large(records, tuple(grids)))
     if command:
         text += f"\nCommand: `{command}`\n"
     if panels:
@@ -195,8 +229,11 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "symmetries": symmetries, "set": gs.spec.to_dict(), "seeds": seed_list,
                                       "set_name": set_name, "learned_distance": learned_distance,
                                       "grids": list(grids), "preset": preset.name if preset else "spec",
+                                      "rows": {str(n): list(r) for n, r in run_rows.items()},
+                                      "rows_not_run": {str(n): not_run_note(n, r) for n, r in run_rows.items()},
                                       "constants": {str(n): {row: {"ql": vars(q), "priors": vars(p)}
-                                                             for row, (q, p) in configs(n).items()} for n in grids},
+                                                             for row, (q, p) in configs(n).items() if row in run_rows[n]}
+                                                    for n in grids},
                                       "records": records}, strict=False)
     log(text)
     return out / f"{name}.md"

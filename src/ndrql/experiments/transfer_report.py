@@ -6,7 +6,11 @@ report leads with the geometric mean over maps of the per-map step ratio against
 paper's QL, each with a seeded bootstrap interval over maps; then clear wins, ties and clear losses
 against IQL by a test over seeds (:func:`ndrql.experiments.stats.compare_seeds`); pooled sums only
 beside the same ratio without the largest map; every row's steps beside its path length (mean, 95th
-percentile and worst over runs); per family, the maps that connect on no grid tried.
+percentile and worst over runs); per family, the maps that connect on no grid tried. Beside them: the
+geometric mean with ``plan``'s fallback (an uninformative prediction counts at IQL's steps), the share of
+uninformative predictions and the oracle's share of the gain over IQL from geometric means. A run that
+hit its cap (did not converge) counts with the steps it used and wins no map (:func:`capped_outcomes`).
+The rows run per grid: :func:`default_rows` (no QL rows above :data:`QL_ROW_LIMIT` cells) or ``--rows``.
 """
 
 from __future__ import annotations
@@ -17,7 +21,9 @@ import numpy as np
 
 from ndrql.experiments.ceiling import larger_sizes
 from ndrql.experiments.report import md_table
-from ndrql.experiments.stats import TIE, geomean_ratio, outcomes, pooled_ratio, share_of_oracle
+from ndrql.errors import NdrqlError
+from ndrql.experiments.stats import (TIE, compare_seeds, geomean_ratio, pooled_ratio, share_of_oracle,
+                                     share_of_oracle_geomean, tally)
 from ndrql.pipeline.predictions import MIN_THRESHOLD
 
 #: The rows of the report, in order. ``QL``: the paper's constants; ``QL (tuned)``: searched constants
@@ -27,6 +33,53 @@ from ndrql.pipeline.predictions import MIN_THRESHOLD
 #: The last two use no learning: references for what a perfect distance or a perfect prediction gives.
 ROWS = ("QL", "QL (tuned)", "IQL", "IQL (BFS distance)", "NDR-QL (model)", "NDR-QL (oracle)")
 MODEL = "NDR-QL (model)"
+ORACLE = "NDR-QL (oracle)"
+#: The rows without a prior (tabular QL from a zero Q-table): about 10^7 steps per run on 256 cells (with the
+#: paper's constants a run on a ``large-dev-256`` map hit the 20,000-episode cap after 2.2x10^7 steps: a lower
+#: bound, not a figure).
+QL_ROWS = ("QL", "QL (tuned)")
+#: Grids of more cells run without :data:`QL_ROWS` unless ``--rows`` asks for them.
+QL_ROW_LIMIT = 100
+#: Rows every run needs: the baseline of every ratio and the model.
+REQUIRED_ROWS = ("IQL", MODEL)
+
+
+def default_rows(n: int) -> tuple[str, ...]:
+    """The rows run on a planning grid of ``n`` cells: every row up to :data:`QL_ROW_LIMIT` cells, above it
+    every row but :data:`QL_ROWS` (they would take hours, :func:`not_run_note`)."""
+    return ROWS if n <= QL_ROW_LIMIT else tuple(r for r in ROWS if r not in QL_ROWS)
+
+
+def parse_rows(text: str | None) -> tuple[str, ...] | None:
+    """``--rows``: ``None`` (or empty) for :func:`default_rows`, ``all`` for every row, else row names separated
+    by commas (in :data:`ROWS`' order; :data:`REQUIRED_ROWS` must be among them)."""
+    if text is None or not text.strip():
+        return None
+    if text.strip() == "all":
+        return ROWS
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    bad = [t for t in names if t not in ROWS]
+    if bad:
+        raise NdrqlError(f"--rows: unknown row {bad[0]!r}; rows: {', '.join(ROWS)} (or all)")
+    missing = [r for r in REQUIRED_ROWS if r not in names]
+    if missing:
+        raise NdrqlError(f"--rows must include {' and '.join(REQUIRED_ROWS)} (every ratio needs them), not {missing[0]!r}")
+    return tuple(r for r in ROWS if r in names)
+
+
+def rows_at(n: int, chosen: tuple[str, ...] | None) -> tuple[str, ...]:
+    """The rows run at grid ``n``: ``chosen`` (``--rows``) or :func:`default_rows`."""
+    return chosen if chosen is not None else default_rows(n)
+
+
+def not_run_note(n: int, rows: tuple[str, ...]) -> str:
+    """One sentence on the rows of :data:`ROWS` not run at grid ``n`` and why ('' when every row ran)."""
+    left = [r for r in ROWS if r not in rows]
+    if not left:
+        return ""
+    why = f"QL rows not run above {QL_ROW_LIMIT} cells: ~10^7 steps per run" \
+        if set(left) == set(QL_ROWS) and n > QL_ROW_LIMIT else "left out by --rows"
+    return f"Rows not run at grid {n}: {', '.join(left)} ({why})."
 
 
 def judged_threshold(record: dict) -> float | None:
@@ -38,14 +91,19 @@ def judged_threshold(record: dict) -> float | None:
     return record["runs"][MODEL]["threshold"]
 
 
+def uninformative(record: dict, cut: float = MIN_THRESHOLD) -> bool:
+    """Whether ``ndrql plan`` calls the prediction uninformative: no Eq. 7 threshold of at least ``cut`` (plan's
+    :data:`~ndrql.pipeline.predictions.MIN_THRESHOLD`) joins start and goal (:func:`judged_threshold`)."""
+    thd = judged_threshold(record)
+    return thd is None or thd < cut
+
+
 def plan_steps(record: dict, cut: float = MIN_THRESHOLD) -> list[int]:
     """The steps ``ndrql plan`` would spend on this case for NDR-QL: the model row's where the judged
     Eq. 7 threshold (:func:`judged_threshold`) is at least ``cut`` (plan's
     :data:`~ndrql.pipeline.predictions.MIN_THRESHOLD`), else IQL's (plan's default fallback for an
     uninformative prediction; its other test, the guideline's mass on obstacles, is not applied here)."""
-    thd = judged_threshold(record)
-    row = MODEL if thd is not None and thd >= cut else "IQL"
-    return record["runs"][row]["steps"]
+    return record["runs"]["IQL" if uninformative(record, cut) else MODEL]["steps"]
 
 
 def against_iql(ndr: Sequence[float], iql: Sequence[float], tie: float = TIE) -> tuple[int, int, int]:
@@ -69,6 +127,21 @@ def _paths(records: list[dict], row: str) -> dict[str, float]:
     return {"mean": float(x.mean()), "p95": float(np.percentile(x, 95)), "worst": float(x.max()), "not_converged": bad}
 
 
+def capped_outcomes(records: list[dict], row: str) -> dict:
+    """Clear wins, ties and clear losses of ``row`` against IQL by a test over seeds
+    (:func:`~ndrql.experiments.stats.compare_seeds`), where a run that hit its cap (did not converge) wins
+    nothing: a map where ``row`` did not converge on some seed is a loss when IQL converged on every seed,
+    at best a tie when IQL did not either (its steps are only a lower bound of what it would need)."""
+    res = []
+    for r in records:
+        a, b = r["runs"][row], r["runs"]["IQL"]
+        out = compare_seeds(a["steps"], b["steps"])
+        if not all(a["converged"]):
+            out = 1 if all(b["converged"]) else max(out, 0)
+        res.append(out)
+    return tally(res)
+
+
 def summarize(records: list[dict], seed: int = 0) -> dict:
     """Every figure of a group of case records (same seeds in every row); bootstrap intervals from ``seed``."""
     ok = [r for r in records if not r["skipped"]]
@@ -76,7 +149,8 @@ def summarize(records: list[dict], seed: int = 0) -> dict:
     if not ok:
         return out
     rows = [row for row in ROWS if all(row in r["runs"] for r in ok)]
-    iql, ql = _means(ok, "IQL"), _means(ok, "QL")
+    iql = _means(ok, "IQL")
+    ql = _means(ok, "QL") if "QL" in rows else None
     out["grown"] = int(sum(r.get("size", r["n"]) != r["n"] for r in ok))
     out["region_f1"] = 100 * float(np.nanmean([r["f1"][0] for r in ok]))
     out["guideline_f1"] = 100 * float(np.nanmean([r["f1"][1] for r in ok]))
@@ -86,26 +160,36 @@ def summarize(records: list[dict], seed: int = 0) -> dict:
         steps = [r["runs"][row]["steps"] for r in ok]
         out["rows"][row] = {
             "geomean_steps": float(np.exp(np.mean(np.log(m)))),
-            "vs_iql": geomean_ratio(m, iql, seed), "vs_ql": geomean_ratio(m, ql, seed),
+            "vs_iql": geomean_ratio(m, iql, seed), "vs_ql": geomean_ratio(m, ql, seed) if ql else None,
             "pooled_vs_iql": pooled_ratio(m, iql, seed),
-            "against_iql": outcomes(steps, [r["runs"]["IQL"]["steps"] for r in ok]),
+            "against_iql": capped_outcomes(ok, row),
             "path": _paths(ok, row)}
     plan = [float(np.mean(plan_steps(r))) for r in ok]
     out["plan_vs_iql"] = geomean_ratio(plan, iql, seed)
     out["plan_worse_than_iql"] = float(np.mean([p > i for p, i in zip(plan, iql)]))
     thd = [judged_threshold(r) for r in ok]
     out["threshold_below_half"] = float(np.mean([t is None or t < 0.5 for t in thd]))
-    if "NDR-QL (oracle)" in rows:
-        out["share"] = share_of_oracle(*([sum(r["runs"][row]["steps"]) for r in ok] for row in (MODEL, "NDR-QL (oracle)", "QL")))
+    out["uninformative"] = float(np.mean([uninformative(r) for r in ok]))
+    if ORACLE in rows:
+        oracle = out["rows"][ORACLE]["vs_iql"]["ratio"]
+        out["share_geo"] = share_of_oracle_geomean(out["plan_vs_iql"]["ratio"], oracle)  # with plan's fallback
+        out["share_geo_raw"] = share_of_oracle_geomean(out["rows"][MODEL]["vs_iql"]["ratio"], oracle)
+        if ql:
+            out["share"] = share_of_oracle(*([sum(r["runs"][row]["steps"]) for r in ok] for row in (MODEL, ORACLE, "QL")))
     return out
 
 
-def _ratio(d: dict, ci: bool = True) -> str:
+def _ratio(d: dict | None, ci: bool = True) -> str:
     """A ratio as a change in percent, with its interval: ``-45% (-52..-38)``."""
-    if d.get("maps", 1) == 0 or np.isnan(d["ratio"]):
+    if d is None or d.get("maps", 1) == 0 or np.isnan(d["ratio"]):
         return "-"
     core = f"{100 * (d['ratio'] - 1):+.0f}%"
     return core + (f" ({100 * (d['low'] - 1):+.0f}..{100 * (d['high'] - 1):+.0f})" if ci else "")
+
+
+def _pct(x: float | None) -> str:
+    """A share in percent, ``-`` when missing or undefined."""
+    return "-" if x is None or np.isnan(x) else f"{100 * x:.0f}%"
 
 
 def _wtl(o: dict) -> str:
@@ -135,10 +219,13 @@ def headline_table(s: dict) -> str:
 
 def family_table(records: list[dict], seed: int = 0) -> str:
     """NDR-QL (model) against IQL per family: maps planned and not connected, geomean ratio, clear outcomes,
-    pooled with and without the largest map, the worst path, F1 and the oracle's share."""
+    pooled with and without the largest map, the worst path, F1, the oracle's share on pooled steps against
+    QL; then the geomean ratio with plan's fallback, the share of uninformative predictions and the oracle's
+    share of the gain over IQL in geometric means (with the fallback)."""
     head = ["family", "maps (on a finer grid)", "not connected", "NDR-QL vs IQL: geomean (95% CI)",
             "clear wins / ties / losses", "pooled vs IQL; without the largest", "worst path / A*", "region F1",
-            "share of oracle"]
+            "share of oracle (pooled, vs QL)", "with plan's fallback vs IQL: geomean", "uninformative",
+            "share of oracle's gain over IQL (geomean)"]
     rows = []
     for fam in sorted({r["family"] for r in records}) + ["all"]:
         s = summarize([r for r in records if fam == "all" or r["family"] == fam], seed)
@@ -149,8 +236,14 @@ def family_table(records: list[dict], seed: int = 0) -> str:
         d = s["rows"][MODEL]
         rows.append([name, f"{s['maps']} ({s['grown']})", str(s["skipped"]), _ratio(d["vs_iql"]), _wtl(d["against_iql"]),
                      _pooled(d["pooled_vs_iql"]), f"{d['path']['worst']:.3f}", f"{s['region_f1']:.1f}",
-                     f"{100 * s['share']:.0f}%" if "share" in s else "-"])
+                     _pct(s.get("share")), _ratio(s["plan_vs_iql"]), _pct(s["uninformative"]), _pct(s.get("share_geo"))])
     return md_table(head, rows)
+
+
+def rows_run(records: list[dict]) -> tuple[str, ...]:
+    """The rows of :data:`ROWS` that ran on every planned case of ``records``."""
+    ok = [r for r in records if not r["skipped"]]
+    return tuple(row for row in ROWS if ok and all(row in r["runs"] for r in ok))
 
 
 def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) -> str:
@@ -169,7 +262,10 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
             f"{s['skipped']} connect on no size tried.\n\n" + headline_table(s) +
             f"\n\nWhat `ndrql plan` spends (the model's run, or IQL's where the prediction does not connect start and goal "
             f"at Eq. 7 threshold {MIN_THRESHOLD}): {_ratio(plan)} against IQL in geometric mean; more than IQL on "
-            f"{100 * s['plan_worse_than_iql']:.0f}% of the maps.\n\n" + family_table(at_n, seed))
+            f"{100 * s['plan_worse_than_iql']:.0f}% of the maps; the prediction is uninformative on "
+            f"{_pct(s['uninformative'])} of the maps; share of the oracle's gain over IQL in geometric means "
+            f"{_pct(s.get('share_geo'))} with plan's fallback ({_pct(s.get('share_geo_raw'))} without)."
+            + (f" {note}" if (note := not_run_note(n, rows_run(at_n))) else "") + "\n\n" + family_table(at_n, seed))
     parts.append(
         "*geomean ratio*: the geometric mean over maps of a method's mean steps over the seeds divided by IQL's (or the "
         "paper's QL's) on the same map, as a change; in brackets the 95% percentile bootstrap interval over maps (seeded). "
@@ -177,6 +273,10 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
         "and Welch's t-test on the log steps of the seeds rejects equal means at 5%; in brackets the share of clear wins "
         "and its 95% Wilson interval. *pooled*: summed steps over maps (dominated by the largest maps), with its "
         "bootstrap interval and the ratio without the map with the most steps. *path / A\\**: greedy path of the learned "
-        "policy over the 4-connected optimum of the planning grid, over converged runs. *share of oracle*: "
-        "(1 - NDR-QL/QL) / (1 - oracle/QL) on pooled steps.")
+        "policy over the 4-connected optimum of the planning grid, over converged runs. *share of oracle (pooled, vs QL)*: "
+        "(1 - NDR-QL/QL) / (1 - oracle/QL) on pooled steps (only where the QL row ran). *with plan's fallback*: a map whose "
+        f"prediction is uninformative (no Eq. 7 threshold >= {MIN_THRESHOLD} joins start and goal) counts at IQL's steps. "
+        "*share of oracle's gain over IQL (geomean)*: (1 - G(NDR-QL/IQL)) / (1 - G(oracle/IQL)), G the geometric mean "
+        "over maps, NDR-QL with plan's fallback. *not converged*: runs that hit their cap (max_episodes episodes of at "
+        "most max_steps moves, recorded per row in summary.json); they count with the steps they used and win no map.")
     return "\n\n".join(parts) + "\n"

@@ -18,7 +18,6 @@ import math
 
 import numpy as np
 
-from ndrql.dataset.render import cell_means
 from ndrql.experiments.transfer import row_configs
 from ndrql.maps.grid import bfs_distances
 from ndrql.model.predict import Predictor
@@ -61,7 +60,7 @@ def main() -> None:
         geo = Priors(paper.r_c, geodesic_q0(case.blocked, case.goal_cell, region, paper.threshold, pc), paper.threshold)
         variants = [paper, geo]
         if learned:
-            d = cell_means(predictor.predict_grid_all(case.blocked, case.start_cell, case.goal_cell)[2], case.blocked.shape)
+            d = predictor.predict_cells(case.blocked, case.start_cell, case.goal_cell)[2]
             variants.insert(1, build_priors("NDR-QL", case.blocked, case.start_cell, case.goal_cell, region, guide, pc, distance=d))
         for name, pri in zip(rows, variants):
             rs = [run_plan(case.blocked, case.start_cell, case.goal_cell, "NDR-QL", s, ql, pc, priors=pri) for s in seeds]

@@ -303,8 +303,8 @@ def run(args: argparse.Namespace) -> int:
         runs = report.info.get("runs_file")
         graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
-             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}){graph}; "
-             f"constants: preset {request.preset.name}")
+             f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}"
+             f"{_view_text(report.info.get('model_input', {}))}){graph}; constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")
@@ -322,6 +322,15 @@ def run(args: argparse.Namespace) -> int:
         spacing = report.grid_map.resolution if args.path_spacing is None else args.path_spacing
         echo(f"wrote {write_path(args.path_out, report.results[0], spacing)}")
     return 0
+
+
+def _view_text(model_input: dict[str, Any]) -> str:
+    """The grid-mode model's view for the summary line: nothing under ``native``, else e.g.
+    ``", view coarse:128, 2x2 cells seen as one"``."""
+    view, f = model_input.get("view", "native"), int(model_input.get("merged", 1))
+    if view == "native":
+        return ""
+    return f", view {view}" + (f", {f}x{f} cells seen as one" if f > 1 else "")
 
 
 def _xyyaw(point: Any) -> Any:

@@ -97,8 +97,11 @@ def run(args: argparse.Namespace) -> int:
             out / "distance.png", figsize=size, dpi=dpi))
     print(grid_text(setup, pg, request.grid_map.resolution))
     if pred.grid is not None:
+        f = int(view.info.get("merged", 1))
+        seen = f" through the view {view.info['view']}" if view.info.get("view", "native") != "native" else ""
+        seen += f", {f}x{f} cells seen as one" if f > 1 else ""
         print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
-              f"per cell, start cell {pg.start}, goal cell {pg.goal}")
+              f"per cell{seen}, start cell {pg.start}, goal cell {pg.goal}")
     else:
         print("map-mode model: saw the map resized to 201 px (the grid is plan's, for the record)")
     print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "

@@ -119,6 +119,9 @@ def view_cells(prob: np.ndarray, vi: ViewInput) -> np.ndarray:
 
 def view_distance_cells(detour: np.ndarray, vi: ViewInput) -> np.ndarray:
     """The distance head's output (detour per pixel, :data:`~ndrql.dataset.render.DISTANCE_UNIT` units of the
-    cells the model believes it sees, 4 px each) -> goal distance in planning cells per planning cell."""
-    seen_moves = manhattan_pixels(vi.goal, vi.image.shape[0]) + DISTANCE_UNIT * np.asarray(detour, np.float64)
+    cells the model believes it sees, 4 px each) -> goal distance in planning cells per planning cell.
+
+    The sum is taken in the detour's own precision (float32 from the model), as ``plan`` has always taken
+    it, so that under ``native`` this is :func:`~ndrql.dataset.render.cell_means` of that sum bit for bit."""
+    seen_moves = manhattan_pixels(vi.goal, vi.image.shape[0]) + DISTANCE_UNIT * np.asarray(detour)
     return view_cells(seen_moves, vi) * (PX_PER_CELL / vi.px) * vi.factor

@@ -17,7 +17,6 @@ from typing import Any
 
 import numpy as np
 
-from ndrql.dataset.render import cell_means
 from ndrql.env.sources import EnvProblem
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import area_downscale, bfs_distances
@@ -124,18 +123,17 @@ _NO_DISTANCE = ("prior_distance needs weights with a distance head (the shipped 
 
 def ndr_prior(predictor: Any, problem: EnvProblem, rule: str, size: int, distance: bool = False) -> np.ndarray:
     """``(2, h, w)`` region and guideline of the NDR model on the planning grid: a grid-mode model (the
-    default ``general``) predicts on the grid itself (4x4 means per cell); a map-mode model (the paper's)
+    default ``general``) predicts on the grid itself (per cell, through its view); a map-mode model (the paper's)
     on the source map, averaged onto the grid. With ``distance`` ``(3, h, w)``, the third the model's
     goal distance (:func:`distance_channel` with side ``size``; only models with a distance head have one)."""
     grid_mode = getattr(predictor, "input_mode", "map") == "grid"
     if grid_mode:  # sees the planning grid itself, as ndrql plan's model does
         r, gl, _, d = predict_on_grid(predictor, problem.blocked, problem.start, problem.goal)  # plan's own call
-        shape = problem.blocked.shape
-        layers = [cell_means(r, shape), cell_means(r if gl is None else gl, shape)]
+        layers = [r, r if gl is None else gl]
         if distance:
             if d is None:
                 raise NdrqlError(_NO_DISTANCE)
-            layers.append(distance_channel(cell_means(d, shape), size))
+            layers.append(distance_channel(d, size))
         return np.stack(layers).astype(np.float32)
     if distance:
         raise NdrqlError(_NO_DISTANCE)

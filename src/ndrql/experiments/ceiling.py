@@ -98,8 +98,7 @@ def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, ...]
     """
     if mode == "grid":
         r, gl, _, d = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
-        out = (cell_means(r, case.blocked.shape), cell_means(gl, case.blocked.shape))
-        return out if d is None else out + (cell_means(d, case.blocked.shape),)
+        return (r, gl) if d is None else (r, gl, d)
     side = MODEL_SIDE if mode == "map201" else input_side("map", case.n)
     img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)
     r, gl = predictor.predict_batch(encode_input(img, s, g, predictor.encoding)[None])

@@ -4,7 +4,10 @@ What the model sees follows its input mode. ``map`` models (the paper's): maps t
 are brought to the model's scale first and the probabilities mapped back to the map's own size
 (:func:`ndrql.dataset.render.to_model_input`, :func:`~ndrql.dataset.render.from_model_output`).
 ``grid`` models (the shipped default, ``general``): the safe planning grid at 4 px per cell, as
-``ndrql plan`` builds it (:meth:`Predictor.predict`).
+``ndrql plan`` builds it (:meth:`Predictor.predict`), through the view the model was trained under
+(:class:`ndrql.dataset.views.GridView`, its config's ``view``; ``native`` when absent): under
+``coarse:128`` a grid above 128 cells is merged into at most 128 cells before the model sees it, and
+:meth:`Predictor.predict_cells` brings every output back per planning cell.
 """
 
 from __future__ import annotations
@@ -14,12 +17,13 @@ import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Mapping
 
 import numpy as np
 
 from ndrql.dataset.encodings import encode_input
-from ndrql.dataset.render import DISTANCE_UNIT, cell_means, manhattan_pixels, cells_to_map, from_model_output, grid_input, to_model_input
+from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, cells_to_map, from_model_output, manhattan_pixels, to_model_input
+from ndrql.dataset.views import GridView, ViewInput, view_cells, view_distance_cells, view_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
 from ndrql.limits import check_threads
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
@@ -54,12 +58,34 @@ class GridPrediction:
     goal: Point
     """Goal cell."""
     region: np.ndarray
-    """Region per cell, float64 ``(h, w)``: the mean of the cell's 4x4 pixels of the model's output."""
+    """Region per cell, float64 ``(h, w)``: the mean of the pixels of the cell the model saw (its 4x4
+    pixels under the ``native`` view; its merged cell's under ``coarse``, :meth:`Predictor.predict_cells`)."""
     guideline: np.ndarray | None
     """Guideline per cell, as ``region``."""
     distance: np.ndarray | None = None
     """Predicted distance to the goal through free space per cell, in cells (the mean of the cell's
     pixels); ``None`` for a model without a distance head."""
+
+
+@dataclass(frozen=True)
+class CellPrediction:
+    """A grid-mode model's outputs per planning cell and what it saw (:meth:`Predictor.predict_view`)."""
+
+    region: np.ndarray
+    """Region per planning cell, float64 ``(h, w)`` (:func:`~ndrql.dataset.views.view_cells`)."""
+    guideline: np.ndarray | None
+    """Guideline per planning cell, as ``region``; ``None`` for a model without a guideline decoder."""
+    distance: np.ndarray | None
+    """Goal distance per planning cell, in planning cells (:func:`~ndrql.dataset.views.view_distance_cells`);
+    ``None`` for a model without a distance head."""
+    seen: ViewInput
+    """The model's input: the image, start and goal pixels, pixels per seen cell and the merge factor."""
+
+
+def config_view(config: Mapping) -> GridView:
+    """The view a model was trained under, from its config (``ndrql train --view``; ``native`` when the
+    config has no ``view``, as today's shipped models)."""
+    return GridView.parse(config.get("view") or "native")
 
 
 def default_weights_path() -> Path:
@@ -117,11 +143,13 @@ class Predictor:
     to about 1e-4 (tested). ``backend_name`` says which one runs.
     """
 
-    def __init__(self, runner, encoding: str = "point", input_mode: str = "map"):
+    def __init__(self, runner, encoding: str = "point", input_mode: str = "map", view: GridView = GridView()):
         self._runner = runner
         self.encoding = encoding
         self.input_mode = input_mode
         """What the model was trained to see: ``map`` (the map resized) or ``grid`` (the planning grid at 4 px per cell)."""
+        self.view = view
+        """How a grid-mode model sees a planning grid (:class:`~ndrql.dataset.views.GridView`, from its config)."""
         self.symmetries = 1
         """Grid-mode predictions average over this many orientations of the grid (1, 2, 4 or 8;
         :mod:`ndrql.model.symmetry`); set by :meth:`load` or :meth:`with_symmetries`."""
@@ -130,7 +158,7 @@ class Predictor:
         """This model averaging its grid-mode predictions over ``count`` orientations (a new Predictor
         sharing the loaded network; ``ValueError`` for a count not in 1, 2, 4, 8)."""
         check_count(count, NdrqlError)
-        out = Predictor(self._runner, self.encoding, self.input_mode)
+        out = Predictor(self._runner, self.encoding, self.input_mode, self.view)
         out.symmetries = count
         return out
 
@@ -151,9 +179,10 @@ class Predictor:
         return self._runner.model
 
     @classmethod
-    def from_model(cls, model, encoding: str = "point", threads: int = 0) -> "Predictor":
-        """Wrap an in-memory torch model (eager backend)."""
-        return cls(_TorchRunner(model, threads), encoding)
+    def from_model(cls, model, encoding: str = "point", threads: int = 0, view: GridView | str = GridView()) -> "Predictor":
+        """Wrap an in-memory torch model (eager backend) that sees planning grids through ``view`` (a
+        :class:`~ndrql.dataset.views.GridView` or its text, ``"coarse:128"``)."""
+        return cls(_TorchRunner(model, threads), encoding, view=GridView.parse(str(view)))
 
     @classmethod
     def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto", symmetries: int = 1) -> "Predictor":
@@ -194,7 +223,7 @@ class Predictor:
             else:
                 if runner is not None:
                     return cls(runner, encoding=runner.config.get("encoding", "point"),
-                               input_mode=runner.config.get("input_mode", "map"))
+                               input_mode=runner.config.get("input_mode", "map"), view=config_view(runner.config))
                 if backend == "onnx" and not can_export():
                     raise MissingDependency(f"running {path.name} on ONNX Runtime needs an export first, with torch and "
                                             f"onnx: {TRAIN_INSTALL} (or pass a graph from `ndrql export-onnx`)")
@@ -205,7 +234,7 @@ class Predictor:
 
         data = load_checkpoint(path)
         config = dict(data["config"])
-        out = cls.from_model(model_from_checkpoint(data), config.get("encoding", "point"), threads)
+        out = cls.from_model(model_from_checkpoint(data), config.get("encoding", "point"), threads, config_view(config))
         out.input_mode = config.get("input_mode", "map")
         return out
 
@@ -214,18 +243,44 @@ class Predictor:
         return self._runner(x)[:2]
 
     def predict_grid(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point) -> tuple[np.ndarray, np.ndarray | None]:
-        """Region and guideline of a grid-mode model for the planning grid ``blocked``, drawn at 4 px per cell
-        (padded with obstacles to a square of ``4 max(h, w)`` px, :func:`~ndrql.dataset.render.grid_input`)."""
+        """Region and guideline of a grid-mode model for the planning grid ``blocked`` at 4 px per cell
+        (:meth:`predict_grid_all`)."""
         return self.predict_grid_all(blocked, start_cell, goal_cell)[:2]
+
+    def predict_view(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point) -> CellPrediction:
+        """A grid-mode model's outputs per planning cell of ``blocked``: the input drawn through :attr:`view`
+        (:func:`~ndrql.dataset.views.view_input`; ``native`` is the grid at 4 px per cell, padded with
+        obstacles to a square of ``4 max(h, w)`` px), averaged over :attr:`symmetries` orientations, and
+        brought back per planning cell (:func:`~ndrql.dataset.views.view_cells`,
+        :func:`~ndrql.dataset.views.view_distance_cells`)."""
+        seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)
+        r, gl, d = averaged(self._runner, encode_input(seen.image, seen.start, seen.goal, self.encoding)[None],
+                            self.symmetries)
+        return CellPrediction(view_cells(r[0], seen), None if gl is None else view_cells(gl[0], seen),
+                              None if d is None else view_distance_cells(d[0], seen), seen)
+
+    def predict_cells(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point
+                      ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Region, guideline and goal distance (cells) per planning cell of ``blocked``, float64 ``(h, w)``
+        (:meth:`predict_view`; ``None`` for an output the model does not have)."""
+        out = self.predict_view(blocked, start_cell, goal_cell)
+        return out.region, out.guideline, out.distance
 
     def predict_grid_all(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point
                          ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """:meth:`predict_grid` plus the goal distance per pixel, in planning cells (``None`` for a model
-        without a distance head)."""
-        img, s, g = grid_input(blocked, start_cell, goal_cell, max(blocked.shape))
-        r, gl, d = averaged(self._runner, encode_input(img, s, g, self.encoding)[None], self.symmetries)
-        dist = None if d is None else manhattan_pixels(g, img.shape[0]) + DISTANCE_UNIT * d[0]
-        return r[0], None if gl is None else gl[0], dist
+        """:meth:`predict_grid` plus the goal distance, in planning cells, drawn at 4 px per planning cell on a
+        square of ``4 max(h, w)`` px (``None`` for a model without a distance head). Under a view that shows
+        the grid at 4 px per cell unmerged (``native``, and any view on a grid it leaves as it is) these are
+        the model's own pixels; otherwise each planning cell's :meth:`predict_cells` value drawn over its 4x4
+        pixels (padding 0), so that :func:`~ndrql.dataset.render.cell_means` of them is :meth:`predict_cells` to rounding."""
+        seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)
+        if seen.factor == 1 and seen.px == PX_PER_CELL:
+            r, gl, d = averaged(self._runner, encode_input(seen.image, seen.start, seen.goal, self.encoding)[None],
+                                self.symmetries)
+            dist = None if d is None else manhattan_pixels(seen.goal, seen.image.shape[0]) + DISTANCE_UNIT * d[0]
+            return r[0], None if gl is None else gl[0], dist
+        side = PX_PER_CELL * max(np.shape(blocked))
+        return tuple(None if a is None else _drawn(a, side) for a in self.predict_cells(blocked, start_cell, goal_cell))  # type: ignore[return-value]
 
     def predict(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None = None) -> Prediction:
         """Region and guideline probabilities for one map, at the map's own resolution.
@@ -255,12 +310,19 @@ class Predictor:
             size = choose_size(obstacles, start, goal, full_route(obstacles, start, goal).cost, DEFAULT_MAX_SIZE).size
         pg = safe_grid(obstacles, int(size), start, goal)
         blocked, s, g = pg.blocked, pg.start, pg.goal
-        r, gl, d = self.predict_grid_all(blocked, s, g)
-        cells = [None if a is None else cell_means(a, blocked.shape) for a in (r, gl, d)]
+        cells = self.predict_cells(blocked, s, g)
         cell_px = (cell_size_px(obstacles.shape, int(size)),) * 2
         on_map = [None if a is None else cells_to_map(a, obstacles.shape, cell_px) for a in cells[:2]]
         return Prediction(region=on_map[0], guideline=on_map[1],
                           grid=GridPrediction(int(size), blocked, s, g, cells[0], cells[1], cells[2]))
+
+
+def _drawn(cells: np.ndarray, side: int) -> np.ndarray:
+    """Values per planning cell drawn at 4 px per cell on a ``side`` square (padding 0)."""
+    out = np.zeros((side, side), np.float64)
+    up = np.kron(np.asarray(cells, np.float64), np.ones((PX_PER_CELL, PX_PER_CELL)))
+    out[:up.shape[0], :up.shape[1]] = up
+    return out
 
 
 def load_predictor(weights: str | os.PathLike | None = None, threads: int = 1, backend: str = "auto",

@@ -3,7 +3,8 @@
 :func:`predict_region` decides what the model sees and returns region and guideline probabilities
 on the planning grid and at the map's resolution; everything downstream (priors, figures, JSON)
 takes them from here. A ``grid``-mode model (the default ``general``) sees the planning grid itself
-at 4 px per cell (:func:`ndrql.dataset.render.grid_input`); a ``map``-mode model (the paper's) sees
+at 4 px per cell (:func:`ndrql.dataset.render.grid_input`), through the view in its config
+(:mod:`ndrql.dataset.views`); a ``map``-mode model (the paper's) sees
 the map as drawn (not inflated), resized so its longer side is 201 px and padded with obstacles
 (:func:`ndrql.dataset.render.to_model_input`), with start and goal scaled along. Predictions given
 instead of the model (``plan --prior-from``) arrive as :class:`GivenPredictions`
@@ -80,22 +81,22 @@ def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
 
 def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point
                     ) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any], np.ndarray | None]:
-    """A grid-mode model's region and guideline at 4 px per cell of the planning grid ``blocked`` (padded to
-    a square of ``4 max(h, w)`` px), what it saw, and its goal distance per pixel in cells (``None`` for a
-    model without a distance head)."""
-    r, gl, d = predictor.predict_grid_all(blocked, start_cell, goal_cell)
-    s, g = point_on_grid(start_cell, PX_PER_CELL, r.shape[0]), point_on_grid(goal_cell, PX_PER_CELL, r.shape[0])
-    info = {"mode": "grid", "side": int(r.shape[0]), "start": list(s), "goal": list(g)}
-    return r, gl, info, d
+    """A grid-mode model's region, guideline and goal distance (cells; ``None`` for a model without a distance
+    head) per cell of the planning grid ``blocked``, seen through the model's view
+    (:meth:`~ndrql.model.predict.Predictor.predict_view`), and what it saw: the input's side, where start and
+    goal landed, the view and how many cells along each side it merged into one (``merged``, 1 unless
+    ``coarse`` merged them)."""
+    out = predictor.predict_view(blocked, start_cell, goal_cell)
+    seen = out.seen
+    info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
+            "goal": [int(v) for v in seen.goal],
+            "view": str(predictor.view), "merged": int(seen.factor)}
+    return out.region, out.guideline, info, out.distance
 
 
-def _on_grid(region_px: np.ndarray, guide_px: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],
-             distance_px: np.ndarray | None = None) -> ModelView:
-    """A view from probabilities drawn at 4 px per cell of ``grid`` (padded): exact 4x4 means on the grid,
-    each map pixel its cell's mean."""
-    region = cell_means(region_px, grid.shape)
-    guide = None if guide_px is None else cell_means(guide_px, grid.shape)
-    distance = None if distance_px is None else cell_means(distance_px, grid.shape)
+def _on_grid(region: np.ndarray, guide: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],
+             distance: np.ndarray | None = None) -> ModelView:
+    """A view from values per planning cell of ``grid``: each map pixel its cell's value."""
     return ModelView(region=_grid_to_map(region, grid), guideline=None if guide is None else _grid_to_map(guide, grid),
                      info=info, region_grid=region, guideline_grid=guide, distance_grid=distance)
 
@@ -105,7 +106,8 @@ def oracle_view(grid: PlanningGrid) -> ModelView:
     (:func:`ndrql.synth.oracle.oracle_prediction`). A diagnostic of how far the model is from a perfect
     prediction, never a method: it needs the answer."""
     region, guide = oracle_prediction(grid.blocked, grid.start, grid.goal, PX_PER_CELL)
-    return _on_grid(region, guide, grid, {"oracle": True, "px_per_cell": PX_PER_CELL})
+    return _on_grid(cell_means(region, grid.shape), cell_means(guide, grid.shape), grid,
+                    {"oracle": True, "px_per_cell": PX_PER_CELL})
 
 
 def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
@@ -113,12 +115,13 @@ def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start:
 
     ``predictor``: a loaded model (:func:`ndrql.model.predict.load_predictor`). What the model sees
     follows its input mode (``predictor.input_mode``, from its checkpoint): ``grid`` models see the
-    planning grid itself at 4 px per cell (start and goal in their cells' centres) and predict on it;
+    planning grid itself at 4 px per cell (start and goal in their cells' centres), through the view they
+    were trained under (``predictor.view``: ``coarse:128`` merges a grid above 128 cells), and predict on it;
     ``map`` models (the paper's) see the map resized to 201 px.
     """
     if getattr(predictor, "input_mode", "map") == "grid":
-        region_px, guide_px, info, distance_px = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
-        return _on_grid(region_px, guide_px, grid, info, distance_px)
+        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
+        return _on_grid(region, guide, grid, info, distance)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)
     region = np.asarray(pred.region, dtype=np.float64)

@@ -29,7 +29,6 @@ from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
 from ndrql.dataset.render import cell_means, to_map_pixels
-from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.planning.methods import downscale_priors
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
@@ -149,8 +148,8 @@ class PredictionCache:
             self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch", symmetries=self.symmetries)
         mode = getattr(self._predictor, "input_mode", "map")
         distance = None
-        if mode == "grid":
-            region, guideline, _, distance = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
+        if mode == "grid":  # drawn at 4 px per planning cell, through the model's view (Predictor.predict_grid_all)
+            region, guideline, distance = self._predictor.predict_grid_all(p.blocked, p.start, p.goal)
         else:
             pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
             region, guideline = pred.region, pred.guideline

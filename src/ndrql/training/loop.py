@@ -28,6 +28,7 @@ from torch import nn
 
 from ndrql.dataset.cache import load_split
 from ndrql.dataset.splits import train_val_split
+from ndrql.dataset.views import GridView
 from ndrql.errors import CheckpointError
 from ndrql.io import atomic_write, make_folder
 from ndrql.model.registry import build_model
@@ -166,8 +167,6 @@ def build_mixture(cfg: TrainConfig, progress: bool):
         else:
             sources.append(generated_source(spec, exclude=parse_families(cfg.exclude_families)))
     encoding = cfg.model_config().get("encoding") or "point"
-    from ndrql.dataset.views import GridView  # lazy: loads scipy
-
     view = GridView.parse(cfg.view) if cfg.input_mode == "grid" and cfg.view != "native" else None
     mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding, distance=cfg.distance_head, view=view)
     tr_ids = np.concatenate([s.train_ids for s in sources])

@@ -1,0 +1,142 @@
+"""A grid-mode model predicts through the view it was trained under (its config's ``view``,
+:mod:`ndrql.dataset.views`): ``native`` (today's shipped models) is today's prediction bit for bit;
+``coarse`` merges a large grid before the model sees it and brings every output back per planning cell,
+on the torch path, the ONNX path and through ``plan``."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import ndrql
+from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.render import DISTANCE_UNIT, cell_means, grid_input, manhattan_pixels, merge_cells
+from ndrql.dataset.views import GridView
+from ndrql.errors import NdrqlError
+from ndrql.maps.bundled import bundled_sample
+from ndrql.model.onnx_backend import CONFIG_KEY, onnx_available
+from ndrql.model.predict import Predictor, config_view
+from ndrql.model.symmetry import averaged
+
+
+def _todays_cells(predictor: Predictor, blocked: np.ndarray, s, g) -> tuple[np.ndarray, ...]:
+    """Per-cell region, guideline and distance as ``plan`` computed them before views (grid at 4 px per
+    cell, the symmetry average, Manhattan plus the detour, exact 4x4 means)."""
+    img, s_px, g_px = grid_input(blocked, s, g, max(blocked.shape))
+    r, gl, d = averaged(predictor._runner, encode_input(img, s_px, g_px, predictor.encoding)[None], predictor.symmetries)
+    dist = manhattan_pixels(g_px, img.shape[0]) + DISTANCE_UNIT * d[0]
+    return tuple(cell_means(a, blocked.shape) for a in (r[0], gl[0], dist))
+
+
+def _coarse_checkpoint(model_weights, path, view: str):
+    """The shipped checkpoint saved again with ``view`` in its model config (as ``ndrql train --view`` records it)."""
+    from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
+
+    data = load_checkpoint(model_weights)
+    payload = {k: v for k, v in data.items() if k not in ("format", "format_version", "ndrql_version")}
+    payload["config"] = {**dict(data["config"]), "view": view}
+    return save_checkpoint(path, payload)
+
+
+@pytest.fixture(scope="module")
+def sample():
+    return bundled_sample()
+
+
+def test_config_view_reads_the_models_config():
+    assert config_view({}) == GridView() and config_view({"view": None}) == GridView()
+    assert config_view({"view": "coarse:128"}) == GridView("coarse", 128)
+    assert config_view({"view": "cap:512"}) == GridView("cap", 512)
+    with pytest.raises(NdrqlError, match="view"):
+        config_view({"view": "tiles:4"})
+
+
+@pytest.mark.parametrize("backend", ["onnx", "torch"])
+def test_native_view_is_todays_prediction_bit_for_bit(model_weights, sample, backend):
+    """Today's shipped general weights (no ``view`` in their config): per-cell arrays, the 4 px arrays and the
+    map-resolution prediction equal what plan computed before views, to the last bit, with symmetry averaging."""
+    if backend == "onnx" and not onnx_available():
+        pytest.skip("onnxruntime not installed")
+    if backend == "torch":
+        pytest.importorskip("torch")
+    plain = Predictor.load(model_weights, threads=1, backend=backend)
+    assert plain.input_mode == "grid" and plain.view == GridView()
+    two = plain.with_symmetries(2)
+    assert two.view == GridView() and two.symmetries == 2
+    pred = two.predict(sample.grid_map.obstacles, sample.start, sample.goal)
+    g = pred.grid
+    before = _todays_cells(two, g.blocked, g.start, g.goal)
+    for got, want in zip(two.predict_cells(g.blocked, g.start, g.goal), before):
+        assert got.dtype == np.float64 and np.array_equal(got, want)
+    for got, want in zip((g.region, g.guideline, g.distance), before):
+        assert np.array_equal(got, want)
+    for px, want in zip(two.predict_grid_all(g.blocked, g.start, g.goal), before):
+        assert px.shape == (4 * max(g.blocked.shape),) * 2 and np.array_equal(cell_means(px, g.blocked.shape), want)
+
+
+def test_coarse_view_merges_the_grid_and_spreads_back(model_weights, sample, tmp_path):
+    """``coarse:32`` on a 64-cell grid: the model sees the 2x2-merged grid at 4 px per merged cell (128 px);
+    every planning cell takes its merged cell's region, guideline and distance (in planning cells), which
+    are the native model's on the merged grid."""
+    pytest.importorskip("torch")
+    from ndrql.maps.sizing import safe_grid
+
+    ckpt = _coarse_checkpoint(model_weights, tmp_path / "coarse.pt", "coarse:32")
+    coarse = Predictor.load(ckpt, threads=1, backend="torch")
+    assert coarse.view == GridView("coarse", 32) and coarse.with_symmetries(2).view == coarse.view
+    pg = safe_grid(sample.grid_map.obstacles, 64, sample.start, sample.goal)
+    blocked, s, g = pg.blocked, pg.start, pg.goal
+    assert blocked.shape == (64, 64)
+    out = coarse.predict_view(blocked, s, g)
+    assert out.seen.image.shape == (128, 128) and out.seen.factor == 2 and out.seen.px == 4
+    for a in (out.region, out.guideline, out.distance):
+        assert a.shape == (64, 64)
+        assert np.array_equal(a, np.kron(a[::2, ::2], np.ones((2, 2))))  # constant over each merged 2x2 block
+    assert out.region.max() > 0.5 and out.region.min() < 0.5  # a real prediction, not a flat field
+    native = Predictor.load(model_weights, threads=1, backend="torch")
+    r, gl, d = native.predict_cells(merge_cells(blocked, 2), (s[0] // 2, s[1] // 2), (g[0] // 2, g[1] // 2))
+    assert np.array_equal(out.region[::2, ::2], r) and np.array_equal(out.guideline[::2, ::2], gl)
+    assert np.allclose(out.distance[::2, ::2], 2 * d, rtol=1e-12)
+    px = coarse.predict_grid_all(blocked, s, g)
+    assert px[0].shape == (256, 256) and np.allclose(cell_means(px[0], blocked.shape), out.region, atol=1e-12)
+
+
+def test_onnx_graph_carries_the_view(model_weights, tmp_path):
+    """An ONNX graph's metadata holds the whole model config (``ndrql export-onnx`` copies it unfiltered), so a
+    graph of a model trained under ``coarse:32`` loads with that view."""
+    if not onnx_available():
+        pytest.skip("onnxruntime not installed")
+    onnx = pytest.importorskip("onnx")
+    graph = onnx.load(str(model_weights.with_suffix(".onnx")))
+    props = {p.key: p.value for p in graph.metadata_props}
+    config = json.loads(props[CONFIG_KEY])
+    assert "view" not in config  # today's shipped general model: native
+    props[CONFIG_KEY] = json.dumps({**config, "view": "coarse:32"}, sort_keys=True)
+    del graph.metadata_props[:]
+    onnx.helper.set_model_props(graph, props)
+    path = tmp_path / "coarse.onnx"
+    onnx.save(graph, str(path))
+    loaded = Predictor.load(path, threads=1, backend="onnx")
+    assert loaded.backend_name == "onnx" and loaded.view == GridView("coarse", 32)
+    blocked = np.zeros((40, 40), bool)
+    assert loaded.predict_view(blocked, (1, 1), (38, 38)).seen.image.shape == (80, 80)
+
+
+def test_plan_uses_the_view_and_says_so(model_weights, sample, tmp_path):
+    """``plan`` with a coarse checkpoint: the model saw the merged grid (JSON ``model_input``), the run reports
+    a path on the map without collision, and the summary line names the view."""
+    pytest.importorskip("torch")
+    from ndrql.cli.plan_cmd import _view_text
+
+    ckpt = _coarse_checkpoint(model_weights, tmp_path / "coarse.pt", "coarse:32")
+    report = ndrql.solve(sample.grid_map, sample.start, sample.goal, methods=["NDR-QL"], seeds=[0], weights=ckpt,
+                         backend="torch", size=64, workers=1)
+    seen = report.to_dict()["model_input"]
+    assert seen["view"] == "coarse:32" and seen["merged"] == 2 and seen["side"] == 128
+    run = report.results[0]
+    assert run.path and run.success and not run.collisions
+    assert report.grid.shape == (64, 64)
+    assert _view_text(seen) == ", view coarse:32, 2x2 cells seen as one"
+    assert _view_text({"view": "native", "merged": 1}) == "" and _view_text({}) == ""

@@ -111,7 +111,7 @@ def validate(model: nn.Module, data, val_idx: np.ndarray, encoding: str, cfg: Tr
     """Validation F1 summary (percent). One process: ``evaluate(...).summary()``. DDP: each rank evaluates
     ``val_idx[rank::world_size]`` and the per-image F1 sums are all-reduced, giving the same means."""
     net = model if device.type == "cpu" else _OnDevice(model, device, precision)
-    bf16 = cfg.bf16 and device.type == "cpu"
+    bf16 = device.type == "cpu" and precision.dtype is not None  # emulated bf16 (no native support) is slower
     if not world.distributed:
         return evaluate(net, data, val_idx, encoding=encoding, bf16=bf16).summary()
     shard = val_idx[world.rank::world.world_size]
@@ -364,7 +364,7 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
         if mixture is not None:
             if val_items is None:
                 val_items = mixture.validation(cfg.val_per_source)
-            res = evaluate_rendered(model, val_items, encoding, bf16=cfg.bf16 and device.type == "cpu")
+            res = evaluate_rendered(model, val_items, encoding, bf16=device.type == "cpu" and precision.dtype is not None)
         else:
             res = validate(model, train_data, val_idx, encoding, cfg, device, precision, world)
         loss_sum, loss_n = D.all_reduce_sum([loss_sum, loss_n], world, device)

@@ -55,18 +55,20 @@ def test_config_view_reads_the_models_config():
 
 @pytest.mark.parametrize("backend", ["onnx", "torch"])
 def test_native_view_is_todays_prediction_bit_for_bit(model_weights, sample, backend):
-    """Today's shipped general weights (no ``view`` in their config): per-cell arrays, the 4 px arrays and the
-    map-resolution prediction equal what plan computed before views, to the last bit, with symmetry averaging."""
+    """The shipped general weights (served under ``coarse:128``, native up to 128 cells) on the bundled map's
+    grid of at most 128 cells: per-cell arrays, the 4 px arrays and the map-resolution prediction equal what
+    plan computed before views, to the last bit, with symmetry averaging."""
     if backend == "onnx" and not onnx_available():
         pytest.skip("onnxruntime not installed")
     if backend == "torch":
         pytest.importorskip("torch")
     plain = Predictor.load(model_weights, threads=1, backend=backend)
-    assert plain.input_mode == "grid" and plain.view == GridView()
+    assert plain.input_mode == "grid" and plain.view in (GridView(), GridView("coarse", 128))
     two = plain.with_symmetries(2)
-    assert two.view == GridView() and two.symmetries == 2
+    assert two.view == plain.view and two.symmetries == 2
     pred = two.predict(sample.grid_map.obstacles, sample.start, sample.goal)
     g = pred.grid
+    assert plain.view.factor(max(g.blocked.shape)) == 1  # the view is native at this size
     before = _todays_cells(two, g.blocked, g.start, g.goal)
     for got, want in zip(two.predict_cells(g.blocked, g.start, g.goal), before):
         assert got.dtype == np.float64 and np.array_equal(got, want)
@@ -103,6 +105,34 @@ def test_coarse_view_merges_the_grid_and_spreads_back(model_weights, sample, tmp
     assert px[0].shape == (256, 256) and np.allclose(cell_means(px[0], blocked.shape), out.region, atol=1e-12)
 
 
+def test_export_weights_sets_the_view_and_keeps_the_weights(model_weights, tmp_path):
+    """``ndrql export-weights --view``: the served view changes in the config, not one weight; ``native``
+    drops the key; a map-mode model (the paper's) is refused."""
+    torch = pytest.importorskip("torch")
+    from ndrql.errors import CheckpointError
+    from ndrql.model.checkpoint import export_weights, load_checkpoint
+    from ndrql.model.weights import resolve_weights
+
+    src = load_checkpoint(model_weights)
+    out = load_checkpoint(export_weights(model_weights, tmp_path / "c64.pt", view="coarse:64"))
+    assert out["config"] == {**{k: v for k, v in src["config"].items() if k != "view"}, "view": "coarse:64"}
+    assert out["model"].keys() == src["model"].keys()
+    assert all(torch.equal(out["model"][k], src["model"][k].half() if src["model"][k].is_floating_point() else src["model"][k])
+               for k in src["model"])
+    assert "view" not in load_checkpoint(export_weights(tmp_path / "c64.pt", tmp_path / "n.pt", view="native"))["config"]
+    with pytest.raises(CheckpointError, match="grid-mode"):
+        export_weights(resolve_weights("paper"), tmp_path / "p.pt", view="coarse:64")
+    with pytest.raises(NdrqlError, match="view must be"):
+        export_weights(model_weights, tmp_path / "x.pt", view="tiles")
+
+
+def load_config_view(path):
+    """The view recorded in the checkpoint at ``path`` (``None`` when it has none: native)."""
+    from ndrql.model.checkpoint import load_checkpoint
+
+    return dict(load_checkpoint(path)["config"]).get("view")
+
+
 def test_onnx_graph_carries_the_view(model_weights, tmp_path):
     """An ONNX graph's metadata holds the whole model config (``ndrql export-onnx`` copies it unfiltered), so a
     graph of a model trained under ``coarse:32`` loads with that view."""
@@ -112,7 +142,7 @@ def test_onnx_graph_carries_the_view(model_weights, tmp_path):
     graph = onnx.load(str(model_weights.with_suffix(".onnx")))
     props = {p.key: p.value for p in graph.metadata_props}
     config = json.loads(props[CONFIG_KEY])
-    assert "view" not in config  # today's shipped general model: native
+    assert config.get("view") == load_config_view(model_weights)  # the graph serves the checkpoint's view
     props[CONFIG_KEY] = json.dumps({**config, "view": "coarse:32"}, sort_keys=True)
     del graph.metadata_props[:]
     onnx.helper.set_model_props(graph, props)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from ndrql.errors import NdrqlError
 from ndrql.limits import check_int
@@ -17,6 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("checkpoint", help="training checkpoint (e.g. ~/.cache/ndrql/runs/ndr-default/best.pt)")
     p.add_argument("--out", required=True, help="output file (e.g. src/ndrql/data/ndr_default.pt)")
     p.add_argument("--fp32", action="store_true", help="keep fp32 weights")
+    p.add_argument("--view", default=None, metavar="VIEW",
+                   help="serve a grid-mode model under this view: native, cap:PX or coarse:CELLS (default: the checkpoint's)")
     p.set_defaults(func=run_weights)
 
     a = sub.add_parser("average-weights", help="average the weights of models of one architecture (a model soup)",
@@ -42,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_weights(args: argparse.Namespace) -> int:
     from ndrql.model.checkpoint import export_weights  # lazy: loads torch
 
-    out = export_weights(args.checkpoint, args.out, half=not args.fp32)
+    out = export_weights(args.checkpoint, args.out, half=not args.fp32, view=args.view)
     print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
     return 0
 

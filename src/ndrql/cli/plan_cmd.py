@@ -325,10 +325,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _view_text(model_input: dict[str, Any]) -> str:
-    """The grid-mode model's view for the summary line: nothing under ``native``, else e.g.
-    ``", view coarse:128, 2x2 cells seen as one"``."""
+    """The grid-mode model's view for the summary line: nothing where it shows the grid as ``native`` does
+    (``native``, or ``coarse`` on a grid it does not merge), else e.g. ``", view coarse:128, 2x2 cells seen as one"``."""
     view, f = model_input.get("view", "native"), int(model_input.get("merged", 1))
-    if view == "native":
+    if view == "native" or (view.startswith("coarse:") and f == 1):
         return ""
     return f", view {view}" + (f", {f}x{f} cells seen as one" if f > 1 else "")
 

@@ -98,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
     print(grid_text(setup, pg, request.grid_map.resolution))
     if pred.grid is not None:
         f = int(view.info.get("merged", 1))
-        seen = f" through the view {view.info['view']}" if view.info.get("view", "native") != "native" else ""
+        shown = view.info.get("view", "native")
+        seen = f" through the view {shown}" if shown != "native" and not (shown.startswith("coarse:") and f == 1) else ""
         seen += f", {f}x{f} cells seen as one" if f > 1 else ""
         print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
               f"per cell{seen}, start cell {pg.start}, goal cell {pg.goal}")

@@ -81,10 +81,22 @@ def model_from_checkpoint(data: dict[str, Any]) -> torch.nn.Module:
     return model.eval()
 
 
-def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: dict[str, Any] | None = None) -> Path:
-    """Write a slim inference checkpoint (config, metrics, fp16 weights, no optimizer) from a training one."""
+def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: dict[str, Any] | None = None,
+                   view: str | None = None) -> Path:
+    """Write a slim inference checkpoint (config, metrics, fp16 weights, no optimizer) from a training one.
+    ``view``: serve a grid-mode model under this view (:class:`ndrql.dataset.views.GridView`; it changes what
+    the model is shown above the view's limit, not the weights); ``None`` keeps the checkpoint's."""
     data = load_checkpoint(src)
     model_cfg = dict(data["config"])
+    if view is not None:
+        from ndrql.dataset.views import GridView  # lazy: loads scipy
+
+        if model_cfg.get("input_mode", "map") != "grid":
+            raise CheckpointError(f"--view applies to grid-mode models; {src} holds a {model_cfg.get('input_mode', 'map')}-mode one")
+        parsed = GridView.parse(view)
+        model_cfg = {k: v for k, v in model_cfg.items() if k != "view"}
+        if str(parsed) != "native":
+            model_cfg["view"] = str(parsed)
     weights = {k: (v.half() if half and v.is_floating_point() else v) for k, v in data["model"].items()}
     payload = {
         "config": model_cfg,

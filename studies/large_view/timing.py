@@ -22,12 +22,13 @@ import numpy as np
 
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.views import GridView, view_cells, view_distance_cells, view_input
-from ndrql.maps.safe import conservative_grid
+from ndrql.errors import NoPathError
+from ndrql.maps.astar import astar4
+from ndrql.maps.sizing import safe_grid
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import averaged
 from ndrql.synth import generate_map
 from ndrql.synth.endpoints import sample_endpoints
-from ndrql.dataset.render import place_cells
 
 
 def one(predictor: Predictor, blocked, s, g, view: GridView, symmetries: int) -> float:
@@ -57,11 +58,15 @@ def main() -> int:
             rng = np.random.default_rng(seed)
             obstacles = generate_map("outdoor", rng, 4 * n, 4 * n)
             pair = sample_endpoints(rng, obstacles)
-            blocked = conservative_grid(obstacles, n)
-            cells = None if pair is None else place_cells(obstacles, blocked, *pair, n)
-            if cells is not None:
-                break
-        s, g = cells
+            if pair is None:
+                continue
+            pg = safe_grid(obstacles, n, *pair)
+            blocked, s, g = pg.blocked, pg.start, pg.goal
+            try:
+                astar4(blocked, s, g)
+            except NoPathError:
+                continue
+            break
         for view in views:
             one(predictor, blocked, s, g, view, 1)  # warm-up
             t1 = np.median([one(predictor, blocked, s, g, view, 1) for _ in range(args.repeat)])

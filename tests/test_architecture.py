@@ -140,3 +140,26 @@ def test_the_docs_graph_is_the_codes():
     assert G.doc_block(IMPORTS) in doc, ("docs/architecture.md's import graph has drifted from the code: "
                                          "run python tools/import_graph.py --write-doc")
     assert G.doc_with_graph(doc, IMPORTS) == doc
+
+
+def _imported_modules(path: Path) -> set[str]:
+    """Top-level names of every module ``path`` imports (absolute imports, at any depth of the file)."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out.update(a.name.split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out.add(node.module.split(".")[0])
+    return out
+
+
+def test_tools_and_benchmarks_do_not_import_the_tests():
+    """Scripts in ``tools/`` and ``benchmarks/`` stand on the package alone: nothing from ``tests/`` (its
+    ``helpers``) and no ``sys.path`` edit to reach it. (A study in ``studies/`` may re-run a test's own
+    maps: ``studies/plan_defaults/analogues.py`` says so.)"""
+    scripts = [p for d in ("tools", "benchmarks") for p in (ROOT / d).rglob("*.py")]
+    assert scripts
+    bad = [str(p.relative_to(ROOT)) for p in scripts
+           if {"helpers", "tests", "conftest"} & _imported_modules(p) or '/ "tests"' in p.read_text()]
+    assert not bad, f"these scripts reach into tests/: {bad}"

@@ -3,7 +3,7 @@
 
     .venv/bin/python tools/real_maps_figures.py            # writes docs/real-maps-office.png, prints the numbers
 
-Draws the 2000x2000 office plan of the tests (``tests/helpers/drawn_maps.py``: 8 px walls, 60 px doors), plans
+Draws the 2000x2000 office plan of the tests (``ndrql.synth.drawn``: 8 px walls, 60 px doors), plans
 on it with the paper's 50x50 area grid and with the default safe grid, and draws both side by side
 with their paths on the full map (red crosses: segments through walls). Also times the map-to-grid
 downscale (the O(pixels) form against the dense product it replaced) and writes the office as a ROS
@@ -19,10 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the office plan is drawn by the tests' own helper
+from ndrql.synth.drawn import OFFICE_GOAL, OFFICE_START, office_plan
 
-from helpers.drawn_maps import OFFICE_GOAL, OFFICE_START, office_plan  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 OUT = ROOT / "out" / "real-maps"
 

@@ -1,6 +1,6 @@
 """Code shared by the tests (importable from every test folder: ``pythonpath = ["tests"]`` in pyproject.toml).
 
-``cli``: run the console script, check the one-line error; ``drawn_maps``: hand-drawn maps;
+``cli``: run the console script, check the one-line error (hand-drawn maps: ``ndrql.synth.drawn``);
 ``synthetic_dataset``: a tiny dataset in the original layout; ``sweep_tasks`` and ``tuning_problems``:
 work for the kill-and-resume tests, imported by their child processes too.
 """

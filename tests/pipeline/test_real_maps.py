@@ -16,7 +16,7 @@ from ndrql.pipeline.route import make_route, octile_cost
 from ndrql.pipeline.settings import PlanSettings
 
 from helpers.cli import run_cli
-from helpers.drawn_maps import OFFICE_GOAL, OFFICE_START, office_plan, thin_wall_map
+from ndrql.synth.drawn import OFFICE_GOAL, OFFICE_START, office_plan, thin_wall_map
 
 
 @pytest.fixture(scope="module")

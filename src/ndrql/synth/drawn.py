@@ -1,4 +1,6 @@
-"""Maps the tests draw by hand (also drawn by ``tools/real_maps_figures.py`` for docs/real-maps.md)."""
+"""Maps drawn to a fixed layout, not generated: an office floor plan with 8 px walls and 60 px doors, and a
+map cut by a 1 px wall (the tests of real-map planning use them, and ``tools/real_maps_figures.py``
+draws the office for docs/real-maps.md)."""
 
 from __future__ import annotations
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ndrql.errors import NdrqlError
 from ndrql.limits import check_int

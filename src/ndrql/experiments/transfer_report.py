@@ -157,7 +157,6 @@ def summarize(records: list[dict], seed: int = 0) -> dict:
     out["rows"] = {}
     for row in rows:
         m = _means(ok, row)
-        steps = [r["runs"][row]["steps"] for r in ok]
         out["rows"][row] = {
             "geomean_steps": float(np.exp(np.mean(np.log(m)))),
             "vs_iql": geomean_ratio(m, iql, seed), "vs_ql": geomean_ratio(m, ql, seed) if ql else None,

@@ -80,3 +80,24 @@ def check_rewards(r_c: np.ndarray) -> np.ndarray:
     if not np.isfinite(r_c).all():
         raise NdrqlError("r_c must hold finite rewards (no NaN or infinity)")
     return r_c
+
+
+def check_options(options: dict[str, Any] | None, valid: tuple[str, ...]) -> dict[str, Any]:
+    """``options`` as a dict after refusing keys other than ``valid`` (one clear :class:`NdrqlError`)."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise NdrqlError(f"reset options must be a dict, got {type(options).__name__}")
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise NdrqlError(f"unknown reset option {', '.join(map(repr, unknown))}; valid: {', '.join(valid)}")
+    return options
+
+
+def reset_options(options: dict[str, Any] | None, valid: tuple[str, ...]) -> dict[str, Any]:
+    """``reset(options=...)`` of either env: :func:`check_options`, then ``start`` and ``goal`` as points
+    (:func:`check_point`); each env checks its own other keys."""
+    opts = check_options(options, valid)
+    for name in ("start", "goal"):
+        check_point(opts.get(name), name)
+    return opts

@@ -9,8 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ndrql.env.args import check_cell_px, check_frame, check_map_px, check_point, check_seed, check_size
-from ndrql.env.grid_path import check_options
+from ndrql.env.args import check_cell_px, check_frame, check_map_px, check_seed, check_size, reset_options
 from ndrql.env.observe import (CHANNELS, PRIOR_CHANNELS, PRIORS, VIEWS, ego_view, full_view, goal_vector,
                                grid_image, ndr_prior, oracle_prior)
 from ndrql.env.render import render_rgb, render_text
@@ -213,10 +212,8 @@ class GoalGridPathEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         check_seed(seed)
         super().reset(seed=seed)
-        opts = check_options(options, RESET_OPTIONS)
+        opts = reset_options(options, RESET_OPTIONS)
         if opts:
-            for name in ("start", "goal"):
-                check_point(opts.get(name), name)
             missing = [k for k in RESET_OPTIONS if k not in opts]
             if missing:
                 raise NdrqlError(f"reset options need map, start and goal together (missing: {', '.join(missing)})")

@@ -10,7 +10,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ndrql.env.args import (check_cell_px, check_frame, check_grid_shape, check_point, check_rewards, check_seed,
-                             check_size)
+                             check_size, reset_options)
 from ndrql.env.render import render_rgb, render_text
 from ndrql.env.sources import GRID_RULES, EnvProblem, grid_problem, map_problem
 from ndrql.errors import NdrqlError, PointError
@@ -39,18 +39,6 @@ MapLike = str | Path | GridMap | np.ndarray
 
 def _parse_map(rows: tuple[str, ...] | list[str]) -> np.ndarray:
     return np.array([[ch == "#" for ch in row] for row in rows], dtype=bool)
-
-
-def check_options(options: dict[str, Any] | None, valid: tuple[str, ...]) -> dict[str, Any]:
-    """``options`` as a dict after refusing keys other than ``valid`` (one clear :class:`NdrqlError`)."""
-    if options is None:
-        return {}
-    if not isinstance(options, dict):
-        raise NdrqlError(f"reset options must be a dict, got {type(options).__name__}")
-    unknown = sorted(set(options) - set(valid))
-    if unknown:
-        raise NdrqlError(f"unknown reset option {', '.join(map(repr, unknown))}; valid: {', '.join(valid)}")
-    return options
 
 
 class GridPathEnv(gym.Env):
@@ -243,10 +231,8 @@ class GridPathEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         check_seed(seed)
         super().reset(seed=seed)
-        opts = check_options(options, RESET_OPTIONS)
+        opts = reset_options(options, RESET_OPTIONS)
         if opts:
-            for name in ("start", "goal"):
-                check_point(opts.get(name), name)
             check_grid_shape(opts.get("grid"))
             if "map" in opts and "grid" in opts:
                 raise NdrqlError("give either map or grid in the reset options, not both")

@@ -84,7 +84,7 @@ class CellPrediction:
 
 def config_view(config: Mapping) -> GridView:
     """The view a model was trained under, from its config (``ndrql train --view``; ``native`` when the
-    config has no ``view``, as today's shipped models)."""
+    config has no ``view``; the shipped ``general`` model records ``coarse:128``)."""
     return GridView.parse(config.get("view") or "native")
 
 

@@ -155,6 +155,24 @@ def test_mixed_multiscale_training_resumes_exactly(gen_set, tmp_path):
     train(cfg(init_weights=str(tmp_path / "straight" / "last.pt"), epochs=1, max_steps=1), tmp_path / "warm",
           progress=False, log=logs.append)
     assert any("warm start" in m for m in logs)
+    # a warm start scores its starting weights first, on the same validation inputs as its epochs
+    logs.clear()
+    train(cfg(init_weights=str(tmp_path / "straight" / "last.pt"), epochs=1), tmp_path / "warm-full",
+          progress=False, log=logs.append)
+    import csv
+
+    from ndrql.model.checkpoint import model_from_checkpoint
+    from ndrql.training.evaluate import evaluate_rendered
+    from ndrql.training.loop import build_mixture
+
+    with (tmp_path / "warm-full" / "metrics.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [r["epoch"] for r in rows] == ["0", "1"] and rows[0]["global_step"] == "0"
+    items = build_mixture(cfg(), progress=False)[0].validation(2)
+    start = evaluate_rendered(model_from_checkpoint(load_checkpoint(tmp_path / "straight" / "last.pt")), items)
+    assert rows[0]["val_region_f1"] == str(round(start["region_f1"], 3))  # the same inputs, the same number (nan too)
+    assert any(m.startswith("starting weights: val region F1") for m in logs)
+    assert "start_f1" in load_checkpoint(tmp_path / "warm-full" / "last.pt")["state"]
     from ndrql.errors import CheckpointError
 
     with pytest.raises(CheckpointError, match="init-weights"):

@@ -54,6 +54,20 @@ def peak_lr(cfg: TrainConfig, world_size: int) -> float:
     return cfg.lr * world_size if cfg.scale_lr else cfg.lr
 
 
+def val_score(res: dict[str, float]) -> float:
+    """The score best.pt is chosen by: region F1 plus guideline F1 (0 when the model has no guideline)."""
+    return res["region_f1"] + (res["guideline_f1"] if np.isfinite(res["guideline_f1"]) else 0.0)
+
+
+def metrics_row(epoch: int, state: dict, train_loss: float, res: dict[str, float], lr: float) -> dict:
+    """One metrics.csv row: epoch (0 = the starting weights of a warm start), progress, loss and validation."""
+    row = {"epoch": epoch, "global_step": state["global_step"], "train_hours": round(state["train_seconds"] / 3600, 4),
+           "train_loss": round(train_loss, 5), "val_region_f1": round(res["region_f1"], 3),
+           "val_guideline_f1": round(res["guideline_f1"], 3), "lr": lr}
+    row.update({k.replace("/", "_"): round(v, 3) for k, v in res.items() if "/" in k})
+    return row
+
+
 def write_metrics_row(path: Path, row: dict) -> None:
     """Append one row to the metrics CSV (header written once); rewrite it through :func:`ndrql.io.atomic_write`."""
     rows = []
@@ -319,8 +333,25 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
             return D.rank_batches(*args, world=world)
         return D.loader_batches(*args, world=world, workers=cfg.loader_workers, pin=device.type == "cuda")
 
-    losses: list[float] = []
     val_items = None
+
+    def score_now() -> dict[str, float]:
+        nonlocal val_items
+        if mixture is not None:
+            if val_items is None:
+                val_items = mixture.validation(cfg.val_per_source)
+            return evaluate_rendered(model, val_items, encoding, bf16=device.type == "cpu" and precision.dtype is not None)
+        return validate(model, train_data, val_idx, encoding, cfg, device, precision, world)
+
+    if cfg.init_weights and state["global_step"] == 0:
+        # A warm start is judged against its starting point: the same validation inputs, before any step.
+        res = score_now()
+        state["start_f1"] = val_score(res)
+        if main:
+            write_metrics_row(run_dir / "metrics.csv", metrics_row(0, state, float("nan"), res, 0.0))
+        log(f"starting weights: val region F1 {res['region_f1']:.3f} guideline F1 {res['guideline_f1']:.3f}")
+
+    losses: list[float] = []
     last_save = time.monotonic()
     steps_this_call = 0
     while state["epoch"] < cfg.epochs:
@@ -361,22 +392,17 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
                 return TrainOutcome(dict(state), model, losses)
         bar.close()
         _sync_buffers(model, world)  # every rank validates with rank 0's BatchNorm statistics
-        if mixture is not None:
-            if val_items is None:
-                val_items = mixture.validation(cfg.val_per_source)
-            res = evaluate_rendered(model, val_items, encoding, bf16=device.type == "cpu" and precision.dtype is not None)
-        else:
-            res = validate(model, train_data, val_idx, encoding, cfg, device, precision, world)
+        res = score_now()
         loss_sum, loss_n = D.all_reduce_sum([loss_sum, loss_n], world, device)
-        score = res["region_f1"] + (res["guideline_f1"] if np.isfinite(res["guideline_f1"]) else 0.0)
+        score = val_score(res)
         state.update(epoch=epoch + 1, step=0)
-        row = {"epoch": epoch + 1, "global_step": state["global_step"], "train_hours": round(state["train_seconds"] / 3600, 4),
-               "train_loss": round(loss_sum / max(loss_n, 1), 5), "val_region_f1": round(res["region_f1"], 3),
-               "val_guideline_f1": round(res["guideline_f1"], 3), "lr": learning_rate(cfg, state["global_step"], total_steps, peak)}
-        row.update({k.replace("/", "_"): round(v, 3) for k, v in res.items() if "/" in k})
+        row = metrics_row(epoch + 1, state, loss_sum / max(loss_n, 1), res,
+                          learning_rate(cfg, state["global_step"], total_steps, peak))
         if main:
             write_metrics_row(run_dir / "metrics.csv", row)
-        log(f"epoch {epoch + 1}: loss {row['train_loss']} val region F1 {row['val_region_f1']} guideline F1 {row['val_guideline_f1']}")
+        start = state.get("start_f1")
+        log(f"epoch {epoch + 1}: loss {row['train_loss']} val region F1 {row['val_region_f1']} guideline F1 {row['val_guideline_f1']}"
+            + (f" (below the starting weights' {start:.3f})" if start is not None and score < start else ""))
         if score > state["best_f1"]:
             state["best_f1"] = score
             if main:
@@ -384,6 +410,10 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
         if main:
             save_checkpoint(last_path, payload())
         last_save = time.monotonic()
+    start = state.get("start_f1")
+    if start is not None and state["best_f1"] < start:
+        log(f"no epoch beat the starting weights on validation ({state['best_f1']:.3f} < {start:.3f}, region + guideline F1): "
+            f"best.pt is the best epoch, not better than {cfg.init_weights}")
     D.barrier(world)
     return TrainOutcome(dict(state), model, losses)
 

@@ -289,9 +289,9 @@ def _collect(args, cfgs, problems, storage, digest, log):
         log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}")
     cfg = cfgs[0]
     check_seeds = list(range(cfg.seeds, 2 * cfg.seeds))
-    from ndrql.planning import kernel  # lazy: loads numba
+    from ndrql.planning import compiled  # lazy: loads numba when the C kernels are not built
 
-    kernel.warm_up()
+    compiled.warm_up()
     with process_pool(args.workers, start_method="fork") as pool:
         check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool, cfg.objective)
     key = "geomean" if cfg.objective == "geomean" else "steps"

@@ -204,10 +204,14 @@ typedef struct {
 
 /* The whole run; -1 when out of memory. Runs without the GIL. */
 static int train_run(const TrainArgs *A, TrainOut *O) {
+    /* what the step loop reads, in locals */
     const int32_t *nxt = A->nxt;
     const double *r_c = A->r_c;
     double *q = A->q;
-    int64_t cells = A->cells, start = A->start, goal = A->goal;
+    const int64_t cells = A->cells, start = A->start, goal = A->goal, max_steps = A->max_steps;
+    const uint64_t thr = A->thr;
+    const double alpha = A->alpha, gamma = A->gamma;
+    const double r_collision = A->r_collision, r_goal = A->r_goal, r_revisit = A->r_revisit;
     uint64_t st[4];
     state_from_seed(A->seed, st);
     uint64_t x0 = st[0], x1 = st[1], x2 = st[2], x3 = st[3];
@@ -227,7 +231,7 @@ static int train_run(const TrainArgs *A, TrainOut *O) {
         double ret = 0.0;
         int64_t n = 0;
         int reached = 0;
-        while (n < A->max_steps) {
+        while (n < max_steps) {
             uint64_t u = xoshiro(&x0, &x1, &x2, &x3);
             uint64_t lo = u & mask32;
             double m = max_q(q, s);
@@ -235,7 +239,7 @@ static int train_run(const TrainArgs *A, TrainOut *O) {
             int64_t t0 = qs[0] == m, t1 = qs[1] == m, t2 = qs[2] == m, t3 = qs[3] == m;
             int64_t mask = t0 | (t1 << 1) | (t2 << 2) | (t3 << 3);
             int64_t k = t0 + t1 + t2 + t3;
-            if ((u >> 32) < A->thr) {
+            if ((u >> 32) < thr) {
                 mask = 15;
                 k = 4;
             }
@@ -253,25 +257,25 @@ static int train_run(const TrainArgs *A, TrainOut *O) {
             double r = r_c[s2];
             int outcome = MOVE;
             if (revisit) {
-                r = A->r_revisit;
+                r = r_revisit;
                 outcome = REVISIT;
             }
             if (s2 == goal) {
-                r = A->r_goal;
+                r = r_goal;
                 outcome = GOAL;
             }
             if (s2 == s) {
-                r = A->r_collision;
+                r = r_collision;
                 outcome = COLLISION;
             }
             n += 1;
             ret += r;
             if (outcome == GOAL) {
-                q[4 * s + a] += A->alpha * (r - q[4 * s + a]);
+                q[4 * s + a] += alpha * (r - q[4 * s + a]);
                 reached = 1;
                 break;
             }
-            q[4 * s + a] += A->alpha * (r + A->gamma * max_q(q, s2) - q[4 * s + a]);
+            q[4 * s + a] += alpha * (r + gamma * max_q(q, s2) - q[4 * s + a]);
             s = s2;
         }
         if (ep >= cap) {

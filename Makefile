@@ -1,6 +1,7 @@
 # ndrql: two entry points, `make demo` and `make test`. Both create .venv if needed and install the
-# package with the CPU torch pin (constraints.txt); the install is skipped while pyproject.toml and
-# constraints.txt are unchanged since the last one (stamp file inside .venv). `make test` runs every
+# package with the CPU torch pin (constraints.txt), which also compiles the C kernels (setup.py); the
+# install is skipped while pyproject.toml, constraints.txt, setup.py and the kernels' C source are
+# unchanged since the last one (stamp file inside .venv). `make test` runs every
 # test (it is the CI command, .ci/run); `make test-fast` leaves out the ones marked slow.
 
 PYTHON ?= python3
@@ -16,7 +17,7 @@ all: test
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): $(BIN)/python pyproject.toml constraints.txt
+$(STAMP): $(BIN)/python pyproject.toml constraints.txt setup.py src/ndrql/maps/_kernels.c
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[test]'
 	@touch $(STAMP)
 

@@ -14,9 +14,16 @@ CPU of the whole process; CPU from ``getrusage(RUSAGE_CHILDREN)``), all in the s
    kernels; ``load``: the model; ``predict``; ``priors``; ``learn``; ``route``) and the final path's
    length over the map's own shortest route; the same with ``--symmetries 4`` for the cost of averaging
    the prediction over four orientations;
-3. the first run after an install: ``ndrql plan --example`` with an empty ``NUMBA_CACHE_DIR`` (numba
-   compiles the kernels), whether it says so in one line, and a second run with the same folder (loads
-   them, says nothing).
+3. the first run after an install: ``ndrql plan --example`` with an empty ``NUMBA_CACHE_DIR`` and a second
+   run with the same folder. With the C kernels built at install time (``ndrql.maps._kernels``) nothing
+   compiles: neither run may say it compiles, and the cache folder stays empty. With numba's kernels
+   (``NDRQL_KERNELS=numba``, or no extension) the first run compiles them and says so in one line, the
+   second loads them and says nothing; ``--numba-first-run`` measures that fallback too.
+
+Which kernels ran (``c`` or ``numba``, from ``plan --json``) is printed beside the figures. The runs use
+Python's bytecode cache (``__pycache__``) as an installed package does: ``PYTHONDONTWRITEBYTECODE`` is
+cleared for them, since with it set every run compiles ndrql's modules from source again (about 0.2 s);
+``--bytecode env`` keeps the environment as it is.
 
 Budgets (issue "the first ten minutes"): warm ``plan`` <= :data:`WARM_BUDGET` s wall with a final path
 at most :data:`PATH_BUDGET` x the map's shortest route; first run <= :data:`COLD_BUDGET` s wall. On a
@@ -84,26 +91,45 @@ def plan_runs(extra: list[str], repeat: int, tmp: Path) -> dict:
         run = data["runs"][0]
         ratio.append(run["route"]["length_px"]["final"] / data["planning_grid"]["auto"]["full_length_px"])
     return {"wall": med(walls), "cpu": med(cpus), "path_ratio": med(ratio), "method": run["method"],
+            "kernels": data.get("kernels", "numba"),
             "size": data["planning_grid"]["size"], "threshold": data["prediction_quality"]["threshold"],
             "stages_wall": {k: med([s.get(k, 0.0) for s in st_w]) for k in STAGES},
             "stages_cpu": {k: med([s.get(k, 0.0) for s in st_c]) for k in STAGES}}
 
 
-def first_runs(tmp: Path) -> list[dict]:
-    """``ndrql plan --example`` with an empty numba cache folder, then again with the same folder."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp / "numba-cache")}
+def first_runs(tmp: Path, kernels: str | None = None) -> list[dict]:
+    """``ndrql plan --example`` with an empty numba cache folder, then again with the same folder;
+    ``kernels`` sets ``NDRQL_KERNELS`` (None: as the environment has it)."""
+    cache = tmp / f"numba-cache-{kernels or 'default'}"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    if kernels:
+        env["NDRQL_KERNELS"] = kernels
     out = []
-    for label in ("first run (compiles)", "second run (loads)"):
+    for label in ("first run", "second run"):
         w, c, r = timed([EXE, "plan", "--example"], env=env)
         notice = [line for line in r.stderr.splitlines() if "compiling" in line]
-        out.append({"label": label, "wall": w, "cpu": c, "notice": notice})
+        cached = sum(1 for p in cache.rglob("*") if p.is_file()) if cache.exists() else 0
+        out.append({"label": label, "wall": w, "cpu": c, "notice": notice, "cache_files": cached})
     return out
+
+
+def print_first(title: str, runs: list[dict]) -> None:
+    print(f"\n{title}:")
+    for f in runs:
+        said = f"says: {f['notice'][0][:90]}..." if f["notice"] else "says nothing"
+        print(f"  {f['label']:<11} wall {f['wall']:5.2f} s, CPU {f['cpu']:5.2f} s; {len(f['notice'])} notice line(s); "
+              f"{said}; numba cache files {f['cache_files']}")
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5, help="runs per figure (median reported; default 5)")
     ap.add_argument("--check", action="store_true", help="exit 1 when a budget is not met")
+    ap.add_argument("--bytecode", choices=("on", "env"), default="on",
+                    help="on: the runs keep compiled modules in __pycache__ as an install does (default); env: as "
+                         "PYTHONDONTWRITEBYTECODE says")
+    ap.add_argument("--numba-first-run", action="store_true",
+                    help="also the first run with numba's kernels (NDRQL_KERNELS=numba: they compile, 10-20 s)")
     args = ap.parse_args(argv)
 
     cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
@@ -111,10 +137,13 @@ def main(argv: list[str] | None = None) -> int:
     import numba
     import onnxruntime
 
+    if args.bytecode == "on":
+        os.environ.pop("PYTHONDONTWRITEBYTECODE", None)  # the child runs inherit it
+    bytecode = "off (PYTHONDONTWRITEBYTECODE)" if os.environ.get("PYTHONDONTWRITEBYTECODE") else "on"
     load0 = os.getloadavg()[0]
     print(f"machine: {cpu}, {os.cpu_count()} logical cores, load average {load0:.1f}; Python "
           f"{platform.python_version()}, numba {numba.__version__}, onnxruntime {onnxruntime.__version__}; "
-          f"median of {args.repeat} runs\n")
+          f"median of {args.repeat} runs; bytecode cache {bytecode}\n")
     help_ = command_runs([EXE, "--help"], args.repeat)
     astar = command_runs([EXE, "astar", "--example"], args.repeat)
     with tempfile.TemporaryDirectory() as d:
@@ -122,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
         plan = plan_runs([], args.repeat, tmp)
         plan4 = plan_runs(["--symmetries", "4"], args.repeat, tmp)
         first = first_runs(tmp)
+        fallback = first_runs(tmp, "numba") if args.numba_first_run else None
     load1 = os.getloadavg()[0]
 
     print(f"{'command':<44} {'wall s':>7} {'CPU s':>7} {'wall / astar':>12}")
@@ -136,10 +166,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {k:<9} {r['stages_wall'][k]:7.3f} {r['stages_cpu'][k]:7.3f}")
         rest = r["wall"] - sum(r["stages_wall"].values())
         print(f"  {'rest':<9} {rest:7.3f}          (Python, imports, reading the map, the report)")
-    print("\nfirst run after an install (empty NUMBA_CACHE_DIR):")
-    for f in first:
-        said = f"says: {f['notice'][0][:90]}..." if f["notice"] else "says nothing"
-        print(f"  {f['label']:<22} wall {f['wall']:5.2f} s, CPU {f['cpu']:5.2f} s; {len(f['notice'])} notice line(s); {said}")
+    print(f"\nkernels that ran: {plan['kernels']} (NDRQL_KERNELS={os.environ.get('NDRQL_KERNELS', 'auto')})")
+    print_first(f"first run after an install (empty NUMBA_CACHE_DIR), {plan['kernels']} kernels", first)
+    if fallback:
+        print_first("first run after an install, numba's kernels (NDRQL_KERNELS=numba: the fallback)", fallback)
     print(f"\nload average {load0:.1f} before, {load1:.1f} after (2 cores: above 2, every figure includes waiting)")
 
     checks = [("warm plan wall", plan["wall"], WARM_BUDGET), ("final path / shortest", plan["path_ratio"], PATH_BUDGET),
@@ -149,8 +179,12 @@ def main(argv: list[str] | None = None) -> int:
         met = value <= budget
         ok &= met
         print(f"budget: {name} {value:.2f} <= {budget}: {'met' if met else 'NOT met'}")
-    once = len(first[0]["notice"]) == 1 and not first[1]["notice"]
-    print(f"the first run says it compiles in one line, later runs say nothing: {'yes' if once else 'NO'}")
+    if plan["kernels"] == "c":
+        once = not first[0]["notice"] and not first[1]["notice"] and first[1]["cache_files"] == 0
+        print(f"C kernels: nothing compiles, no run says it does, numba's cache stays empty: {'yes' if once else 'NO'}")
+    else:
+        once = len(first[0]["notice"]) == 1 and not first[1]["notice"]
+        print(f"the first run says it compiles in one line, later runs say nothing: {'yes' if once else 'NO'}")
     return 0 if (ok and once) or not args.check else 1
 
 

@@ -6,6 +6,8 @@ measures the kernel alone on full runs (to convergence) over many seeds, on one 
 
     .venv/bin/python benchmarks/qlearning_speed.py            # prints figures
     .venv/bin/python benchmarks/qlearning_speed.py --check    # exit 1 below the floors
+    .venv/bin/python benchmarks/qlearning_speed.py --kernels numba   # numba's kernel (default: the one
+                                                                     # plan runs, C when built)
 
 Floors (issue 3): kernel >= 40 M steps/s on one core on a 50x50 map, and >= 100x the numpy loop.
 Times are the CPU time of this (single) thread (``time.thread_time``), so the figures are per core
@@ -15,6 +17,7 @@ and do not count time the scheduler gives to other processes on a busy machine.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -54,12 +57,12 @@ def dataset_map(root: Path) -> tuple[np.ndarray, tuple[int, int], tuple[int, int
 
 
 def kernel_run(blocked, start, goal, r_c, q0, seed, cfg: QLConfig):
-    from ndrql.planning import kernel
+    from ndrql.planning import compiled
 
     h, w = blocked.shape
     q = q0.copy()
     t = time.thread_time()
-    out = kernel.train(
+    out = compiled.train(
         rules.next_table(blocked), rules.cell_index(start, w), rules.cell_index(goal, w), r_c.ravel(), q, seed,
         cfg.alpha, cfg.gamma, rng.eps_threshold(cfg.epsilon), cfg.steps_cap(h * w), cfg.max_episodes, cfg.window,
         cfg.reward_collision, cfg.reward_goal, cfg.reward_revisit,
@@ -76,12 +79,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--method", default="QL", help="method whose priors are used (default QL)")
     ap.add_argument("--dataset", type=Path, default=Path(__file__).resolve().parents[2] / "shared/data/path-planning-dataset")
     ap.add_argument("--check", action="store_true", help="exit 1 when a floor is not met")
+    ap.add_argument("--kernels", choices=("auto", "c", "numba"), default=None,
+                    help="which compiled kernel (sets NDRQL_KERNELS; default: as the environment says, else auto)")
     args = ap.parse_args(argv)
+    if args.kernels:
+        os.environ["NDRQL_KERNELS"] = args.kernels
 
-    from ndrql.planning import kernel
+    from ndrql.planning import compiled
 
-    kernel.warm_up()
+    compiled.warm_up()
     print(f"machine: {machine_line(machine())}")
+    print(f"kernel: {compiled.backend()} (NDRQL_KERNELS={os.environ.get('NDRQL_KERNELS', 'auto')})")
     print(f"method {args.method}, alpha 0.1, epsilon 0.2, gamma 0.95, max_steps 4 x cells, W 20; one core\n")
     maps = [synthetic_map()]
     real = dataset_map(args.dataset)

@@ -62,6 +62,12 @@ def module_names(src: Path = SRC) -> dict[str, Path]:
     return out
 
 
+def extension_names(src: Path = SRC) -> dict[str, Path]:
+    """C extension modules of the package, dotted name -> C source (``src/ndrql/maps/_kernels.c`` ->
+    ``ndrql.maps._kernels``, built by setup.py). An import of one ends there: it imports nothing of ndrql."""
+    return {".".join(path.relative_to(src).with_suffix("").parts): path for path in sorted((src / ROOT).rglob("*.c"))}
+
+
 def _resolve(name: str, modules: dict[str, Path]) -> str | None:
     """The longest prefix of ``name`` that is a module of the package."""
     parts = name.split(".")
@@ -134,7 +140,8 @@ def scan_module(module: str, path: Path, modules: dict[str, Path]) -> list[Impor
 def scan(src: Path = SRC) -> list[Import]:
     """Every ``ndrql`` import in the package."""
     modules = module_names(src)
-    return [imp for module, path in modules.items() for imp in scan_module(module, path, modules)]
+    known = {**modules, **extension_names(src)}
+    return [imp for module, path in modules.items() for imp in scan_module(module, path, known)]
 
 
 def graph(imports: list[Import], key=lambda m: m) -> dict[str, set[str]]:

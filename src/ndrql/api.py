@@ -40,6 +40,7 @@ from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, S
 from ndrql.pipeline.request import PlanRequest, build_request
 from ndrql.pipeline.runs import check_workers, learn, method_priors
 from ndrql.pipeline.settings import PlanSettings
+from ndrql.planning import compiled
 from ndrql.planning.methods import get_method
 
 #: Positional arguments of :func:`solve` after the map (the keyword form), in order.
@@ -83,9 +84,7 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     with clock.stage("priors"):
         priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts, pred.distance)
     with clock.stage("startup"):
-        from ndrql.planning import kernel  # lazy: loads numba
-
-        kernel.warm_up()  # loads the compiled kernel from numba's disk cache (compiles on the very first run)
+        compiled.warm_up()  # numba's kernels load from its disk cache (compile on the first run); C ones: nothing
     n_workers = check_workers(workers)
     with clock.stage("learn"):
         results = learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
@@ -97,7 +96,8 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
         grid_map=request.grid_map, start=request.start, goal=request.goal, grid=pg, methods=tuple(m.name for m in ms),
         seeds=request.seeds, results=tuple(runs), region=pred.region_map, guideline=pred.guideline_map,
         thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=pred.weights,
-        info={**request.info, **pred.record}, config=consts(ms[0].name)[0], prior_config=consts(ms[0].name)[1],
+        info={**request.info, **pred.record, "kernels": compiled.backend()}, config=consts(ms[0].name)[0],
+        prior_config=consts(ms[0].name)[1],
         setup=setup, settings=request.settings, request=request,
     )
 

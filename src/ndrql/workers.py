@@ -23,16 +23,17 @@ alone); any layer may use it.
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import signal
 import sys
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, wait
-from typing import Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from ndrql.errors import NdrqlError
+
+if TYPE_CHECKING:  # multiprocessing and concurrent.futures load when a pool starts (about 30 ms of start-up)
+    from concurrent.futures import Executor, Future, ProcessPoolExecutor
 
 __all__ = ["EXECUTORS", "die_with_parent", "pick_executor", "process_pool", "ray_available", "run_calls", "start_manager"]
 
@@ -79,6 +80,8 @@ def _init_worker(parent_pid: int, initializer: Callable[..., Any] | None, initar
 
 
 def _context(start_method: str | None) -> Any:
+    import multiprocessing
+
     if start_method == "fork" and "fork" not in multiprocessing.get_all_start_methods():
         start_method = None  # fork where possible (workers inherit loaded kernels), else the default
     return multiprocessing.get_context(start_method)
@@ -94,6 +97,8 @@ def process_pool(workers: int, *, start_method: str | None = None, initializer: 
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
+    from concurrent.futures import ProcessPoolExecutor
+
     return ProcessPoolExecutor(max_workers=workers, mp_context=_context(start_method), initializer=_init_worker,
                                initargs=(os.getpid(), initializer, initargs))
 
@@ -166,6 +171,8 @@ def run_calls(fn: Callable[..., Any], calls: Sequence[tuple], *, executor: str =
     elif executor == "ray":
         _run_ray(fn, calls, workers, ray_address, finish, poll, poll_seconds)
     elif calls:
+        from concurrent.futures import ThreadPoolExecutor
+
         n = min(workers, len(calls))
         pool: Executor = (ThreadPoolExecutor(max_workers=n) if executor == "thread"
                           else process_pool(n, start_method=start_method))
@@ -176,6 +183,8 @@ def run_calls(fn: Callable[..., Any], calls: Sequence[tuple], *, executor: str =
 
 def _run_pool(pool: Executor, fn: Callable[..., Any], calls: list[tuple], finish: Callable[[int, Any], None],
               poll: Callable[[], None] | None, poll_seconds: float) -> None:
+    from concurrent.futures import FIRST_COMPLETED, wait
+
     pending: dict[Future, int] = {pool.submit(fn, *args): i for i, args in enumerate(calls)}
     try:
         while pending:

@@ -4,9 +4,12 @@ one line when the first run compiles."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -91,13 +94,33 @@ def test_help_points_to_the_docs_online_not_to_a_folder_a_pip_install_lacks(ndrq
 
 @pytest.mark.slow
 def test_the_first_run_says_once_that_it_compiles(ndrql_exe, model_weights, tmp_path):
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    """numba's kernels (the fallback when the C extension is not built) compile on the first run and say so."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "NDRQL_KERNELS": "numba"}
     first = run_cli(ndrql_exe, "plan", "--example", "--method", "QL", cwd=tmp_path, env=env)
     assert first.returncode == 0, first.stderr
     notice = [line for line in first.stderr.splitlines() if "compiling" in line]
     assert len(notice) == 1 and str(tmp_path / "numba") in notice[0], first.stderr
     second = run_cli(ndrql_exe, "plan", "--example", "--method", "QL", cwd=tmp_path, env=env)
     assert second.returncode == 0 and "compiling" not in second.stderr, second.stderr
+
+
+def test_with_the_c_kernels_the_first_run_compiles_nothing_and_loads_neither_numba_nor_scipy(model_weights, tmp_path):
+    """The C extension built at install time: an empty numba cache, yet no notice, and no numba, llvmlite or
+    scipy in the process (their imports are most of a warm plan's start-up)."""
+    from ndrql.maps import native
+
+    if native.extension() is None:
+        pytest.skip("the C extension ndrql.maps._kernels is not built (no C compiler at install time)")
+    code = ("import sys, json; from ndrql.cli import main; rc = main(['plan', '--example', '--json', 'out.json']); "
+            "print(json.dumps([rc, sorted({m.split('.')[0] for m in sys.modules} & {'numba', 'llvmlite', 'scipy'}), "
+            "json.load(open('out.json'))['kernels']]))")
+    src = str(Path(native.__file__).resolve().parents[2])  # this ndrql, whatever the working folder
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "NDRQL_KERNELS": "auto",
+           "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout.splitlines()[-1]) == [0, [], "c"]
+    assert "compiling" not in r.stderr and not (tmp_path / "numba").exists()
 
 
 def test_geometric_ci_of_steps_never_goes_below_zero():

@@ -221,7 +221,7 @@ COMPILING_COMMANDS = frozenset({"plan", "demo"})
 
 def _compile_notice() -> None:
     """One stderr line when this run has to compile the planners (the first after install), else nothing."""
-    from ndrql.planning.kernel import compile_notice  # lazy: loads numba, which these commands need anyway
+    from ndrql.planning.compiled import compile_notice  # lazy: numba's kernels only (the C ones compile nothing)
 
     notice = compile_notice()
     if notice:

@@ -164,6 +164,7 @@ def summary_lines(report: Any) -> list[str]:
     t = report.timings
     stages = ", ".join(f"{s} {t[s]:.3f}" for s in WORK_STAGES)
     extra = "".join(f", {s} {t[s]:.3f}" for s in ("grid", "route") if t.get(s, 0.0) >= 0.0005)
+    kernels = {"c": ", C kernels", "numba": ", numba kernels"}.get(report.info.get("kernels", ""), "")
     lines.append(f"time (s): {stages}; work {report.work_time:.3f} "
-                 f"(+ map {t['map']:.3f}{extra}, start-up {t['startup']:.2f})")
+                 f"(+ map {t['map']:.3f}{extra}, start-up {t['startup']:.2f}{kernels})")
     return lines

@@ -14,6 +14,7 @@ from ndrql.dataset.layout import resolve_root
 from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
+from ndrql.planning import compiled
 from ndrql.planning.methods import get_method
 from ndrql.planning.preset import Preset, load_preset, write_preset
 from ndrql.tuning import space as S
@@ -289,9 +290,7 @@ def _collect(args, cfgs, problems, storage, digest, log):
         log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}")
     cfg = cfgs[0]
     check_seeds = list(range(cfg.seeds, 2 * cfg.seeds))
-    from ndrql.planning import kernel  # lazy: loads numba
-
-    kernel.warm_up()
+    compiled.warm_up()
     with process_pool(args.workers, start_method="fork") as pool:
         check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool, cfg.objective)
     key = "geomean" if cfg.objective == "geomean" else "steps"

@@ -19,6 +19,7 @@ from ndrql.dataset.render import PX_PER_CELL, connected_grid, from_model_output,
 from ndrql.experiments.stats import share_of_oracle
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances
 from ndrql.maps.safe import cell_size_px
+from ndrql.maps.sizing import SIZE_LADDER
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.dataset.render import cell_means
 from ndrql.pipeline.predictions import predict_on_grid
@@ -72,8 +73,6 @@ def ladder_top(n: int) -> int:
 
 def larger_sizes(n: int) -> tuple[int, ...]:
     """Sizes tried after ``n`` when a map does not connect at ``n``: the auto ladder up to :func:`ladder_top`."""
-    from ndrql.maps.sizing import SIZE_LADDER  # lazy: loads numba
-
     return tuple(s for s in SIZE_LADDER if n < s <= ladder_top(n))
 
 

@@ -34,7 +34,7 @@ from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import write_json, write_text
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PlanningGrid, cell_to_point
-from ndrql.planning import kernel
+from ndrql.planning import compiled
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
 from ndrql.planning.runner import run_plan
@@ -157,7 +157,7 @@ def dynamic(opts: SweepOptions, out_dir: str | Path, map_label: str = "MAP-1", l
             cache = PredictionCache(out_dir / "predictions" / f"{name}{i}", opts.weights)
             lst.append((label, cache.attach(p)))
         attached[name] = lst
-    kernel.warm_up()
+    compiled.warm_up()
     tasks = []
     variants = [get_method(m) for m in METHODS]
     for name, stages in attached.items():

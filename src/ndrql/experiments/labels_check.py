@@ -27,6 +27,7 @@ from ndrql.dataset.layout import CATEGORIES, check_root, count_samples, default_
 from ndrql.errors import DatasetError, NoPathError
 from ndrql.experiments.report import machine, machine_line, md_table
 from ndrql.io import make_folder, write_json, write_text
+from ndrql.maps.lines import polyline_length
 from ndrql.synth.endpoints import sample_endpoints
 from ndrql.synth.labels import dilate_region, draw_guideline, make_labels, near_optimal_path
 from ndrql.training.metrics import f1_per_image
@@ -90,8 +91,6 @@ def sample_indices(limit: int | None, n: int) -> list[int]:
 
 def check_sample(root: str | Path, index: int, seed: int) -> SampleCheck:
     """Compare our labels, lengths and endpoints with dataset sample ``index`` of TEST/SEEN."""
-    from ndrql.maps.lines import polyline_length  # lazy: loads numba
-
     s = load_sample(root, SPLIT, index)
     draw_exact = bool(np.array_equal(draw_guideline(s.map.shape, s.waypoints), s.guideline))
     dilate_exact = bool(np.array_equal(dilate_region(s.guideline), s.region))

@@ -34,7 +34,7 @@ from ndrql.experiments.sweep import SweepReport, Task, run_sweep
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.pipeline.samples import OraclePriors, PredictionCache, Problem
-from ndrql.planning import kernel
+from ndrql.planning import compiled
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, build_priors
 from ndrql.planning.preset import preset_to_dict
@@ -160,7 +160,7 @@ def run_grid(problems: Sequence[Problem], methods: Sequence[Method], opts: Sweep
     again with the oracle's priors; results by ``(problem key, row name)`` (an oracle row is named
     ``<method> (oracle priors)``) and the sweep's :class:`~ndrql.experiments.sweep.SweepReport`.
     ``source``: where the priors attached to ``problems`` come from (:func:`prior_id`)."""
-    kernel.warm_up()  # compile/load once before forking workers
+    compiled.warm_up()  # compile/load once before forking workers
     tasks = make_tasks(problems, methods, opts, source, records)
     rows = [(p.key, m.name) for p in problems for m in methods]
     if oracle_rows:

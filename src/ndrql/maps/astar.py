@@ -4,7 +4,8 @@
   the optimal path length that Q-learning paths are compared against).
 - :func:`astar8`: 8-connected with octile costs (diagonal = sqrt(2)) and no corner cutting (a
   diagonal move needs both orthogonal neighbours free), as in the MovingAI benchmarks.
-- :func:`shortest_path8`: the same search compiled with numba (:mod:`ndrql.maps.astar_kernel`), fast
+- :func:`shortest_path8`: the same search compiled (the C extension, else numba's
+  :mod:`ndrql.maps.astar_kernel`; :mod:`ndrql.maps.native` chooses), fast
   on 4000x4000 maps; it pops the same nodes in the same order, so path, cost and expansions are
   identical, and :func:`astar8` delegates to it.
 
@@ -24,6 +25,7 @@ import numpy as np
 
 from ndrql.errors import NoPathError, PointError
 from ndrql.maps.grid import MOVES4, Cell
+from ndrql.maps.native import c_kernels
 
 SQRT2 = math.sqrt(2.0)
 
@@ -108,7 +110,7 @@ def kernel_map(obstacles: np.ndarray) -> np.ndarray:
 
 
 def shortest_path8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> AStarResult:
-    """Shortest 8-connected path with octile costs and no corner cutting, compiled (numba).
+    """Shortest 8-connected path with octile costs and no corner cutting, compiled (C, or numba).
 
     A diagonal move ``(dr, dc)`` needs ``(r + dr, c)`` and ``(r, c + dc)`` free (MovingAI rule). Ties
     are broken by insertion order, so the result is deterministic. Raises
@@ -118,14 +120,18 @@ def shortest_path8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int
 
 
 def _search8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], corner_cutting: bool) -> AStarResult:
-    # Imported here, not at the top: ``import ndrql.maps`` must not import numba (start-up time).
-    from ndrql.maps.astar_kernel import astar8_kernel  # lazy: loads numba
-
     blocked = kernel_map(blocked)
     h, w = blocked.shape
     s = _check_point(blocked, start, "start")
     g = _check_point(blocked, goal, "goal")
-    path, cost, expanded = astar8_kernel(blocked, s[0] * w + s[1], g[0] * w + g[1], bool(corner_cutting))
+    ck = c_kernels()
+    if ck is not None:  # the C kernel built at install time
+        raw, cost, expanded = ck.astar8(blocked, h, w, s[0] * w + s[1], g[0] * w + g[1], bool(corner_cutting))
+        path = np.frombuffer(raw, dtype=np.int64)
+    else:  # numba's, imported here, not at the top: ``import ndrql.maps`` must not import numba (start-up time)
+        from ndrql.maps.astar_kernel import astar8_kernel  # lazy: loads numba
+
+        path, cost, expanded = astar8_kernel(blocked, s[0] * w + s[1], g[0] * w + g[1], bool(corner_cutting))
     if len(path) == 0:
         raise NoPathError(f"no 8-connected path from start {s} to goal {g}")
     rows, cols = np.divmod(path, w)

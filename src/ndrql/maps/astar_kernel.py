@@ -5,7 +5,8 @@ Importing this module imports numba, so :mod:`ndrql.maps.astar` imports it only 
 open list is a binary heap held in arrays, ordered by ``(f, push counter)`` exactly like ``heapq``
 on ``(f, counter, ...)`` tuples, ``f`` is computed with the same floating-point operations, and a
 node is improved only when the new cost beats the old by more than ``1e-12``. The same pops happen
-in the same order, so the path, the cost and the number of expanded nodes are identical.
+in the same order, so the path, the cost and the number of expanded nodes are identical. The C extension
+``ndrql.maps._kernels`` holds a bit-identical port that runs instead when it is built (:mod:`ndrql.maps.native`).
 """
 
 from __future__ import annotations

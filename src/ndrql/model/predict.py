@@ -27,6 +27,7 @@ from ndrql.dataset.views import GridView, ViewInput, view_cells, view_distance_c
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
 from ndrql.limits import check_threads
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
+from ndrql.maps.sizing import choose_size, full_route, safe_grid
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
 from ndrql.model.symmetry import DEFAULT_COUNT, averaged, check_count
@@ -304,8 +305,6 @@ class Predictor:
         return Prediction(region=region, guideline=guide)
 
     def _predict_safe_grid(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None) -> Prediction:
-        from ndrql.maps.sizing import choose_size, full_route, safe_grid  # lazy: loads numba
-
         if size is None:
             size = choose_size(obstacles, start, goal, full_route(obstacles, start, goal).cost, DEFAULT_MAX_SIZE).size
         pg = safe_grid(obstacles, int(size), start, goal)

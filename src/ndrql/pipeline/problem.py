@@ -28,6 +28,7 @@ from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
 from ndrql.maps.scenarios import scenario_doubts
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
+from ndrql.maps.sizing import choose_size, connected4, full_route, ladder, safe_grid, try_size
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
 Point = tuple[int, int]
@@ -197,8 +198,6 @@ def _area_grid(check_map: np.ndarray, start: Point, goal: Point, size: int) -> P
 
 
 def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, max_size: int) -> int | None:
-    from ndrql.maps.sizing import ladder, try_size  # lazy: loads numba
-
     for s in ladder(check_map.shape, max_size):
         if s > size and try_size(check_map, start, goal, s, 1.0).grid_length is not None:
             return s
@@ -207,8 +206,6 @@ def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, m
 
 def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Point, size: int,
                max_size: int) -> PlanningGrid:
-    from ndrql.maps.sizing import connected4, safe_grid  # lazy: loads numba
-
     pg = safe_grid(check_map, size, start, goal)
     blocked, cells = pg.blocked, (pg.start, pg.goal)
     for name, p, cell, moved in zip(("start", "goal"), (start, goal), cells, pg.snapped):
@@ -268,8 +265,6 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
         pg = _area_grid(check_map, start, goal, int(size))
     else:
         if size == "auto":
-            from ndrql.maps.sizing import choose_size, full_route  # lazy: loads numba
-
             route = full_route(check_map, start, goal, radius_px)
             auto = choose_size(check_map, start, goal, route.cost, settings.max_size, settings.tolerance,
                                grid_map.resolution)

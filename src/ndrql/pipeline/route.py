@@ -28,6 +28,7 @@ import numpy as np
 from ndrql.errors import NoPathError
 from ndrql.maps.astar import shortest_path8
 from ndrql.maps.grid import GridMap, PlanningGrid
+from ndrql.maps.lines import polyline_collisions, polyline_length, segment_free, shortcut
 from ndrql.maps.world import path_yaws, pixels_to_world
 
 #: Pixels around the two points of an end leg searched for a full-map path (the whole map if that fails).
@@ -95,8 +96,6 @@ class Route:
 
 def _leg(check_map: np.ndarray, a: Sequence[float], b: Sequence[float]) -> list[tuple[float, float]]:
     """Points from ``a`` to ``b`` (``b`` included, ``a`` not): straight when free, else the full map's shortest path."""
-    from ndrql.maps.lines import segment_free  # lazy: loads numba
-
     b = (float(b[0]), float(b[1]))
     if segment_free(check_map, a, b):
         return [b]
@@ -138,8 +137,6 @@ def grid_polyline(check_map: np.ndarray, grid: PlanningGrid, cells: Sequence[Seq
 def make_route(check_map: np.ndarray, grid: PlanningGrid, cells: Sequence[Sequence[int]], grid_map: GridMap, *,
                smooth: bool, start_yaw: float | None = None, goal_yaw: float | None = None) -> Route:
     """The route of a learned path ``cells`` (planning-grid cells from start to goal), checked on ``check_map``."""
-    from ndrql.maps.lines import polyline_collisions, polyline_length, shortcut  # lazy: loads numba
-
     poly = grid_polyline(check_map, grid, cells)
     hits = tuple(polyline_collisions(check_map, poly))
     final = shortcut(check_map, poly) if smooth else poly

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import sys
 import warnings
 from typing import Callable, Sequence
 
@@ -78,10 +79,13 @@ def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
         if workers == 1 or len(jobs) == 1:
-            from tqdm import tqdm  # progress: a bar of finished runs on stderr, on a terminal only
+            shown = jobs
+            if progress and sys.stderr.isatty():  # tqdm only when its bar shows (importing it costs ~25-50 ms)
+                from tqdm import tqdm  # progress: a bar of finished runs on stderr, on a terminal only
 
+                shown = tqdm(jobs, desc="runs", unit="run", leave=False)
             return [run_plan(grid.blocked, grid.start, grid.goal, m.name, s, *consts(m.name), priors=priors[m.name],
                              keep_records=keep_records)
-                    for m, s in tqdm(jobs, desc="runs", unit="run", disable=None if progress else True, leave=False)]
+                    for m, s in shown]
         return run_many([PlanJob(grid.blocked, grid.start, grid.goal, m.name, s, *consts(m.name), region, guideline,
                                  keep_records, distance) for m, s in jobs], workers=workers, progress=progress)

@@ -7,7 +7,10 @@ transition are :func:`ndrql.planning.rules.step` and convergence :func:`ndrql.pl
 compiled here; the random stream is :mod:`ndrql.planning.rng` (xoshiro256** seeded by splitmix64),
 compiled here too, so a run depends only on its seed, whatever else runs in the process.
 
-Importing this module imports numba; compiled code is cached on disk (``cache=True``).
+Importing this module imports numba; compiled code is cached on disk (``cache=True``). This is the
+reference: the C extension ``ndrql.maps._kernels`` holds a bit-identical port, built at install time,
+which :mod:`ndrql.planning.compiled` runs instead when it is built (tested against this kernel on random
+problems, ``tests/planning/test_c_kernels.py``).
 """
 
 from __future__ import annotations
@@ -212,9 +215,9 @@ def warm_up() -> None:
 
 def _dispatchers() -> list:
     """The compiled functions a plan runs: the map's A* and line tests, and Q-learning."""
-    from ndrql.maps import astar_kernel, lines  # lazy: loads numba (this module already has)
+    from ndrql.maps import astar_kernel, lines_kernel  # lazy: loads numba (this module already has)
 
-    return [astar_kernel.astar8_kernel, lines._first_blocked, lines._shortcut, train]
+    return [astar_kernel.astar8_kernel, lines_kernel._first_blocked, lines_kernel._shortcut, train]
 
 
 def _index_path(dispatcher) -> str | None:

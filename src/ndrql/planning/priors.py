@@ -20,6 +20,7 @@ import warnings
 
 import numpy as np
 
+from ndrql.maps.sizing import connected4  # the compiled A*: no scipy import (~0.15 s)
 from ndrql.planning import rules
 from ndrql.planning.config import PriorConfig
 
@@ -88,8 +89,6 @@ def region_connects(
     inside = (np.asarray(region) > thd) & ~np.asarray(blocked, dtype=bool)
     if not (inside[tuple(start)] and inside[tuple(goal)]):
         return False
-    from ndrql.maps.sizing import connected4  # lazy: loads numba; the compiled A*, no scipy import (~0.15 s)
-
     return connected4(~inside, tuple(start), tuple(goal))
 
 

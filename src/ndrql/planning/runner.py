@@ -17,7 +17,7 @@ import numpy as np
 from ndrql.errors import PointError
 from ndrql.limits import check_seeds
 from ndrql.maps.astar import astar4
-from ndrql.planning import rng, rules
+from ndrql.planning import compiled, rng, rules
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Priors, build_priors, get_method
 from ndrql.planning.results import EpisodeRecords, PlanResult
@@ -112,14 +112,12 @@ def run_plan(
     cells = h * w
     if priors.r_c.shape != (h, w) or priors.q0.shape != (cells, 4):
         raise ValueError(f"priors do not fit a {h}x{w} grid: r_c {priors.r_c.shape}, q0 {priors.q0.shape}")
-    from ndrql.planning import kernel  # lazy: loads numba
-
     nxt = rules.next_table(blocked)
     q = np.array(priors.q0, dtype=np.float64, order="C", copy=True)
     s_idx = rules.cell_index(start, w)
     g_idx = rules.cell_index(goal, w)
     n_ep, steps, rets, succ, glen, conv_ep, conv_steps, path_len, path = interruptible(
-        kernel.train,
+        compiled.train,
         nxt,
         s_idx,
         g_idx,
@@ -256,9 +254,7 @@ def run_many(jobs: list[PlanJob], workers: int | None = None, backend: str = "pr
     with _progress_bar(len(jobs), progress) as bar:
         executor = pick_executor(backend, workers, len(jobs))
         if executor != "serial":
-            from ndrql.planning import kernel  # lazy: loads numba
-
-            kernel.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
+            compiled.warm_up()  # load the compiled kernel once; threads share it, forked workers inherit it
         if executor != "process":  # in this process or on threads: one call per job
             return run_calls(_run_job, [(j,) for j in jobs], executor=executor, workers=workers,
                              on_result=lambda i, r: bar.update())

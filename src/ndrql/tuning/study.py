@@ -36,6 +36,7 @@ from typing import Any, Callable, Sequence
 
 from ndrql.errors import NdrqlError
 from ndrql.io import data_digest, make_folder
+from ndrql.planning import compiled
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import load_preset
 from ndrql.tuning import space as S
@@ -362,7 +363,6 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     import optuna
     from tqdm import tqdm
 
-    from ndrql.planning import kernel  # lazy: loads numba
 
     if not problems:
         raise NdrqlError("no planning problems to tune on")
@@ -370,7 +370,7 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     name = name or study_name(cfg, [p.key for p in problems], weights_digest)
     study = open_study(cfg, name, open_storage(storage, cfg))
     fail_orphans(study, cfg.grace)
-    kernel.warm_up()  # compile once before forking workers
+    compiled.warm_up()  # compile once before forking workers
     pool = process_pool(workers, start_method="fork") if workers > 1 else None
     try:
         base = baseline(study, cfg, problems, pool)

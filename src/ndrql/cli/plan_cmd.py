@@ -7,7 +7,7 @@ import warnings
 from typing import Any
 
 from ndrql.api import PlanSettings, build_request, run_request
-from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
+from ndrql.cli.common import (add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
                               check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
                               warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, grid_size
@@ -16,6 +16,7 @@ from ndrql.cli.plan_report import summary_lines
 from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
 from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
+from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
@@ -142,7 +143,7 @@ def _set_fields(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, A
     return {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
 
 
-def _points(args: argparse.Namespace, sample: Problem | None) -> dict[str, Any]:
+def _points(args: argparse.Namespace, sample: GridMapProblem | None) -> dict[str, Any]:
     """Start and goal as the flags give them (a sample's own points unless flags replace them)."""
     start = parse_point(args.start, "--start") if args.start else None
     goal = parse_point(args.goal, "--goal") if args.goal else None

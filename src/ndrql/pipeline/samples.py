@@ -25,6 +25,7 @@ from ndrql.errors import NdrqlError, NoPathError
 from ndrql.io import data_digest, file_digest, save_npz
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
+from ndrql.maps.problem import MapProblem
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
@@ -35,16 +36,17 @@ from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
 @dataclass(frozen=True)
 class Problem:
-    """One planning problem: a map (a dataset sample, or a hand-made one) and its planning grid."""
+    """One planning problem: a map (a dataset sample, or a hand-made one) and its planning grid.
+
+    The map with its start and goal pixels is :attr:`source` (one :class:`~ndrql.maps.problem.MapProblem`);
+    ``start`` and ``goal`` here are cells of the planning grid."""
 
     split: str
     """Dataset split (``train``, ``seen``, ``unseen``) or any name for a hand-made map."""
     index: int
     category: str
-    obstacles: np.ndarray
-    """Map at full resolution (201x201, ``True`` = obstacle)."""
-    source_start: tuple[int, int]
-    source_goal: tuple[int, int]
+    source: MapProblem
+    """The map at full resolution (e.g. 201x201, ``True`` = obstacle) with the start and goal pixels."""
     blocked: np.ndarray
     """Planning grid (50x50)."""
     start: tuple[int, int]
@@ -62,6 +64,21 @@ class Problem:
         """``<split>-<index>``: names the problem in results, caches and tuning studies."""
         return f"{self.split}-{self.index}"
 
+    @property
+    def obstacles(self) -> np.ndarray:
+        """The map (:attr:`source`'s obstacles)."""
+        return self.source.obstacles
+
+    @property
+    def source_start(self) -> tuple[int, int]:
+        """The start pixel on the map (:attr:`source`'s start)."""
+        return self.source.start
+
+    @property
+    def source_goal(self) -> tuple[int, int]:
+        """The goal pixel on the map (:attr:`source`'s goal)."""
+        return self.source.goal
+
 
 def load_problem(root: str | Path, split: str, index: int, size: int = PLANNING_SIZE) -> Problem:
     """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
@@ -71,8 +88,9 @@ def load_problem(root: str | Path, split: str, index: int, size: int = PLANNING_
         warnings.simplefilter("ignore")  # snapping is expected on some samples; the grid records it
         pg = PlanningGrid.from_map(s.map, s.start, s.goal, size=size)
     opt = int(astar4(pg.blocked, pg.start, pg.goal).moves)
-    return Problem(s.split, s.index, s.category, s.map, tuple(s.start), tuple(s.goal),  # type: ignore[arg-type]
-                   np.array(pg.blocked), tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
+    source = MapProblem(s.map, tuple(s.start), tuple(s.goal))  # type: ignore[arg-type]
+    return Problem(s.split, s.index, s.category, source, np.array(pg.blocked), tuple(pg.start),  # type: ignore[arg-type]
+                   tuple(pg.goal), opt)  # type: ignore[arg-type]
 
 
 def load_problems(root: str | Path, refs: list[tuple[str, int]],

@@ -13,6 +13,7 @@ from ndrql.cli.common import (add_dpi_argument, add_problem_arguments, add_symme
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, grid_size
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
+from ndrql.dataset.views import view_note
 from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
 from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
@@ -301,11 +302,13 @@ def run(args: argparse.Namespace) -> int:
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.weights:
         turns = report.info.get("symmetries", 1)
+        seen = report.info.get("model_input", {})  # the model's view, named only where it changes what it sees
+        note = view_note(seen.get("view", "native"), int(seen.get("merged", 1)))
         runs = report.info.get("runs_file")
         graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
              f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}"
-             f"{_view_text(report.info.get('model_input', {}))}){graph}; constants: preset {request.preset.name}")
+             f"{note}){graph}; constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")
@@ -323,15 +326,6 @@ def run(args: argparse.Namespace) -> int:
         spacing = report.grid_map.resolution if args.path_spacing is None else args.path_spacing
         echo(f"wrote {write_path(args.path_out, report.results[0], spacing)}")
     return 0
-
-
-def _view_text(model_input: dict[str, Any]) -> str:
-    """The grid-mode model's view for the summary line: nothing where it shows the grid as ``native`` does
-    (``native``, or ``coarse`` on a grid it does not merge), else e.g. ``", view coarse:128, 2x2 cells seen as one"``."""
-    view, f = model_input.get("view", "native"), int(model_input.get("merged", 1))
-    if view == "native" or (view.startswith("coarse:") and f == 1):
-        return ""
-    return f", view {view}" + (f", {f}x{f} cells seen as one" if f > 1 else "")
 
 
 def _xyyaw(point: Any) -> Any:

@@ -19,9 +19,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from ndrql.experiments.ceiling import grid_case, larger_sizes
+from ndrql.experiments.ceiling import case_problem, grid_case, larger_sizes
 from ndrql.experiments.eval_sets import eval_set, tuning_spec
-from ndrql.maps.astar import astar4
 from ndrql.pipeline.samples import Problem
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import load_preset
@@ -37,9 +36,7 @@ def problems(keys: list[str], n: int) -> list[Problem]:
         i = int(key.rsplit("-", 1)[1])
         raw = gs.raw(i)
         c = grid_case(key, str(gs.families[i]), raw.obstacles, raw.start, raw.goal, n, larger_sizes(n))
-        opt = int(astar4(c.blocked, c.start_cell, c.goal_cell).moves)
-        out.append(Problem(f"tune-g{n}", i, c.group, c.obstacles, tuple(c.start), tuple(c.goal), c.blocked,
-                           tuple(c.start_cell), tuple(c.goal_cell), opt, None, None, None))
+        out.append(case_problem(c, f"tune-g{n}", i))
     return out
 
 

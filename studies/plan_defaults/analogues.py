@@ -1,18 +1,15 @@
-"""End to end on the maps tests/maps/test_sizing.py draws: `ndrql.solve` with plan's defaults (NDR-QL, seed 0) on
-three far-apart free pairs per map; prints the method, grid size, success, collisions, steps and seconds.
-The maps come from the test module (same functions, same seeds), so the check and the tests see the same maps.
+"""End to end on the hand-drawn benchmark analogues (:mod:`ndrql.synth.drawn`, the maps the tests of
+``--size auto`` draw): `ndrql.solve` with plan's defaults (NDR-QL, seed 0) on three far-apart free pairs per
+map; prints the method, grid size, success, collisions, steps and seconds. The maps come from the package
+(same functions, same seeds as tests/maps/test_sizing.py), so the check and the tests see the same maps.
 
     PYTHONPATH=src nice python studies/plan_defaults/analogues.py
 """
-import sys, time, warnings
-from pathlib import Path
-ROOT = Path(__file__).resolve().parents[2]
-sys.path[:0] = [str(ROOT / "tests" / "maps"), str(ROOT / "tests")]
-import numpy as np
+import time, warnings
 import ndrql
 from ndrql.maps.grid import GridMap
 from ndrql.errors import NoPathError
-from test_sizing import maze, rooms, cave, ros_office, free_pairs, connected
+from ndrql.synth.drawn import cave, connected, free_pairs, maze, ros_office, rooms
 maps = {"maze 32x2/2 (130 px)": GridMap(maze(32, 2, 2, 32), source="m"), "maze 42x2/1 (127 px)": GridMap(maze(42, 2, 1, 0), source="m"),
         "maze 64x1/1 (129 px)": GridMap(maze(64, 1, 1, 64), source="m"), "maze 85x2/1 (256 px)": GridMap(maze(85, 2, 1, 85), source="m"),
         "rooms 300 px, 2 px doors": GridMap(rooms(300, 60, 2, 3), source="r"), "cave 256 px": GridMap(cave(256, 4), source="c"),

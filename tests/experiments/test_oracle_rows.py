@@ -16,6 +16,7 @@ from ndrql.experiments.planning_runs import (ORACLE_LABEL, TASK_VERSION, SweepOp
                                              oracle_share)
 from ndrql.experiments.report import share_table
 from ndrql.maps.grid import area_downscale
+from ndrql.maps.problem import MapProblem
 from ndrql.pipeline.samples import OraclePriors, Problem
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import get_method
@@ -30,7 +31,7 @@ def _problem() -> Problem:
     """A 16x16 grid with a wall and a gap on the right; the map is the grid at 4 px per cell."""
     b = np.zeros((16, 16), bool)
     b[8, :12] = True
-    return Problem("synthetic", 0, "wall", np.kron(b, np.ones((4, 4), bool)), (2, 2), (62, 2), b, (0, 0), (15, 0), 38)
+    return Problem("synthetic", 0, "wall", MapProblem(np.kron(b, np.ones((4, 4), bool)), (2, 2), (62, 2)), b, (0, 0), (15, 0), 38)
 
 
 class _ModelSource:

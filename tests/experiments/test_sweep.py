@@ -15,6 +15,7 @@ import pytest
 
 from ndrql.experiments.digests import fingerprint
 from ndrql.experiments.planning_runs import SweepOptions, make_tasks, summarize_runs
+from ndrql.maps.problem import MapProblem
 from ndrql.pipeline.samples import Problem
 from ndrql.experiments.sweep import Task, read_task, run_sweep, task_path
 from ndrql.planning.methods import Method, get_method
@@ -33,7 +34,7 @@ def _problems(n: int = 3) -> list[Problem]:
     for k in range(n):
         b = np.zeros((16, 16), bool)
         b[8, : 10 + k] = True
-        out.append(Problem("synthetic", k, "wall", np.zeros((16, 16), bool), (0, 0), (15, 15), b, (0, 0), (15, 15), 30))
+        out.append(Problem("synthetic", k, "wall", MapProblem(np.zeros((16, 16), bool), (0, 0), (15, 15)), b, (0, 0), (15, 15), 30))
     return out
 
 

@@ -6,6 +6,7 @@ import numpy as np
 
 from ndrql.experiments.planning_runs import SweepOptions, make_tasks
 from ndrql.experiments.sweep import Task
+from ndrql.maps.problem import MapProblem
 from ndrql.pipeline.samples import Problem
 from ndrql.planning.methods import Method, get_method
 
@@ -17,6 +18,6 @@ def slow_tasks() -> list[Task]:
     for k in range(10):
         b = np.zeros((40, 40), bool)
         b[20, 5 + k: 35] = True
-        probs.append(Problem("kill", k, "wall", b, (0, 0), (39, 39), b, (0, 0), (39, 39), 78))
+        probs.append(Problem("kill", k, "wall", MapProblem(b, (0, 0), (39, 39)), b, (0, 0), (39, 39), 78))
     variants = [get_method("QL"), get_method("D-Q"), get_method("IQL"), Method("D-C", d_crf=True)]
     return make_tasks(probs, variants, opts, None, records=False)

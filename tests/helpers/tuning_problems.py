@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ndrql.maps.astar import astar4
+from ndrql.maps.problem import MapProblem
 from ndrql.pipeline.samples import Problem
 
 
@@ -25,7 +26,7 @@ def make_problem(key: str, n: int = 14, gap_col: int = 11) -> Problem:
     for r, c in res.path:
         guide[r, c] = 1.0
     region = np.clip(guide + np.roll(guide, 1, 0) + np.roll(guide, -1, 1), 0, 1)
-    return Problem(key, 0, "", blocked, start, goal, blocked, start, goal, int(res.moves), region, guide)
+    return Problem(key, 0, "", MapProblem(blocked, start, goal), blocked, start, goal, int(res.moves), region, guide)
 
 
 #: Three problems of different sizes and gaps.

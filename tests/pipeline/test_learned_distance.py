@@ -115,6 +115,7 @@ def test_reproduce_prediction_cache_keeps_the_distance(distance_model, tmp_path)
     from ndrql.experiments.planning_runs import plan_task
     from ndrql.maps.astar import astar4
     from ndrql.maps.safe import conservative_grid
+    from ndrql.maps.problem import MapProblem
     from ndrql.pipeline.samples import PredictionCache, Problem
     from ndrql.planning.config import PriorConfig, QLConfig
     from ndrql.planning.methods import get_method
@@ -122,7 +123,7 @@ def test_reproduce_prediction_cache_keeps_the_distance(distance_model, tmp_path)
     obstacles = _walls()
     blocked = conservative_grid(obstacles, 40)
     start, goal = (2, 2), (27, 37)
-    p = Problem("hand", 0, "walls", obstacles, (10, 10), (110, 150), blocked, start, goal,
+    p = Problem("hand", 0, "walls", MapProblem(obstacles, (10, 10), (110, 150)), blocked, start, goal,
                 int(astar4(blocked, start, goal).moves))
     cache = PredictionCache(tmp_path / "c", weights=distance_model)
     first = cache.attach(p)

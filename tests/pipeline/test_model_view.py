@@ -105,6 +105,37 @@ def test_coarse_view_merges_the_grid_and_spreads_back(model_weights, sample, tmp
     assert px[0].shape == (256, 256) and np.allclose(cell_means(px[0], blocked.shape), out.region, atol=1e-12)
 
 
+def test_prediction_cache_keeps_a_merged_views_cells(model_weights, sample, tmp_path):
+    """The tables' prediction cache with a ``coarse`` model on a grid it merges: the entry holds one value per
+    planning cell (mode ``cells``), and the priors, the goal distance and the map-resolution arrays are those
+    of the 4 px drawing the cache stored before, bit for bit, fresh and read back."""
+    pytest.importorskip("torch")
+    from ndrql.dataset.render import to_map_pixels
+    from ndrql.maps.problem import MapProblem
+    from ndrql.maps.sizing import safe_grid
+    from ndrql.pipeline.samples import PredictionCache, Problem
+
+    ckpt = _coarse_checkpoint(model_weights, tmp_path / "coarse.pt", "coarse:32")
+    pg = safe_grid(sample.grid_map.obstacles, 64, sample.start, sample.goal)
+    p = Problem("hand", 0, "", MapProblem(sample.grid_map.obstacles, sample.start, sample.goal), pg.blocked,
+                pg.start, pg.goal, 0)
+    cache = PredictionCache(tmp_path / "c", ckpt)
+    fresh = cache.attach(p)
+    with np.load(cache.path(p)) as d:
+        assert str(d["mode"]) == "cells" and d["region"].shape == (64, 64)
+    again = PredictionCache(tmp_path / "c", ckpt).attach(p)
+    r, gl, dist = Predictor.load(ckpt, threads=1, backend="torch").predict_grid_all(p.blocked, p.start, p.goal)
+    drawn = [np.asarray(a).astype(np.float16).astype(np.float32) for a in (r, gl)]  # as stored before
+    before = [np.clip(cell_means(a, p.blocked.shape), 0, 1) for a in drawn]
+    dist_before = cell_means(np.asarray(dist, np.float32), p.blocked.shape)
+    for got in (fresh, again):
+        assert np.array_equal(got.region, before[0]) and np.array_equal(got.guideline, before[1])
+        assert np.array_equal(got.distance, dist_before)
+    full = cache.full(p)
+    for a, old in zip(full, drawn):
+        assert np.array_equal(a, to_map_pixels(old, p.obstacles.shape, 64).astype(np.float32))
+
+
 def test_export_weights_sets_the_view_and_keeps_the_weights(model_weights, tmp_path):
     """``ndrql export-weights --view``: the served view changes in the config, not one weight; ``native``
     drops the key; a map-mode model (the paper's) is refused."""
@@ -158,7 +189,7 @@ def test_plan_uses_the_view_and_says_so(model_weights, sample, tmp_path):
     """``plan`` with a coarse checkpoint: the model saw the merged grid (JSON ``model_input``), the run reports
     a path on the map without collision, and the summary line names the view."""
     pytest.importorskip("torch")
-    from ndrql.cli.plan_cmd import _view_text
+    from ndrql.dataset.views import view_note
 
     ckpt = _coarse_checkpoint(model_weights, tmp_path / "coarse.pt", "coarse:32")
     report = ndrql.solve(sample.grid_map, sample.start, sample.goal, methods=["NDR-QL"], seeds=[0], weights=ckpt,
@@ -168,5 +199,15 @@ def test_plan_uses_the_view_and_says_so(model_weights, sample, tmp_path):
     run = report.results[0]
     assert run.path and run.success and not run.collisions
     assert report.grid.shape == (64, 64)
-    assert _view_text(seen) == ", view coarse:32, 2x2 cells seen as one"
-    assert _view_text({"view": "native", "merged": 1}) == "" and _view_text({}) == ""
+    assert view_note(seen["view"], seen["merged"]) == ", view coarse:32, 2x2 cells seen as one"
+    assert view_note(seen["view"], seen["merged"], " through the view ") == " through the view coarse:32, 2x2 cells seen as one"
+
+
+def test_view_note_names_the_view_only_where_the_model_sees_the_grid_otherwise():
+    """One rule for ``plan``'s summary and ``predict``'s: nothing for ``native`` or a ``coarse`` view that merges
+    nothing; the view for ``cap`` (it shrinks cells) and for a ``coarse`` view that merges cells."""
+    from ndrql.dataset.views import view_note
+
+    assert view_note("native", 1) == "" and view_note("coarse:128", 1) == ""
+    assert view_note("cap:512", 1) == ", view cap:512"
+    assert view_note("coarse:128", 3, " through the view ") == " through the view coarse:128, 3x3 cells seen as one"

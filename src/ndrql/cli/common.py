@@ -1,8 +1,8 @@
 """Helpers shared by the subcommands: map and point arguments, dataset samples, JSON/PNG output.
 
 A subcommand that plans on a map calls :func:`add_problem_arguments` on its parser and
-:func:`resolve_problem` on the parsed namespace; it gets a :class:`Problem` (map, start, goal in
-source pixels, and a description for reports). Every bad input raises an
+:func:`resolve_problem` on the parsed namespace; it gets a :class:`~ndrql.maps.problem.GridMapProblem`
+(map, start, goal in source pixels, and a description for reports). Every bad input raises an
 :class:`~ndrql.errors.NdrqlError` subclass, which the dispatcher prints as one line (exit code 2).
 """
 
@@ -13,7 +13,6 @@ import os
 import sys
 import warnings
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -23,7 +22,7 @@ from ndrql.io import check_writable, json_text, save_figure as io_save_figure, w
 from ndrql.limits import check_finite, check_int
 from ndrql.maps.bundled import bundled_sample
 from ndrql.maps.grid import Cell, GridMap
-from ndrql.maps.problem import MapProblem
+from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map
 from ndrql.model.weights import DEFAULT_WEIGHTS, SHIPPED_WEIGHTS
 from ndrql.model.symmetry import COUNTS as SYMMETRY_COUNTS
@@ -31,22 +30,6 @@ from ndrql.viz.maps import new_figure
 from ndrql.viz.style import DEFAULT_DPI
 
 SAMPLE_SPLITS = ("train", "seen", "unseen")
-
-
-@dataclass(frozen=True)
-class Problem(MapProblem):
-    """A :class:`~ndrql.maps.problem.MapProblem` a command read: ``obstacles`` is ``grid_map``'s, which also
-    keeps the resolution, origin and source; build it with :meth:`of`."""
-
-    grid_map: GridMap
-    """The map as read (``obstacles`` is its obstacle array)."""
-    info: dict[str, Any] = field(default_factory=dict)
-    """Where it came from: map file or dataset sample (split, index, category)."""
-
-    @classmethod
-    def of(cls, grid_map: GridMap, start: Cell, goal: Cell, info: dict[str, Any] | None = None) -> "Problem":
-        """The problem of ``grid_map`` from ``start`` to ``goal`` (source pixels, row-col)."""
-        return cls(grid_map.obstacles, start, goal, grid_map, {} if info is None else info)
 
 
 def parse_point(text: str, name: str = "point") -> Cell:
@@ -89,7 +72,7 @@ def parse_sample_spec(text: str) -> tuple[Path, str, int]:
     return Path(root), split, idx
 
 
-def load_sample_problem(spec: str) -> Problem:
+def load_sample_problem(spec: str) -> GridMapProblem:
     """Map, start and goal of a dataset sample given as ``DATASET_DIR:SPLIT:INDEX``."""
     root, split, index = parse_sample_spec(spec)
     if not root.is_dir():
@@ -103,7 +86,7 @@ def load_sample_problem(spec: str) -> Problem:
         "sample": {"root": str(root), "split": split, "index": index, "category": sample.category,
                    "map_index": sample.map_index, "rrt_cost": sample.cost},
     }
-    return Problem.of(grid_map, tuple(sample.start), tuple(sample.goal), info)  # type: ignore[arg-type]
+    return GridMapProblem.of(grid_map, tuple(sample.start), tuple(sample.goal), info)  # type: ignore[arg-type]
 
 
 def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = False) -> None:
@@ -144,8 +127,8 @@ def add_problem_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--goal", metavar="ROW,COL", help="goal in map pixels (row, col); overrides a sample's")
 
 
-def load_map_argument(args: argparse.Namespace) -> Problem | GridMap:
-    """The map named by ``args``: a :class:`Problem` for ``--sample``, else a :class:`GridMap`.
+def load_map_argument(args: argparse.Namespace) -> GridMapProblem | GridMap:
+    """The map named by ``args``: a :class:`GridMapProblem` for ``--sample``, else a :class:`GridMap`.
 
     A map larger than ``args.max_pixels`` (when the subcommand has that flag, else the readers'
     default of 4096 x 4096) is refused before it is decoded.
@@ -171,28 +154,29 @@ def use_example(args: argparse.Namespace, sample: bool) -> None:
     if args.map or sample:
         raise NdrqlError("give one of MAP, --sample and --example")
     ex = bundled_sample()
-    rel = os.path.relpath(ex.path) if Path(ex.path).resolve().is_relative_to(Path.cwd().resolve()) else ex.path
+    where = ex.grid_map.source  # the installed map file
+    rel = os.path.relpath(where) if Path(where).resolve().is_relative_to(Path.cwd().resolve()) else where
     args.map = rel  # as a user would type it from here: reports name the map as given
     for name, point in (("start", ex.start), ("goal", ex.goal)):
         if hasattr(args, name) and not getattr(args, name) and not getattr(args, f"{name}_world", None):
             setattr(args, name, f"{point[0]},{point[1]}")
-    print(f"ndrql: example map {ex.path} ({ex.grid_map.height}x{ex.grid_map.width}), start {ex.start[0]},{ex.start[1]}, "
+    print(f"ndrql: example map {where} ({ex.grid_map.height}x{ex.grid_map.width}), start {ex.start[0]},{ex.start[1]}, "
           f"goal {ex.goal[0]},{ex.goal[1]} (row, col)", file=sys.stderr)
 
 
-def resolve_problem(args: argparse.Namespace) -> Problem:
+def resolve_problem(args: argparse.Namespace) -> GridMapProblem:
     """Map, start and goal from ``MAP --start --goal`` or ``--sample`` (whose points ``--start``/``--goal`` override)."""
     loaded = load_map_argument(args)
-    if isinstance(loaded, Problem):
+    if isinstance(loaded, GridMapProblem):
         start = parse_point(args.start, "--start") if args.start else loaded.start
         goal = parse_point(args.goal, "--goal") if args.goal else loaded.goal
-        problem = Problem.of(loaded.grid_map, start, goal, loaded.info)
+        problem = GridMapProblem.of(loaded.grid_map, start, goal, loaded.info)
     else:
         missing = [flag for flag in ("--start", "--goal") if not getattr(args, flag[2:])]
         if missing:
             raise PointError(f"{' and '.join(missing)} required with a map file (ROW,COL in map pixels)")
-        problem = Problem.of(loaded, parse_point(args.start, "--start"), parse_point(args.goal, "--goal"),
-                             {"source": loaded.source})
+        problem = GridMapProblem.of(loaded, parse_point(args.start, "--start"), parse_point(args.goal, "--goal"),
+                                    {"source": loaded.source})
     for name, point in (("start", problem.start), ("goal", problem.goal)):
         if not problem.grid_map.contains(point):
             h, w = problem.grid_map.shape

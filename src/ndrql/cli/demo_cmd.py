@@ -71,16 +71,16 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with warnings_to_stderr():
         request = build_request(sample.grid_map, sample.start, sample.goal, methods=DEMO_METHODS, seeds=args.seeds,
-                                weights=args.weights, preset=args.preset, info={"source": sample.description})
+                                weights=args.weights, preset=args.preset, info=dict(sample.info))
         # as `ndrql plan` runs on a user's map: the safe grid, size auto, plan's preset for the weights
         report = run_request(request, workers=args.workers, progress=True)
     pg = report.grid
-    print(f"demo map: {sample.description}")
+    print(f"demo map: {sample.info['source']}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "
           f"goal {pg.goal} (pixel {sample.goal}); model {_short(report.weights or '-')}")
     print("\n".join(_summary(report)))
     table = table_markdown(report)
-    head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.description}); seeds 0..{args.seeds - 1}; "
+    head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.info['source']}); seeds 0..{args.seeds - 1}; "
             f"A* optimum {report.astar_length} moves; NDR-QI threshold {report.thresholds.get('NDR-QL')}; "
             f"constants: preset {request.preset.name}.")
     written = [

@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 
 from ndrql.cli.astar_cmd import add_grid_arguments, grid_request
-from ndrql.cli.common import (Problem, add_map_arguments, add_max_pixels_argument, add_problem_arguments,
+from ndrql.cli.common import (add_map_arguments, add_max_pixels_argument, add_problem_arguments,
                               load_map_argument, map_info, warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command
 from ndrql.errors import NdrqlError
 from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import PLANNING_SIZE
+from ndrql.maps.problem import GridMapProblem
 from ndrql.pipeline.problem import build_grid, grid_text, map_grid
 from ndrql.pipeline.request import request_settings
 from ndrql.maps.writers import save_map
@@ -66,7 +67,7 @@ def run_info(args: argparse.Namespace) -> int:
         if args.size is not None and str(args.size).strip().lower() == "auto":
             raise NdrqlError("--size auto picks the grid for a route: give --start and --goal")
         loaded = load_map_argument(args)
-        grid_map = loaded.grid_map if isinstance(loaded, Problem) else loaded
+        grid_map = loaded.grid_map if isinstance(loaded, GridMapProblem) else loaded
         settings = request_settings(grid=args.grid, size=PLANNING_SIZE if args.size is None else args.size,
                                     robot_radius=args.robot_radius, max_map_pixels=args.max_pixels,
                                     max_size=MAX_GRID_SIZE)

@@ -7,15 +7,17 @@ import warnings
 from typing import Any
 
 from ndrql.api import PlanSettings, build_request, run_request
-from ndrql.cli.common import (Problem, add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
+from ndrql.cli.common import (add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
                               check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
                               warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, grid_size
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
+from ndrql.dataset.views import view_note
 from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
 from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
+from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
@@ -142,7 +144,7 @@ def _set_fields(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, A
     return {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
 
 
-def _points(args: argparse.Namespace, sample: Problem | None) -> dict[str, Any]:
+def _points(args: argparse.Namespace, sample: GridMapProblem | None) -> dict[str, Any]:
     """Start and goal as the flags give them (a sample's own points unless flags replace them)."""
     start = parse_point(args.start, "--start") if args.start else None
     goal = parse_point(args.goal, "--goal") if args.goal else None
@@ -300,11 +302,13 @@ def run(args: argparse.Namespace) -> int:
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.weights:
         turns = report.info.get("symmetries", 1)
+        seen = report.info.get("model_input", {})  # the model's view, named only where it changes what it sees
+        note = view_note(seen.get("view", "native"), int(seen.get("merged", 1)))
         runs = report.info.get("runs_file")
         graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
              f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}"
-             f"{_view_text(report.info.get('model_input', {}))}){graph}; constants: preset {request.preset.name}")
+             f"{note}){graph}; constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")
@@ -322,15 +326,6 @@ def run(args: argparse.Namespace) -> int:
         spacing = report.grid_map.resolution if args.path_spacing is None else args.path_spacing
         echo(f"wrote {write_path(args.path_out, report.results[0], spacing)}")
     return 0
-
-
-def _view_text(model_input: dict[str, Any]) -> str:
-    """The grid-mode model's view for the summary line: nothing where it shows the grid as ``native`` does
-    (``native``, or ``coarse`` on a grid it does not merge), else e.g. ``", view coarse:128, 2x2 cells seen as one"``."""
-    view, f = model_input.get("view", "native"), int(model_input.get("merged", 1))
-    if view == "native" or (view.startswith("coarse:") and f == 1):
-        return ""
-    return f", view {view}" + (f", {f}x{f} cells seen as one" if f > 1 else "")
 
 
 def _xyyaw(point: Any) -> Any:

@@ -10,6 +10,7 @@ from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_pro
                               add_weights_argument, check_dpi, save_figure, warnings_to_stderr)
 from ndrql.cli.options import add_command
 from ndrql.dataset.render import cells_to_map
+from ndrql.dataset.views import view_note
 from ndrql.errors import NdrqlError
 from ndrql.io import make_folder, save_npz
 from ndrql.model.predict import BACKENDS, load_predictor
@@ -97,10 +98,7 @@ def run(args: argparse.Namespace) -> int:
             out / "distance.png", figsize=size, dpi=dpi))
     print(grid_text(setup, pg, request.grid_map.resolution))
     if pred.grid is not None:
-        f = int(view.info.get("merged", 1))
-        shown = view.info.get("view", "native")
-        seen = f" through the view {shown}" if shown != "native" and not (shown.startswith("coarse:") and f == 1) else ""
-        seen += f", {f}x{f} cells seen as one" if f > 1 else ""
+        seen = view_note(view.info.get("view", "native"), int(view.info.get("merged", 1)), " through the view ")
         print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
               f"per cell{seen}, start cell {pg.start}, goal cell {pg.goal}")
     else:

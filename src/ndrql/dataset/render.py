@@ -170,12 +170,18 @@ def cells_to_map(cells: np.ndarray, shape: tuple[int, int], cell_px: tuple[float
 
 def to_map_pixels(prob: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
     """Probabilities at 4 px per cell of a safe grid of ``n`` cells -> the map's pixels: each pixel takes the
-    mean of the 4x4 block of the cell holding its centre (cells of ``max(H, W) / n`` px, as
-    :func:`ndrql.maps.safe.conservative_grid`). The cell is found in exact arithmetic, ``(i + 0.5) n / max(H, W)``;
-    :func:`cells_to_map` divides by the cell size in pixels instead, which can differ for a pixel centre
-    exactly on a cell border (the evaluation scores keep this rule)."""
+    mean of the 4x4 block of the cell holding its centre (:func:`grid_cells_to_map` of :func:`cell_means`)."""
+    return grid_cells_to_map(cell_means(prob, grid_shape(shape, n)), shape, n)
+
+
+def grid_cells_to_map(cells: np.ndarray, shape: tuple[int, int], n: int) -> np.ndarray:
+    """Values per cell of the safe grid of ``n`` cells of a map of ``shape`` (``grid_shape(shape, n)`` cells) ->
+    the map's pixels: each pixel takes the value of the cell holding its centre (cells of ``max(H, W) / n`` px,
+    as :func:`ndrql.maps.safe.conservative_grid`). The cell is found in exact arithmetic,
+    ``(i + 0.5) n / max(H, W)``; :func:`cells_to_map` divides by the cell size in pixels instead, which can
+    differ for a pixel centre exactly on a cell border (the evaluation scores keep this rule)."""
     rows, cols = grid_shape(shape, n)
-    cells = cell_means(prob, (rows, cols))
+    cells = np.asarray(cells, np.float64)
     longest = max(shape)
     r = np.minimum(((np.arange(shape[0]) + 0.5) * n / longest).astype(int), rows - 1)
     c = np.minimum(((np.arange(shape[1]) + 0.5) * n / longest).astype(int), cols - 1)

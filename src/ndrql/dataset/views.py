@@ -11,7 +11,7 @@ so a grid of 256 cells is a 1,024 px input. A view bounds what it sees:
   seen at 4 px per cell, and every cell takes its merged cell's prediction.
 
 :func:`view_input` draws the model's input, :func:`view_cells` and :func:`view_distance_cells` bring
-its outputs back to the planning grid. The views only change what is drawn, not the weights.
+its outputs back to the planning grid, :func:`view_note` names the view in a summary. The views only change what is drawn, not the weights.
 """
 
 from __future__ import annotations
@@ -67,11 +67,25 @@ class GridView:
         seen = -(-n // self.factor(n))
         return self.px_per_cell(seen) * seen
 
+    def shows_native(self, n: int) -> bool:
+        """Whether a grid of ``n`` cells is seen as ``native`` sees it: nothing merged, 4 px per cell."""
+        return self.factor(n) == 1 and self.px_per_cell(n) == PX_PER_CELL
+
     def px_per_cell(self, n: int) -> int:
         """Pixels per (possibly merged) cell in the model's input for a grid of ``n`` cells."""
         if self.kind == "cap":
             return int(np.clip(self.limit // max(1, n), 1, PX_PER_CELL))
         return PX_PER_CELL
+
+
+def view_note(view: str, merged: int, lead: str = ", view ") -> str:
+    """How a summary names the view a grid-mode model saw a grid through (``view`` as :class:`GridView` prints
+    it, ``merged`` its :meth:`GridView.factor` on that grid): nothing where the model saw the grid as
+    ``native`` shows it (``native``, or ``coarse`` on a grid it does not merge), else ``lead`` and the view,
+    with e.g. ``", 2x2 cells seen as one"`` when it merged cells."""
+    if view == "native" or (view.startswith("coarse:") and merged == 1):
+        return ""
+    return f"{lead}{view}" + (f", {merged}x{merged} cells seen as one" if merged > 1 else "")
 
 
 @dataclass(frozen=True)

@@ -17,12 +17,15 @@ import numpy as np
 from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, connected_grid, from_model_output, input_side, to_model_input
 from ndrql.experiments.stats import share_of_oracle
+from ndrql.maps.astar import astar4
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances
+from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import cell_size_px
 from ndrql.maps.sizing import SIZE_LADDER
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.dataset.render import cell_means
 from ndrql.pipeline.predictions import predict_on_grid
+from ndrql.pipeline.samples import Problem
 from ndrql.planning.runner import run_plan
 from ndrql.synth.oracle import oracle_prediction
 
@@ -33,16 +36,16 @@ ROWS = ("QL", "IQL", "NDR-QL (model)", "NDR-QL (oracle)")
 
 
 @dataclass(frozen=True)
-class GridCase:
-    """One planning problem on the safe grid of ``n`` cells."""
+class GridCase(MapProblem):
+    """A map problem (``obstacles``, ``start``, ``goal`` in map pixels) on its safe grid of ``n`` cells: the
+    case a study runs the planners on. :func:`case_problem` makes it an experiment's
+    :class:`~ndrql.pipeline.samples.Problem` (with the A* length and the priors)."""
 
     name: str
     group: str
-    obstacles: np.ndarray
-    start: Point
-    goal: Point
     n: int
     blocked: np.ndarray
+    """The safe grid (``True`` = blocked)."""
     start_cell: Point
     goal_cell: Point
 
@@ -54,8 +57,21 @@ def grid_case(name: str, group: str, obstacles: np.ndarray, start: Point, goal: 
     for size in (n, *larger):
         placed = connected_grid(obstacles, start, goal, size)
         if placed is not None:
-            return GridCase(name, group, obstacles, start, goal, size, *placed)
+            blocked, start_cell, goal_cell = placed
+            return GridCase(obstacles, start, goal, name=name, group=group, n=size, blocked=blocked,
+                            start_cell=start_cell, goal_cell=goal_cell)
     return None
+
+
+def case_problem(case: GridCase, split: str, index: int,
+                 priors: tuple[np.ndarray | None, ...] = (None, None, None)) -> Problem:
+    """``case`` as an experiment's problem named ``<split>-<index>`` (category: its group), with its A* length
+    on the grid and ``priors`` (region, guideline and the goal distance per cell, each ``None`` when absent)."""
+    opt = int(astar4(case.blocked, case.start_cell, case.goal_cell).moves)
+    source = MapProblem(case.obstacles, tuple(case.start), tuple(case.goal))  # type: ignore[arg-type]
+    region, guideline, distance = (*priors, None, None, None)[:3]
+    return Problem(split, index, case.group, source, case.blocked, tuple(case.start_cell),  # type: ignore[arg-type]
+                   tuple(case.goal_cell), opt, region, guideline, distance)  # type: ignore[arg-type]
 
 
 #: The largest size :func:`larger_sizes` grows a grid of at most :data:`SMALL_GRID` cells to (the figures at

@@ -34,6 +34,7 @@ from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.io import write_json, write_text
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PlanningGrid, cell_to_point
+from ndrql.maps.problem import MapProblem
 from ndrql.planning import compiled
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
@@ -51,7 +52,7 @@ def _with_map(p: Problem, obstacles: np.ndarray, source_start=None) -> Problem:
         warnings.simplefilter("ignore")
         pg = PlanningGrid.from_map(obstacles, s, p.source_goal, size=p.blocked.shape)
     opt = int(astar4(pg.blocked, pg.start, pg.goal).moves)
-    return replace(p, obstacles=obstacles, source_start=s, blocked=np.array(pg.blocked), start=tuple(pg.start),
+    return replace(p, source=MapProblem(obstacles, s, p.source_goal), blocked=np.array(pg.blocked), start=tuple(pg.start),
                    goal=tuple(pg.goal), astar=opt, region=None, guideline=None)
 
 

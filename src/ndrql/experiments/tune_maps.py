@@ -13,10 +13,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ndrql.experiments.ceiling import grid_case, larger_sizes, model_priors
+from ndrql.experiments.ceiling import case_problem, grid_case, larger_sizes, model_priors
 from ndrql.experiments.eval_sets import eval_set, tuning_spec
 from ndrql.io import file_digest
-from ndrql.maps.astar import astar4
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.symmetry import digest_suffix
@@ -62,9 +61,5 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
     out = []
     for fam, i in tqdm(interleave(by_family, k), desc="predictions", unit="map", disable=not progress):
         c = cases[i]
-        region, guide, *dist = model_priors(predictor, mode, c)
-        opt = int(astar4(c.blocked, c.start_cell, c.goal_cell).moves)
-        out.append(Problem(f"{set_name}-g{n}", i, fam, c.obstacles, tuple(c.start), tuple(c.goal), c.blocked,
-                           tuple(c.start_cell), tuple(c.goal_cell), opt, region, guide,  # type: ignore[arg-type]
-                           dist[0] if dist else None))
+        out.append(case_problem(c, f"{set_name}-g{n}", i, model_priors(predictor, mode, c)))
     return out, skipped, file_digest(wpath)[:16] + digest_suffix(symmetries)

@@ -273,9 +273,11 @@ class Predictor:
         square of ``4 max(h, w)`` px (``None`` for a model without a distance head). Under a view that shows
         the grid at 4 px per cell unmerged (``native``, and any view on a grid it leaves as it is) these are
         the model's own pixels; otherwise each planning cell's :meth:`predict_cells` value drawn over its 4x4
-        pixels (padding 0), so that :func:`~ndrql.dataset.render.cell_means` of them is :meth:`predict_cells` to rounding."""
-        seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)
-        if seen.factor == 1 and seen.px == PX_PER_CELL:
+        pixels (padding 0), so that :func:`~ndrql.dataset.render.cell_means` of them is :meth:`predict_cells` to
+        rounding (:class:`~ndrql.pipeline.samples.PredictionCache` stores such per-cell values as they are and
+        calls this only where the model's own pixels exist)."""
+        if self.view.shows_native(max(np.shape(blocked))):
+            seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)
             r, gl, d = averaged(self._runner, encode_input(seen.image, seen.start, seen.goal, self.encoding)[None],
                                 self.symmetries)
             dist = None if d is None else manhattan_pixels(seen.goal, seen.image.shape[0]) + DISTANCE_UNIT * d[0]

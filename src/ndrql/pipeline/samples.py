@@ -4,7 +4,9 @@ A :class:`Problem` is what every planning experiment and the tuning search run o
 planning grid, start and goal cells, the A* length and (for N-* methods) the NDR region/guideline
 downscaled to the grid, with the map it came from.
 Predictions are made once per sample with a :class:`~ndrql.model.predict.Predictor` and cached as
-``.npz`` (float16, map resolution) under ``<results>/predictions/``, keyed by the weights' digest,
+``.npz`` (float16: at the map's resolution, or for a grid-mode model its pixels at 4 px per planning cell,
+or one value per cell when its view merges or shrinks cells) under ``<results>/predictions/``, keyed by
+the weights' digest,
 so a different model never reuses a stale prediction. :class:`OraclePriors` gives the same two
 methods (``attach``, ``full``) from each problem's own planning-grid shortest path instead of a model.
 """
@@ -25,26 +27,29 @@ from ndrql.errors import NdrqlError, NoPathError
 from ndrql.io import data_digest, file_digest, save_npz
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
+from ndrql.maps.problem import MapProblem
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
-from ndrql.dataset.render import cell_means, to_map_pixels
+from ndrql.dataset.render import cell_means, grid_cells_to_map, to_map_pixels
+from ndrql.maps.safe import grid_shape
 from ndrql.planning.methods import downscale_priors
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
 
 @dataclass(frozen=True)
 class Problem:
-    """One planning problem: a map (a dataset sample, or a hand-made one) and its planning grid."""
+    """One planning problem: a map (a dataset sample, or a hand-made one) and its planning grid.
+
+    The map with its start and goal pixels is :attr:`source` (one :class:`~ndrql.maps.problem.MapProblem`);
+    ``start`` and ``goal`` here are cells of the planning grid."""
 
     split: str
     """Dataset split (``train``, ``seen``, ``unseen``) or any name for a hand-made map."""
     index: int
     category: str
-    obstacles: np.ndarray
-    """Map at full resolution (201x201, ``True`` = obstacle)."""
-    source_start: tuple[int, int]
-    source_goal: tuple[int, int]
+    source: MapProblem
+    """The map at full resolution (e.g. 201x201, ``True`` = obstacle) with the start and goal pixels."""
     blocked: np.ndarray
     """Planning grid (50x50)."""
     start: tuple[int, int]
@@ -62,6 +67,21 @@ class Problem:
         """``<split>-<index>``: names the problem in results, caches and tuning studies."""
         return f"{self.split}-{self.index}"
 
+    @property
+    def obstacles(self) -> np.ndarray:
+        """The map (:attr:`source`'s obstacles)."""
+        return self.source.obstacles
+
+    @property
+    def source_start(self) -> tuple[int, int]:
+        """The start pixel on the map (:attr:`source`'s start)."""
+        return self.source.start
+
+    @property
+    def source_goal(self) -> tuple[int, int]:
+        """The goal pixel on the map (:attr:`source`'s goal)."""
+        return self.source.goal
+
 
 def load_problem(root: str | Path, split: str, index: int, size: int = PLANNING_SIZE) -> Problem:
     """Problem of a dataset sample; raises :class:`NoPathError` when start and goal are not
@@ -71,8 +91,9 @@ def load_problem(root: str | Path, split: str, index: int, size: int = PLANNING_
         warnings.simplefilter("ignore")  # snapping is expected on some samples; the grid records it
         pg = PlanningGrid.from_map(s.map, s.start, s.goal, size=size)
     opt = int(astar4(pg.blocked, pg.start, pg.goal).moves)
-    return Problem(s.split, s.index, s.category, s.map, tuple(s.start), tuple(s.goal),  # type: ignore[arg-type]
-                   np.array(pg.blocked), tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
+    source = MapProblem(s.map, tuple(s.start), tuple(s.goal))  # type: ignore[arg-type]
+    return Problem(s.split, s.index, s.category, source, np.array(pg.blocked), tuple(pg.start),  # type: ignore[arg-type]
+                   tuple(pg.goal), opt)  # type: ignore[arg-type]
 
 
 def load_problems(root: str | Path, refs: list[tuple[str, int]],
@@ -127,9 +148,12 @@ class PredictionCache:
         return self.dir / f"{p.key}.npz"
 
     def _entry(self, p: Problem) -> tuple[str, np.ndarray, np.ndarray, np.ndarray | None]:
-        """``(mode, region, guideline, distance)`` as the model drew them (float32): at the map's resolution
-        for ``map``-mode models, at 4 px per cell of the planning grid for ``grid``-mode ones; ``distance``
-        (cells) from a model with a distance head, else ``None``."""
+        """``(mode, region, guideline, distance)`` as the model gave them (float32): ``map``, at the map's
+        resolution (map-mode models); ``grid``, the model's own pixels at 4 px per cell of the planning grid (a
+        grid-mode model whose view shows the grid as ``native`` does); ``cells``, one value per planning cell (a
+        view that merges or shrinks cells: per-cell values are all it has). ``distance`` (cells) from a model
+        with a distance head, else ``None``. Entries written before ``cells`` existed hold such values drawn
+        over each cell's 4x4 pixels under ``grid``, which gives the same numbers."""
         path = self.path(p)
         inputs = data_digest(np.packbits(p.obstacles), repr((p.source_start, p.source_goal)),
                              np.packbits(p.blocked), repr((p.start, p.goal)))[:16]  # grid models see the grid
@@ -148,7 +172,10 @@ class PredictionCache:
             self._predictor = Predictor.load(self.weights, threads=self.threads, backend="torch", symmetries=self.symmetries)
         mode = getattr(self._predictor, "input_mode", "map")
         distance = None
-        if mode == "grid":  # drawn at 4 px per planning cell, through the model's view (Predictor.predict_grid_all)
+        if mode == "grid" and not self._predictor.view.shows_native(max(p.blocked.shape)):
+            mode = "cells"  # per planning cell, through the model's view (Predictor.predict_cells)
+            region, guideline, distance = self._predictor.predict_cells(p.blocked, p.start, p.goal)
+        elif mode == "grid":  # the model's own pixels, 4 px per planning cell (Predictor.predict_grid_all)
             region, guideline, distance = self._predictor.predict_grid_all(p.blocked, p.start, p.goal)
         else:
             pred = self._predictor.predict(p.obstacles, p.source_start, p.source_goal)
@@ -164,26 +191,44 @@ class PredictionCache:
 
     def full(self, p: Problem) -> tuple[np.ndarray, np.ndarray]:
         """Region and guideline at the map's resolution (float32), from the cache or the model (a grid-mode
-        model's cell means drawn back on the map's pixels)."""
+        model's values per cell drawn back on the map's pixels)."""
         mode, region, guideline, _ = self._entry(p)
-        if mode == "grid":
+        if mode in GRID_MODES:
             n = max(p.blocked.shape)
-            return (to_map_pixels(region, p.obstacles.shape, n).astype(np.float32),
-                    to_map_pixels(guideline, p.obstacles.shape, n).astype(np.float32))
+            cells = grid_shape(p.obstacles.shape, n)
+            return tuple(grid_cells_to_map(_per_cell(mode, a, cells), p.obstacles.shape, n).astype(np.float32)  # type: ignore[return-value]
+                         for a in (region, guideline))
         return region, guideline
 
     def attach(self, p: Problem) -> Problem:
         """``p`` with region and guideline on its planning grid: area averaging of the map-resolution
-        prediction (docs/method.md), or for a grid-mode model the exact 4x4 means of its cells (and its goal
-        distance per cell when it has a distance head, for Eq. 6)."""
+        prediction (docs/method.md), or for a grid-mode model its values per cell (the exact 4x4 means of its
+        pixels under ``native``), and its goal distance per cell when it has a distance head, for Eq. 6."""
         mode, region, guideline, distance = self._entry(p)
-        if mode == "grid":
-            r = np.clip(cell_means(region, p.blocked.shape), 0, 1)
-            g = np.clip(cell_means(guideline, p.blocked.shape), 0, 1)
-            d = None if distance is None else cell_means(distance, p.blocked.shape)
+        if mode in GRID_MODES:
+            shape = p.blocked.shape
+            r, g = (np.clip(_per_cell(mode, a, shape), 0, 1) for a in (region, guideline))
+            d = None if distance is None else _per_cell(mode, distance, shape)
             return replace(p, region=r, guideline=g, distance=d)
         r, g = downscale_priors(np.clip(region, 0, 1), np.clip(guideline, 0, 1), p.blocked.shape)
         return replace(p, region=r, guideline=g)
+
+
+#: The cache's modes of a grid-mode model (:meth:`PredictionCache._entry`).
+GRID_MODES = ("grid", "cells")
+
+
+def _per_cell(mode: str, values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """A grid-mode cache entry's values per cell of ``shape`` (float64): the exact 4x4 means of a ``grid``
+    entry's pixels, a ``cells`` entry's own values (zero beyond its grid). For values drawn over each cell's
+    4x4 pixels the two agree bit for bit: the cache holds float16 probabilities and float32 distances, and
+    the float64 mean of 16 equal such numbers is exact."""
+    if mode == "grid":
+        return cell_means(values, shape)
+    out = np.zeros(shape)
+    h, w = min(shape[0], values.shape[0]), min(shape[1], values.shape[1])
+    out[:h, :w] = values[:h, :w]
+    return out
 
 
 class OraclePriors:

@@ -32,6 +32,7 @@ from ndrql.dataset.splits import train_val_split
 from ndrql.errors import NoPathError
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
+from ndrql.maps.problem import MapProblem
 from ndrql.pipeline.samples import PredictionCache, Problem
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import build_priors, get_method
@@ -76,7 +77,7 @@ def train_problems(root: str | Path, ids: Sequence[int], k: int, weights: str | 
         except NoPathError:
             skipped.append(int(i))
             continue
-        p = Problem("train", int(i), "", obstacles, (r0, c0), (r1, c1), np.array(pg.blocked),
+        p = Problem("train", int(i), "", MapProblem(obstacles, (r0, c0), (r1, c1)), np.array(pg.blocked),
                     tuple(pg.start), tuple(pg.goal), opt)  # type: ignore[arg-type]
         out.append(preds.attach(p))
         bar.update(1)

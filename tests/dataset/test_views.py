@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ndrql.dataset.render import cell_means, grid_input, manhattan_pixels
-from ndrql.dataset.views import GridView, merge_cells, view_cells, view_distance_cells, view_input
+from ndrql.dataset.render import cell_means, grid_input, manhattan_pixels, merge_cells, merge_walls, render_grid
+from ndrql.dataset.views import GridView, view_cells, view_distance_cells, view_input, view_note
 from ndrql.errors import NdrqlError
 
 
@@ -21,7 +21,8 @@ def test_parse_and_errors():
     assert GridView.parse("native") == GridView()
     assert GridView.parse("cap:512") == GridView("cap", 512)
     assert str(GridView.parse(" coarse:128 ")) == "coarse:128"
-    for bad in ("tiles:4", "cap", "cap:x", "coarse:1", "native:3"):
+    assert GridView.parse("walls:128") == GridView("walls", 128) and GridView("walls", 128).factor(256) == 2
+    for bad in ("tiles:4", "cap", "cap:x", "coarse:1", "native:3", "walls"):
         with pytest.raises(NdrqlError) as e:
             GridView.parse(bad)
         assert "\n" not in str(e.value)
@@ -132,3 +133,39 @@ def test_view_side():
     assert GridView().side(256) == 1024
     assert GridView("cap", 512).side(256) == 512 and GridView("cap", 512).side(100) == 400
     assert GridView("coarse", 128).side(256) == 512 and GridView("coarse", 128).side(200) == 400
+
+
+def test_merge_walls_keeps_thin_walls_and_falls_back_when_they_close_the_way():
+    """A wall one cell thick between two rooms, with a door two cells wide: ``coarse`` opens the wall
+    everywhere, ``walls`` keeps it and its door (the route stays the real one); a door one cell wide that
+    the walls merge closes sends ``walls`` back to ``coarse``."""
+    b = np.zeros((8, 8), bool)
+    b[:, 3] = True  # a wall one cell thick, in column 3
+    b[4:6, 3] = False  # a door of two cells, rows 4-5
+    s, g = (0, 0), (0, 7)
+    assert not merge_cells(b, 2).any()  # coarse: the wall is gone, the straight line is free
+    w = merge_walls(b, 2, s, g)
+    assert w[:, 1].tolist() == [True, True, False, True] and not w[:, 0].any()  # wall kept, door at merged row 2
+    one = b.copy()
+    one[5, 3] = True  # the door narrows to one cell (row 4): merged, rows 4-5 of column 3 are blocked
+    assert np.array_equal(merge_walls(one, 2, s, g), merge_cells(one, 2))
+    # start and goal stay free even when their merged cell holds a wall
+    b2 = np.zeros((4, 4), bool)
+    b2[0, 1] = True
+    assert not merge_walls(b2, 2, (0, 0), (3, 3))[0, 0]
+
+
+def test_walls_view_draws_and_renders_the_walled_grid():
+    b = np.zeros((40, 40), bool)
+    b[:, 19] = True
+    b[30:34, 19] = False  # a door of four cells
+    v = GridView("walls", 20)
+    vi = view_input(b, (0, 0), (0, 39), v)
+    assert vi.factor == 2 and vi.image.shape == (80, 80)
+    seen = vi.image[::4, ::4]
+    assert seen[:15, 9].all() and not seen[15:17, 9].any()  # the wall column, open at the door
+    assert not view_input(b, (0, 0), (0, 39), GridView("coarse", 20)).image.any()  # coarse: no wall at all
+    obstacles = np.kron(b, np.ones((4, 4), bool))  # the grid as a 160 px map
+    r = render_grid(obstacles, (2, 2), (2, 157), 40, view=v)
+    assert r is not None and r.obstacles.shape == (80, 80) and r.obstacles[:60, 36:40].any()
+    assert view_note("walls:20", 2) == ", view walls:20, 2x2 cells seen as one" and view_note("walls:20", 1) == ""

@@ -102,6 +102,31 @@ def merge_cells(blocked: np.ndarray, f: int) -> np.ndarray:
     return pad.reshape(H, f, W, f).all(axis=(1, 3))
 
 
+def merge_walls(blocked: np.ndarray, f: int, start: Point, goal: Point) -> np.ndarray:
+    """``f`` x ``f`` cells into one, blocked when any of them is blocked, so walls one cell thick stay walls
+    (padding counts as blocked; the merged cells of ``start`` and ``goal``, planning cells, stay free); when
+    that closes every 4-connected route between them, :func:`merge_cells` (free when any cell is free)."""
+    blocked = np.asarray(blocked, bool)
+    if f == 1:
+        return blocked
+    h, w = blocked.shape
+    H, W = -(-h // f), -(-w // f)
+    pad = np.ones((H * f, W * f), bool)
+    pad[:h, :w] = blocked
+    walls = pad.reshape(H, f, W, f).any(axis=(1, 3))
+    s, g = (start[0] // f, start[1] // f), (goal[0] // f, goal[1] // f)
+    walls[s] = walls[g] = False
+    if s != g and bfs_distances(walls, s)[g] >= 0:
+        return walls
+    return merge_cells(blocked, f)
+
+
+def merged_grid(blocked: np.ndarray, f: int, start: Point, goal: Point, keep_walls: bool) -> np.ndarray:
+    """The grid a merging view shows: :func:`merge_walls` when ``keep_walls`` (the ``walls`` view), else
+    :func:`merge_cells` (the ``coarse`` view)."""
+    return merge_walls(blocked, f, start, goal) if keep_walls else merge_cells(blocked, f)
+
+
 def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int, view=None) -> Rendered | None:
     """``grid`` mode: conservative grid of ``n`` cells, 4 px per cell, oracle labels.
 
@@ -116,7 +141,7 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int, view=N
     px, factor = PX_PER_CELL, 1
     if view is not None and str(view) != "native":
         factor, px = view.factor(n), 0
-        blocked = merge_cells(blocked, factor)
+        blocked = merged_grid(blocked, factor, s, g, view.kind == "walls")
         px = view.px_per_cell(max(blocked.shape))
         s, g = (s[0] // factor, s[1] // factor), (g[0] // factor, g[1] // factor)
         if s == g:

@@ -8,7 +8,10 @@ so a grid of 256 cells is a 1,024 px input. A view bounds what it sees:
   256-cell grid at 2 px per cell and leaves grids up to 128 cells as they are;
 - ``coarse:M``: grids above ``M`` cells are first merged ``f = ceil(n / M)`` x ``f`` cells into one (a
   merged cell is free when any of its cells is: every route of the grid stays open), the coarse grid is
-  seen at 4 px per cell, and every cell takes its merged cell's prediction.
+  seen at 4 px per cell, and every cell takes its merged cell's prediction;
+- ``walls:M``: as ``coarse:M``, but a merged cell is blocked when any of its cells is (a wall one cell
+  thick stays a wall, where ``coarse`` opens it), unless that closes every route between start and goal;
+  then as ``coarse``.
 
 :func:`view_input` draws the model's input, :func:`view_cells` and :func:`view_distance_cells` bring
 its outputs back to the planning grid, :func:`view_note` names the view in a summary. The views only change what is drawn, not the weights.
@@ -20,14 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels, merge_cells
+from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels, merged_grid
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import area_downscale
 
 Point = tuple[int, int]
 
 #: Kinds of view (:class:`GridView`).
-VIEW_KINDS = ("native", "cap", "coarse")
+VIEW_KINDS = ("native", "cap", "coarse", "walls")
 
 
 @dataclass(frozen=True)
@@ -40,7 +43,7 @@ class GridView:
 
     def __post_init__(self) -> None:
         if self.kind not in VIEW_KINDS:
-            raise NdrqlError(f"unknown view {self.kind!r}; valid: native, cap:PX, coarse:CELLS")
+            raise NdrqlError(f"unknown view {self.kind!r}; valid: native, cap:PX, coarse:CELLS, walls:CELLS")
         if (self.kind == "native") != (self.limit == 0) or self.kind != "native" and not 2 <= self.limit <= 4096:
             raise NdrqlError(f"view {self.kind} needs a limit of 2..4096, got {self.limit}")
 
@@ -53,14 +56,15 @@ class GridView:
         try:
             return cls(kind, int(limit))
         except ValueError:
-            raise NdrqlError(f"view must be native, cap:PX or coarse:CELLS, got {text!r}") from None
+            raise NdrqlError(f"view must be native, cap:PX, coarse:CELLS or walls:CELLS, got {text!r}") from None
 
     def __str__(self) -> str:
         return self.kind if self.kind == "native" else f"{self.kind}:{self.limit}"
 
     def factor(self, n: int) -> int:
-        """Planning cells merged along each side into one cell the model sees (1 unless ``coarse`` and ``n > limit``)."""
-        return -(-n // self.limit) if self.kind == "coarse" and n > self.limit else 1
+        """Planning cells merged along each side into one cell the model sees (1 unless ``coarse`` or ``walls``
+        and ``n > limit``)."""
+        return -(-n // self.limit) if self.kind in ("coarse", "walls") and n > self.limit else 1
 
     def side(self, n: int) -> int:
         """Side in px of the model's input for a square grid of ``n`` cells."""
@@ -83,7 +87,7 @@ def view_note(view: str, merged: int, lead: str = ", view ") -> str:
     it, ``merged`` its :meth:`GridView.factor` on that grid): nothing where the model saw the grid as
     ``native`` shows it (``native``, or ``coarse`` on a grid it does not merge), else ``lead`` and the view,
     with e.g. ``", 2x2 cells seen as one"`` when it merged cells."""
-    if view == "native" or (view.startswith("coarse:") and merged == 1):
+    if view == "native" or (view.startswith(("coarse:", "walls:")) and merged == 1):
         return ""
     return f"{lead}{view}" + (f", {merged}x{merged} cells seen as one" if merged > 1 else "")
 
@@ -108,7 +112,7 @@ def view_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, view: G
     """The model's input for the planning grid ``blocked`` under ``view`` (``native``: :func:`grid_input` exactly)."""
     n = max(np.shape(blocked))
     f = view.factor(n)
-    seen = merge_cells(blocked, f)
+    seen = merged_grid(blocked, f, tuple(start_cell), tuple(goal_cell), view.kind == "walls")
     px = view.px_per_cell(max(seen.shape))
     s, g = (start_cell[0] // f, start_cell[1] // f), (goal_cell[0] // f, goal_cell[1] // f)
     img, s_px, g_px = grid_input(seen, s, g, max(seen.shape), px)

@@ -16,7 +16,6 @@ exactly the batches it would have seen.
 
 from __future__ import annotations
 
-import csv
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -30,12 +29,13 @@ from ndrql.dataset.cache import load_split
 from ndrql.dataset.splits import train_val_split
 from ndrql.dataset.views import GridView
 from ndrql.errors import CheckpointError
-from ndrql.io import atomic_write, make_folder
+from ndrql.io import make_folder
 from ndrql.model.registry import build_model
 from ndrql.training import distributed as D
 from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.evaluate import evaluate, evaluate_rendered
+from ndrql.training.records import metrics_row, val_score, write_metrics_row
 from ndrql.training.losses import ndr_loss
 from ndrql.training.start import freeze_except, warm_start
 
@@ -52,36 +52,6 @@ def learning_rate(cfg: TrainConfig, global_step: int, total_steps: int, peak: fl
 def peak_lr(cfg: TrainConfig, world_size: int) -> float:
     """``--lr``, times the world size when ``--scale-lr`` asks for the linear scaling rule."""
     return cfg.lr * world_size if cfg.scale_lr else cfg.lr
-
-
-def val_score(res: dict[str, float]) -> float:
-    """The score best.pt is chosen by: region F1 plus guideline F1 (0 when the model has no guideline)."""
-    return res["region_f1"] + (res["guideline_f1"] if np.isfinite(res["guideline_f1"]) else 0.0)
-
-
-def metrics_row(epoch: int, state: dict, train_loss: float, res: dict[str, float], lr: float) -> dict:
-    """One metrics.csv row: epoch (0 = the starting weights of a warm start), progress, loss and validation."""
-    row = {"epoch": epoch, "global_step": state["global_step"], "train_hours": round(state["train_seconds"] / 3600, 4),
-           "train_loss": round(train_loss, 5), "val_region_f1": round(res["region_f1"], 3),
-           "val_guideline_f1": round(res["guideline_f1"], 3), "lr": lr}
-    row.update({k.replace("/", "_"): round(v, 3) for k, v in res.items() if "/" in k})
-    return row
-
-
-def write_metrics_row(path: Path, row: dict) -> None:
-    """Append one row to the metrics CSV (header written once); rewrite it through :func:`ndrql.io.atomic_write`."""
-    rows = []
-    if path.exists():
-        with path.open() as f:
-            rows = list(csv.DictReader(f))
-    rows = [r for r in rows if int(r["epoch"]) != row["epoch"]] + [{k: str(v) for k, v in row.items()}]
-
-    def write(f) -> None:
-        w = csv.DictWriter(f, fieldnames=list(row))
-        w.writeheader()
-        w.writerows(rows)
-
-    atomic_write(path, write, mode="w")
 
 
 def train_step(net: nn.Module, opt: torch.optim.Optimizer, batch: tuple[torch.Tensor, torch.Tensor, torch.Tensor], lr: float,

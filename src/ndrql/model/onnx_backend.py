@@ -33,7 +33,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ndrql.errors import NdrqlError
-from ndrql.io import atomic_path, file_digest
+from ndrql.io import atomic_path, cache_dir, file_digest
 from ndrql.model.shipped import graph_path as shipped_graph_path
 from ndrql.model.shipped import record_path, shipped_graph
 from ndrql.model.weights import SHIPPED_WEIGHTS
@@ -100,8 +100,6 @@ def optimized_path(digest: str) -> Path:
     """Where the optimised form of the graph whose SHA-256 is ``digest`` is kept for this machine and this
     ONNX Runtime: ``$NDRQL_CACHE/onnx/ort/<digest, 16 hex>-ort<version>-<machine_key()>.onnx``."""
     import onnxruntime as ort
-
-    from ndrql.dataset.cache import cache_dir  # lazy: start-up time (it loads the dataset layout)
 
     return cache_dir() / "onnx" / "ort" / f"{digest[:16]}-ort{ort.__version__}-{machine_key()}.onnx"
 
@@ -187,8 +185,6 @@ class OnnxRunner:
 def onnx_cache_path(weights: Path) -> Path:
     """Where the export of a checkpoint without a shipped graph is kept:
     ``$NDRQL_CACHE/onnx/<sha256 of the file, 16 hex>-any.onnx``, its record beside it (``.json``)."""
-    from ndrql.dataset.cache import cache_dir  # lazy: start-up time (it loads the dataset layout); shipped graphs never need it
-
     return cache_dir() / "onnx" / f"{file_digest(weights)[:16]}-any.onnx"
 
 

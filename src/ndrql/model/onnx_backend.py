@@ -117,9 +117,10 @@ def open_session(onnx_path: Path, threads: int = 0, digest: str | None = None, c
 
     try:
         cached = optimized_path(digest or file_digest(onnx_path))
-    except OSError:
+        hit = cached.is_file()
+    except OSError:  # an unreadable graph (the session below says so) or a cache folder that cannot be searched
         return _session(onnx_path, _options(threads))
-    if cached.is_file():
+    if hit:
         opts = _options(threads)
         opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_DISABLE_ALL
         try:

@@ -14,8 +14,9 @@ CPU of the whole process; CPU from ``getrusage(RUSAGE_CHILDREN)``), all in the s
    kernels; ``load``: the model; ``predict``; ``priors``; ``learn``; ``route``) and the final path's
    length over the map's own shortest route; the same with ``--symmetries 4`` for the cost of averaging
    the prediction over four orientations;
-3. the first run after an install: ``ndrql plan --example`` with an empty ``NUMBA_CACHE_DIR`` and a second
-   run with the same folder. With the C kernels built at install time (``ndrql.maps._kernels``) nothing
+3. the first run after an install: ``ndrql plan --example`` with an empty ``NUMBA_CACHE_DIR`` and an empty
+   ``NDRQL_CACHE`` (where the first run keeps ONNX Runtime's optimised graph), and a second run with the
+   same folders. With the C kernels built at install time (``ndrql.maps._kernels``) nothing
    compiles: neither run may say it compiles, and the cache folder stays empty. With numba's kernels
    (``NDRQL_KERNELS=numba``, or no extension) the first run compiles them and says so in one line, the
    second loads them and says nothing; ``--numba-first-run`` measures that fallback too.
@@ -98,10 +99,11 @@ def plan_runs(extra: list[str], repeat: int, tmp: Path) -> dict:
 
 
 def first_runs(tmp: Path, kernels: str | None = None) -> list[dict]:
-    """``ndrql plan --example`` with an empty numba cache folder, then again with the same folder;
+    """``ndrql plan --example`` with an empty numba cache folder and an empty ``$NDRQL_CACHE`` (so the first run
+    also makes ONNX Runtime's optimised graph), then again with the same folders;
     ``kernels`` sets ``NDRQL_KERNELS`` (None: as the environment has it)."""
     cache = tmp / f"numba-cache-{kernels or 'default'}"
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "NDRQL_CACHE": str(tmp / f"ndrql-cache-{kernels or 'default'}")}
     if kernels:
         env["NDRQL_KERNELS"] = kernels
     out = []

@@ -63,8 +63,8 @@ def test_an_export_removes_the_per_side_exports_of_earlier_versions(cache, user_
 def test_shipped_weights_need_no_export(cache, model_weights):
     p = Predictor.load(model_weights, threads=1)
     assert p.backend_name == "onnx" and p._runner.path.suffix == ".onnx"
-    assert p._runner.path.parent == model_weights.parent  # the shipped graph, nothing in the cache
-    assert not (cache / "onnx").exists()
+    assert p._runner.path.parent == model_weights.parent  # the shipped graph, no export in the cache
+    assert not [f for f in (cache / "onnx").glob("*") if f.name != "ort"]  # ort: ONNX Runtime's optimised graph
 
 
 def test_warm_cache_loads_without_torch(cache, user_weights):

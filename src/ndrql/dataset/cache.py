@@ -11,7 +11,6 @@ workers die with the process that started them (:mod:`ndrql.workers`).
 
 from __future__ import annotations
 
-import os
 import warnings
 import zipfile
 import zlib
@@ -22,16 +21,11 @@ import numpy as np
 
 from ndrql.dataset import layout
 from ndrql.errors import DatasetError
-from ndrql.io import data_digest, file_digest, save_npz, write_text
+from ndrql.io import cache_dir, data_digest, file_digest, save_npz, write_text
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.workers import process_pool
 
 CACHE_VERSION = 1
-
-
-def cache_dir() -> Path:
-    """Root of ndrql's local caches (``$NDRQL_CACHE`` or ``~/.cache/ndrql``)."""
-    return Path(os.environ.get("NDRQL_CACHE", Path.home() / ".cache" / "ndrql"))
 
 
 def pack(mask: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Output files, in one place: the atomic writer, JSON, NPZ, figures, folders and digests.
+"""Output files, in one place: the atomic writer, JSON, NPZ, figures, folders, digests and the cache root.
 
 Every file ndrql writes (maps, JSON reports, figures, arrays, checkpoints, caches, ONNX exports)
 goes through :func:`atomic_write`, which behaves like a careful Unix tool:
@@ -26,12 +26,13 @@ only (numpy and matplotlib objects are only handled when passed in), so any laye
 
 from ndrql.errors import OutputError
 from ndrql.io.atomic import atomic_path, atomic_write, check_writable, make_folder, write_bytes, write_text
-from ndrql.io.formats import data_digest, file_digest, json_text, save_figure, save_npz, to_jsonable, write_json
+from ndrql.io.formats import cache_dir, data_digest, file_digest, json_text, save_figure, save_npz, to_jsonable, write_json
 
 __all__ = [
     "OutputError",
     "atomic_path",
     "atomic_write",
+    "cache_dir",
     "check_writable",
     "data_digest",
     "file_digest",

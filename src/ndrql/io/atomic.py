@@ -5,7 +5,6 @@ from __future__ import annotations
 import errno
 import functools
 import os
-import secrets
 import stat
 from contextlib import contextmanager
 from pathlib import Path
@@ -107,7 +106,7 @@ def _anonymous_supported() -> bool:
 
 def _temp_name(folder: Path, name: str) -> Path:
     """``.NAME.PID.RANDOM.ndrql-tmp.EXT``: hidden, traceable to its writer, same extension as the target."""
-    return folder / f".{name[:180]}.{os.getpid()}.{secrets.token_hex(4)}{_TMP_SUFFIX}{Path(name).suffix[:16]}"
+    return folder / f".{name[:180]}.{os.getpid()}.{os.urandom(4).hex()}{_TMP_SUFFIX}{Path(name).suffix[:16]}"
 
 
 def _open_temp(folder: Path, name: str) -> tuple[int, Path | None]:

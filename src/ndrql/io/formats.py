@@ -65,6 +65,12 @@ def save_figure(fig: Any, path: str | os.PathLike, **savefig_kw: Any) -> Path:
     return atomic_write(path, lambda fh: fig.savefig(fh, format=fmt, **savefig_kw))
 
 
+def cache_dir() -> Path:
+    """Root of ndrql's local caches (``$NDRQL_CACHE`` or ``~/.cache/ndrql``): the dataset, ONNX exports and
+    ONNX Runtime's optimised graphs, runs; never inside the package."""
+    return Path(os.environ.get("NDRQL_CACHE", Path.home() / ".cache" / "ndrql"))
+
+
 def file_digest(path: str | os.PathLike) -> str:
     """SHA-256 of a file's bytes, as 64 hex digits (read in 1 MB chunks)."""
     h = hashlib.sha256()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, fields
 
@@ -128,12 +129,47 @@ class PriorConfig:
 def field_docs(cls) -> dict[str, str]:
     """``{field: one-line doc}`` of a config dataclass, read from the attribute docstrings."""
     import ast
-    import inspect
 
-    tree = ast.parse(inspect.getsource(cls))
-    body = tree.body[0].body  # type: ignore[attr-defined]
     docs: dict[str, str] = {}
+    node = _class_node(cls)
+    body = node.body if node is not None else ast.parse(_class_source(cls)).body[0].body  # type: ignore[attr-defined]
     for prev, node in zip(body, body[1:]):
         if isinstance(prev, ast.AnnAssign) and isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
             docs[prev.target.id] = str(node.value.value)  # type: ignore[union-attr]
     return {f.name: docs.get(f.name, "") for f in fields(cls)}
+
+
+def _class_source(cls) -> str:
+    import inspect
+
+    return inspect.getsource(cls)
+
+
+def _class_node(cls):
+    """The ``ClassDef`` of ``cls`` in its module's syntax tree (parsed once per module), or ``None`` when it
+    cannot be found there (then :func:`field_docs` asks :mod:`inspect`, which tokenises the class: slower)."""
+    import sys
+
+    module = sys.modules.get(cls.__module__)
+    tree = _module_tree(getattr(module, "__file__", None) or "")
+    if tree is None or "<locals>" in cls.__qualname__:
+        return None
+    node = tree
+    for name in cls.__qualname__.split("."):
+        found = [n for n in getattr(node, "body", ()) if type(n).__name__ == "ClassDef" and n.name == name]
+        if len(found) != 1:
+            return None
+        node = found[0]
+    return node
+
+
+@functools.lru_cache(maxsize=16)
+def _module_tree(filename: str):
+    """The syntax tree of the source file ``filename`` (``None`` when it has no readable source)."""
+    import ast
+    import linecache
+
+    if not filename.endswith(".py"):
+        return None
+    lines = linecache.getlines(filename)
+    return ast.parse("".join(lines)) if lines else None

@@ -124,7 +124,8 @@ class Predictor:
         """The companion serving the grids :attr:`view` merges (:mod:`ndrql.model.companion`), or ``None``."""
         self._threads = 0
         self._companion: dict[str, Predictor] = {}
-        """The loaded companion (key ``"net"``), shared by every :meth:`with_symmetries` copy."""
+        """The loaded companion (key ``"net"``) and its file's size and modification time (``"stat"``), shared by
+        every :meth:`with_symmetries` copy."""
 
     def with_symmetries(self, count: int) -> "Predictor":
         """This model averaging its grid-mode predictions over ``count`` orientations (a new Predictor
@@ -139,18 +140,20 @@ class Predictor:
     def serving(self, n: int) -> "Predictor":
         """The model that serves a grid of ``n`` cells on its longer side: the companion
         (:attr:`merged_weights`, loaded on first use with this backend, threads and symmetries) when
-        :attr:`view` merges such a grid, else this one."""
+        :attr:`view` merges such a grid, else this one. A replaced companion file is loaded again."""
         if self.merged_weights is None or self.view.factor(int(n)) == 1:
             return self
-        if "net" not in self._companion:
-            base, path = self.weights_file or Path("?"), self.merged_weights
-            if not path.is_file():
-                raise missing_companion(base, path)
+        base, path = self.weights_file or Path("?"), self.merged_weights
+        try:
+            st = path.stat()
+        except OSError:
+            raise missing_companion(base, path) from None
+        if self._companion.get("stat") != (st.st_size, st.st_mtime_ns):  # not loaded yet, or the file was replaced
             net = Predictor.load(path, self._threads, self.backend_name)
             check_companion(base, path, (self.encoding, self.input_mode, str(self.view)),
                             (net.encoding, net.input_mode, str(net.view)))
             net.merged_weights = None  # a companion's own companion is not followed
-            self._companion["net"] = net
+            self._companion.update(net=net, stat=(st.st_size, st.st_mtime_ns))
         net = self._companion["net"]
         return net if self.symmetries == 1 else net.with_symmetries(self.symmetries)
 

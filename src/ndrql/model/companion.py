@@ -71,9 +71,3 @@ def weights_digest(weights: Path, companion: Path | None = None) -> str:
     other = file_digest(companion) if companion.is_file() else "missing"
     return hashlib.sha256(f"{base}+{CONFIG_KEY}:{companion.name}:{other}".encode()).hexdigest()
 
-
-def checkpoint_companion(weights: Path) -> Path | None:
-    """The companion named in the torch checkpoint ``weights``' config (loads it with torch), or ``None``."""
-    from ndrql.model.checkpoint import load_checkpoint  # lazy: loads torch
-
-    return companion_path(weights, dict(load_checkpoint(weights)["config"]))

@@ -16,7 +16,7 @@ import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -123,7 +123,7 @@ class Predictor:
         self.merged_weights: Path | None = None
         """The companion serving the grids :attr:`view` merges (:mod:`ndrql.model.companion`), or ``None``."""
         self._threads = 0
-        self._companion: dict[str, Predictor] = {}
+        self._companion: dict[str, Any] = {}
         """The loaded companion (key ``"net"``) and its file's size and modification time (``"stat"``), shared by
         every :meth:`with_symmetries` copy."""
 

@@ -19,6 +19,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fp32", action="store_true", help="keep fp32 weights")
     p.add_argument("--view", default=None, metavar="VIEW",
                    help="serve a grid-mode model under this view: native, cap:PX or coarse:CELLS (default: the checkpoint's)")
+    p.add_argument("--merged-weights", default=None, metavar="STEM",
+                   help="companion weights serving the grids a coarse view merges: a file stem beside the output, "
+                        "same suffix (e.g. ndr_general_large); \"\" clears it (default: the checkpoint's)")
     p.set_defaults(func=run_weights)
 
     a = sub.add_parser("average-weights", help="average the weights of models of one architecture (a model soup)",
@@ -44,7 +47,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_weights(args: argparse.Namespace) -> int:
     from ndrql.model.checkpoint import export_weights  # lazy: loads torch
 
-    out = export_weights(args.checkpoint, args.out, half=not args.fp32, view=args.view)
+    out = export_weights(args.checkpoint, args.out, half=not args.fp32, view=args.view,
+                         merged_weights=args.merged_weights)
     print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
     return 0
 

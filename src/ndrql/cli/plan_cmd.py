@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import warnings
+from pathlib import Path
 from typing import Any
 
 from ndrql.api import PlanSettings, build_request, run_request
@@ -306,9 +307,11 @@ def run(args: argparse.Namespace) -> int:
         note = view_note(seen.get("view", "native"), int(seen.get("merged", 1)))
         runs = report.info.get("runs_file")
         graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
+        companion = f"; the companion of {Path(request.weights_file or '').name} for the grids its view merges" \
+            if seen.get("companion") else ""
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
              f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}"
-             f"{note}){graph}; constants: preset {request.preset.name}")
+             f"{note}{companion}){graph}; constants: preset {request.preset.name}")
     elif "prior_grid" in report.info:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")

@@ -99,8 +99,9 @@ def run(args: argparse.Namespace) -> int:
     print(grid_text(setup, pg, request.grid_map.resolution))
     if pred.grid is not None:
         seen = view_note(view.info.get("view", "native"), int(view.info.get("merged", 1)), " through the view ")
+        companion = f"; served by the companion {view.info['weights_file']}" if view.info.get("companion") else ""
         print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
-              f"per cell{seen}, start cell {pg.start}, goal cell {pg.goal}")
+              f"per cell{seen}, start cell {pg.start}, goal cell {pg.goal}{companion}")
     else:
         print("map-mode model: saw the map resized to 201 px (the grid is plan's, for the record)")
     print(f"{predictor.backend_name}: load {1000 * (t1 - t0):.0f} ms, predict {1000 * (t2 - t1):.0f} ms; "

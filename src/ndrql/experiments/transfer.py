@@ -35,7 +35,7 @@ from ndrql.experiments.eval_sets import eval_set, eval_spec
 from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.experiments.transfer_floors import render_large
 from ndrql.experiments.transfer_report import ROWS, not_run_note, render_tables, rows_at
-from ndrql.io import file_digest, save_figure, write_json, write_text
+from ndrql.io import save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE, bfs_distances
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
@@ -207,7 +207,7 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     panels: list[PredictionPanel] = []
     configs = lambda n: row_configs(preset, grid=n)  # noqa: E731
     records = collect(predictor, mode, gs, tuple(grids), seed_list, out, per_family=per_family, configs=configs,
-                      workers=workers, executor=executor, weights_id=file_digest(wpath), progress=progress, panels=panels,
+                      workers=workers, executor=executor, weights_id=predictor.weights_digest, progress=progress, panels=panels,
                       learned_distance=learned_distance, rows=rows)
     run_rows = {n: rows_at(n, rows) for n in grids}
     constants = "the paper's constants" if preset is None or preset.name == "spec" else \
@@ -216,7 +216,10 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
     eq6 = "Eq. 6 on the model's learned distance if the weights have a distance head" if learned_distance else \
         "Eq. 6 on the straight line, the paper's (--no-learned-distance)"
     role = "sealed set" if release else "development set"
-    text = (header + f"Weights {wpath.name} (input mode {mode}{turns}; {eq6}); {role} {set_name!r} {gs.spec.to_dict()}; "
+    companion = "" if predictor.merged_weights is None else \
+        f"; the grids its view merges served by its companion {predictor.merged_weights.name}"
+    merged = {} if predictor.merged_weights is None else {"merged_weights": str(predictor.merged_weights)}
+    text = (header + f"Weights {wpath.name} (input mode {mode}{turns}{companion}; {eq6}); {role} {set_name!r} {gs.spec.to_dict()}; "
             f"seeds {seed_list[0]}..{seed_list[-1]}; {constants}.\n\n" + render_tables(records, tuple(grids))
             + render_large(records, tuple(grids)))
     if command:
@@ -226,7 +229,7 @@ def transfer(out: str | Path, weights: str | None = None, set_name: str = "trans
         save_figure(fig, out / "transfer_predictions.png", dpi=110)
         text += "\n![predictions](transfer_predictions.png)\n"
     write_text(out / f"{name}.md", text)
-    write_json(out / "summary.json", {"weights": str(wpath), "mode": mode, "symmetries": symmetries, "set": gs.spec.to_dict(), "seeds": seed_list,
+    write_json(out / "summary.json", {"weights": str(wpath), **merged, "mode": mode, "symmetries": symmetries, "set": gs.spec.to_dict(), "seeds": seed_list,
                                       "set_name": set_name, "learned_distance": learned_distance,
                                       "grids": list(grids), "preset": preset.name if preset else "spec",
                                       "rows": {str(n): list(r) for n, r in run_rows.items()},

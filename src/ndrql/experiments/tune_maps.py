@@ -15,7 +15,6 @@ from pathlib import Path
 
 from ndrql.experiments.ceiling import case_problem, grid_case, larger_sizes, model_priors
 from ndrql.experiments.eval_sets import eval_set, tuning_spec
-from ndrql.io import file_digest
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.symmetry import digest_suffix
@@ -62,4 +61,4 @@ def generated_problems(k: int, n: int, weights: str | Path | None = None, set_na
     for fam, i in tqdm(interleave(by_family, k), desc="predictions", unit="map", disable=not progress):
         c = cases[i]
         out.append(case_problem(c, f"{set_name}-g{n}", i, model_priors(predictor, mode, c)))
-    return out, skipped, file_digest(wpath)[:16] + digest_suffix(symmetries)
+    return out, skipped, predictor.weights_digest[:16] + digest_suffix(symmetries)

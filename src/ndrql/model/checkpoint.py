@@ -17,6 +17,7 @@ import torch
 from ndrql.version import __version__
 from ndrql.errors import CheckpointError
 from ndrql.io import atomic_write, file_digest
+from ndrql.model.companion import CONFIG_KEY as COMPANION_KEY, check_stem
 from ndrql.model.registry import build_model, check_config
 
 FORMAT = "ndrql-checkpoint"
@@ -82,10 +83,13 @@ def model_from_checkpoint(data: dict[str, Any]) -> torch.nn.Module:
 
 
 def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: dict[str, Any] | None = None,
-                   view: str | None = None) -> Path:
+                   view: str | None = None, merged_weights: str | None = None) -> Path:
     """Write a slim inference checkpoint (config, metrics, fp16 weights, no optimizer) from a training one.
     ``view``: serve a grid-mode model under this view (:class:`ndrql.dataset.views.GridView`; it changes what
-    the model is shown above the view's limit, not the weights); ``None`` keeps the checkpoint's."""
+    the model is shown above the view's limit, not the weights); ``None`` keeps the checkpoint's.
+    ``merged_weights``: the file stem of the companion serving the grids that view merges
+    (:mod:`ndrql.model.companion`; a grid-mode model under a ``coarse`` view), ``""`` clears it, ``None``
+    keeps the checkpoint's."""
     data = load_checkpoint(src)
     model_cfg = dict(data["config"])
     if view is not None:
@@ -97,6 +101,13 @@ def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: d
         model_cfg = {k: v for k, v in model_cfg.items() if k != "view"}
         if str(parsed) != "native":
             model_cfg["view"] = str(parsed)
+    if merged_weights is not None:
+        model_cfg = {k: v for k, v in model_cfg.items() if k != COMPANION_KEY}
+        if merged_weights:
+            if not str(model_cfg.get("view") or "native").startswith("coarse:"):
+                raise CheckpointError(f"--merged-weights serves the grids a coarse view merges; {src} is served under "
+                                      f"view {model_cfg.get('view') or 'native'} ({model_cfg.get('input_mode', 'map')} mode)")
+            model_cfg[COMPANION_KEY] = check_stem(merged_weights)
     weights = {k: (v.half() if half and v.is_floating_point() else v) for k, v in data["model"].items()}
     payload = {
         "config": model_cfg,

@@ -28,8 +28,7 @@ from ndrql.errors import NdrqlError, require_torch
 from ndrql.io import atomic_path, file_digest, write_json
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.model.onnx_backend import CONFIG_KEY, EXPORT_FORMAT, FORMAT_KEY, WEIGHTS_KEY, OnnxRunner, onnx_cache_path, remove_stale_exports
-from ndrql.model.shipped import CHECK_SIDES, TOLERANCE, graph_path, record_path
-from ndrql.model.weights import shipped_weights
+from ndrql.model.shipped import CHECK_SIDES, TOLERANCE, graph_path, record_path, shipped_file
 
 #: Side of the example input the dynamic graph is traced with (any side gives the same graph).
 TRACE_SIDE = MODEL_SIDE
@@ -156,13 +155,14 @@ def max_differences(weights: Path, graph: Path, sides: tuple[int, ...] = CHECK_S
 
 
 def export_shipped(name: str, sides: tuple[int, ...] = CHECK_SIDES) -> dict[str, Any]:
-    """Export the shipped checkpoint ``name`` to its graph, measure it against torch at ``sides`` and write
+    """Export the shipped checkpoint ``name`` (``paper``, ``general`` or a companion's file stem in the data
+    folder, :func:`~ndrql.model.shipped.shipped_file`) to its graph, measure it against torch at ``sides`` and write
     the record; returns the record (needs torch and onnx). Raises ValueError when a side differs by more
     than :data:`TOLERANCE`, leaving the old record in place."""
     import onnxruntime
     import torch  # lazy: torch is optional
 
-    weights, graph = shipped_weights(name), graph_path(name)
+    weights, graph = shipped_file(name), graph_path(name)
     export_onnx(weights, graph)
     diffs = max_differences(weights, graph, sides)
     worst = max(max(d.values()) for d in diffs.values())

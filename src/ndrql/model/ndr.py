@@ -60,6 +60,8 @@ class NDRConfig:
     """The distance head: coarse (stride-8 field + full-res correction, v4) or skips (decoded with the walls at strides 4 and 2)."""
     view: str = "native"
     """How a grid-mode model sees large planning grids (ndrql.dataset.views.GridView: native, cap:PX, coarse:CELLS); the view it was trained under."""
+    merged_weights: str = ""
+    """Companion weights serving the grids the view merges: a file stem beside this file (ndrql.model.companion); empty = none."""
 
     @classmethod
     def from_dict(cls, data: dict) -> "NDRConfig":

@@ -12,12 +12,11 @@ are brought to the model's scale first and the probabilities mapped back to the 
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -28,9 +27,11 @@ from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, Ndrq
 from ndrql.limits import check_threads
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
 from ndrql.maps.sizing import choose_size, full_route, safe_grid
+from ndrql.model.companion import check_companion, companion_path, missing_companion, weights_digest
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
 from ndrql.model.symmetry import DEFAULT_COUNT, averaged, check_count
+from ndrql.model.torch_runner import TorchRunner
 from ndrql.model.weights import resolve_weights
 
 Point = tuple[int, int]
@@ -100,43 +101,6 @@ def default_weights_path() -> Path:
 BACKENDS = ("auto", "onnx", "torch")
 
 
-@contextlib.contextmanager
-def torch_threads(n: int) -> Iterator[None]:
-    """Run torch ops on ``n`` threads inside the block (0 = leave as is), restoring the count after."""
-    import torch  # lazy: torch is optional
-
-    before = torch.get_num_threads()
-    if n and n != before:
-        torch.set_num_threads(n)
-    try:
-        yield
-    finally:
-        if n and n != before:
-            torch.set_num_threads(before)
-
-
-class _TorchRunner:
-    """Eager torch forward: inference_mode, channels_last, fp32, on ``threads`` threads (restored after)."""
-
-    name = "torch"
-
-    def __init__(self, model, threads: int):
-        import torch  # lazy: torch is optional
-
-        self.model = model.eval().to(memory_format=torch.channels_last)
-        self.threads = threads
-
-    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        import torch  # lazy: torch is optional
-
-        with torch_threads(self.threads), torch.inference_mode():
-            t = torch.from_numpy(np.ascontiguousarray(x, np.float32)).contiguous(memory_format=torch.channels_last)
-            region, guide, *dist = self.model(t)
-        r = torch.sigmoid(region)[:, 0].numpy()
-        g = torch.sigmoid(guide)[:, 0].numpy() if guide is not None else None
-        return r, g, (dist[0][:, 0].float().numpy() if dist else None)
-
-
 class Predictor:
     """A loaded NDR model: ``predict(obstacles, start, goal) -> Prediction`` at the map's size.
 
@@ -154,14 +118,52 @@ class Predictor:
         self.symmetries = 1
         """Grid-mode predictions average over this many orientations of the grid (1, 2, 4 or 8;
         :mod:`ndrql.model.symmetry`); set by :meth:`load` or :meth:`with_symmetries`."""
+        self.weights_file: Path | None = None
+        """The file :meth:`load` read (``None`` for an in-memory model)."""
+        self.merged_weights: Path | None = None
+        """The companion serving the grids :attr:`view` merges (:mod:`ndrql.model.companion`), or ``None``."""
+        self._threads = 0
+        self._companion: dict[str, Any] = {}
+        """The loaded companion (key ``"net"``) and its file's size and modification time (``"stat"``), shared by
+        every :meth:`with_symmetries` copy."""
 
     def with_symmetries(self, count: int) -> "Predictor":
         """This model averaging its grid-mode predictions over ``count`` orientations (a new Predictor
-        sharing the loaded network; ``ValueError`` for a count not in 1, 2, 4, 8)."""
+        sharing the loaded network, and the companion's; ``ValueError`` for a count not in 1, 2, 4, 8)."""
         check_count(count, NdrqlError)
         out = Predictor(self._runner, self.encoding, self.input_mode, self.view)
         out.symmetries = count
+        out.weights_file, out.merged_weights, out._threads = self.weights_file, self.merged_weights, self._threads
+        out._companion = self._companion
         return out
+
+    def serving(self, n: int) -> "Predictor":
+        """The model that serves a grid of ``n`` cells on its longer side: the companion
+        (:attr:`merged_weights`, loaded on first use with this backend, threads and symmetries) when
+        :attr:`view` merges such a grid, else this one. A replaced companion file is loaded again."""
+        if self.merged_weights is None or self.view.factor(int(n)) == 1:
+            return self
+        base, path = self.weights_file or Path("?"), self.merged_weights
+        try:
+            st = path.stat()
+        except OSError:
+            raise missing_companion(base, path) from None
+        if self._companion.get("stat") != (st.st_size, st.st_mtime_ns):  # not loaded yet, or the file was replaced
+            net = Predictor.load(path, self._threads, self.backend_name)
+            check_companion(base, path, (self.encoding, self.input_mode, str(self.view)),
+                            (net.encoding, net.input_mode, str(net.view)))
+            net.merged_weights = None  # a companion's own companion is not followed
+            self._companion.update(net=net, stat=(st.st_size, st.st_mtime_ns))
+        net = self._companion["net"]
+        return net if self.symmetries == 1 else net.with_symmetries(self.symmetries)
+
+    @property
+    def weights_digest(self) -> str:
+        """SHA-256 of the weights behind this model's predictions, covering its companion
+        (:func:`ndrql.model.companion.weights_digest`); ``ValueError`` for an in-memory model."""
+        if self.weights_file is None:
+            raise ValueError("an in-memory model has no weights file to digest")
+        return weights_digest(self.weights_file, self.merged_weights)
 
     @property
     def backend_name(self) -> str:
@@ -175,7 +177,7 @@ class Predictor:
     @property
     def model(self):
         """The torch module (torch backend only)."""
-        if not isinstance(self._runner, _TorchRunner):
+        if not isinstance(self._runner, TorchRunner):
             raise AttributeError("this Predictor runs on ONNX Runtime; load it with backend='torch' for the torch module")
         return self._runner.model
 
@@ -183,7 +185,7 @@ class Predictor:
     def from_model(cls, model, encoding: str = "point", threads: int = 0, view: GridView | str = GridView()) -> "Predictor":
         """Wrap an in-memory torch model (eager backend) that sees planning grids through ``view`` (a
         :class:`~ndrql.dataset.views.GridView` or its text, ``"coarse:128"``)."""
-        return cls(_TorchRunner(model, threads), encoding, view=GridView.parse(str(view)))
+        return cls(TorchRunner(model, threads), encoding, view=GridView.parse(str(view)))
 
     @classmethod
     def load(cls, path: str | Path | None = None, threads: int = 0, backend: str = "auto", symmetries: int = 1) -> "Predictor":
@@ -224,7 +226,8 @@ class Predictor:
             else:
                 if runner is not None:
                     return cls(runner, encoding=runner.config.get("encoding", "point"),
-                               input_mode=runner.config.get("input_mode", "map"), view=config_view(runner.config))
+                               input_mode=runner.config.get("input_mode", "map"),
+                               view=config_view(runner.config))._loaded(path, threads, runner.config)
                 if backend == "onnx" and not can_export():
                     raise MissingDependency(f"running {path.name} on ONNX Runtime needs an export first, with torch and "
                                             f"onnx: {TRAIN_INSTALL} (or pass a graph from `ndrql export-onnx`)")
@@ -237,7 +240,13 @@ class Predictor:
         config = dict(data["config"])
         out = cls.from_model(model_from_checkpoint(data), config.get("encoding", "point"), threads, config_view(config))
         out.input_mode = config.get("input_mode", "map")
-        return out
+        return out._loaded(path, threads, config)
+
+    def _loaded(self, path: Path, threads: int, config: Mapping) -> "Predictor":
+        """This model, recording the file it came from, its threads and its companion (from ``config``)."""
+        self.weights_file, self._threads = path, threads
+        self.merged_weights = companion_path(path, config) if self.input_mode == "grid" else None
+        return self
 
     def predict_batch(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Probabilities for an encoded batch (B, C, H, W) -> (B, H, W) arrays."""
@@ -253,7 +262,11 @@ class Predictor:
         (:func:`~ndrql.dataset.views.view_input`; ``native`` is the grid at 4 px per cell, padded with
         obstacles to a square of ``4 max(h, w)`` px), averaged over :attr:`symmetries` orientations, and
         brought back per planning cell (:func:`~ndrql.dataset.views.view_cells`,
-        :func:`~ndrql.dataset.views.view_distance_cells`)."""
+        :func:`~ndrql.dataset.views.view_distance_cells`). A grid the view merges goes to the companion
+        (:meth:`serving`)."""
+        served = self.serving(max(np.shape(blocked)))
+        if served is not self:  # a grid the view merges: the companion's
+            return served.predict_view(blocked, start_cell, goal_cell)
         seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)
         r, gl, d = averaged(self._runner, encode_input(seen.image, seen.start, seen.goal, self.encoding)[None],
                             self.symmetries)

@@ -8,6 +8,9 @@ graph only while its record matches the checkpoint byte for byte, so a replaced 
 paired with a stale graph; ``python tools/export_shipped_onnx.py``
 (:func:`ndrql.model.export.export_shipped`) regenerates graphs and records after new weights land
 (needs torch).
+
+A companion of a shipped model (:mod:`ndrql.model.companion`, e.g. ``ndr_general_large.pt``) ships the same
+way: its checkpoint, graph and record in ``ndrql/data``, named here by its file stem.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ndrql.io import file_digest
+from ndrql.model.companion import check_stem
 from ndrql.model.weights import SHIPPED_WEIGHTS, shipped_weights
 
 #: Input sides measured against torch at export: every side ``plan`` feeds a grid-mode model from
@@ -29,9 +33,22 @@ TOLERANCE = 1e-4
 SHIPPED_BUDGET = 25_000_000
 
 
+def data_dir() -> Path:
+    """The package's data folder, where the shipped weights, graphs and records lie."""
+    return shipped_weights(next(iter(SHIPPED_WEIGHTS))).parent
+
+
+def shipped_file(name: str) -> Path:
+    """The shipped checkpoint ``name``: ``paper``, ``general`` (:data:`~ndrql.model.weights.SHIPPED_WEIGHTS`) or
+    the file stem of a companion in the data folder (``ndr_general_large``)."""
+    if name in SHIPPED_WEIGHTS:
+        return shipped_weights(name)
+    return data_dir() / f"{check_stem(name)}.pt"
+
+
 def graph_path(name: str) -> Path:
-    """The shipped graph of the weights called ``name`` (``paper``, ``general``)."""
-    return shipped_weights(name).with_suffix(".onnx")
+    """The shipped graph of the weights called ``name`` (``paper``, ``general``, a companion's stem)."""
+    return shipped_file(name).with_suffix(".onnx")
 
 
 def record_path(name: str) -> Path:
@@ -53,7 +70,7 @@ def shipped_graph(weights: Path) -> Path | None:
 
     A shipped checkpoint whose graph is missing, stale or damaged gives a warning (the model then runs
     from an export in the cache, which needs torch)."""
-    records = {name: read_record(name) for name in SHIPPED_WEIGHTS}
+    records = {name: read_record(name) for name in [*SHIPPED_WEIGHTS, *_companion_names()]}
     if not any(records.values()):
         return None
     digest = file_digest(weights)
@@ -72,6 +89,13 @@ def shipped_graph(weights: Path) -> Path | None:
     return None
 
 
+def _companion_names() -> list[str]:
+    """Stems of the companions whose graph records lie in the data folder."""
+    shipped = {shipped_weights(n).stem for n in SHIPPED_WEIGHTS}
+    stems = (f.name[:-len(".onnx.json")] for f in data_dir().glob("*.onnx.json"))
+    return sorted(s for s in stems if s not in shipped)
+
+
 def _same_file(a: Path, b: Path) -> bool:
     try:
         return a.resolve() == b.resolve()
@@ -80,6 +104,7 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def shipped_bytes() -> int:
-    """Size of all shipped weights (checkpoints and graphs) in ``ndrql/data``, bytes."""
-    files = [shipped_weights(n) for n in SHIPPED_WEIGHTS] + [graph_path(n) for n in SHIPPED_WEIGHTS]
+    """Size of all shipped weights (checkpoints and graphs, companions' too) in ``ndrql/data``, bytes."""
+    names = [*SHIPPED_WEIGHTS, *_companion_names()]
+    files = [shipped_file(n) for n in names] + [graph_path(n) for n in names]
     return sum(f.stat().st_size for f in files if f.is_file())

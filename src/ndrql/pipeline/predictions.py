@@ -85,12 +85,19 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
     head) per cell of the planning grid ``blocked``, seen through the model's view
     (:meth:`~ndrql.model.predict.Predictor.predict_view`), and what it saw: the input's side, where start and
     goal landed, the view and how many cells along each side it merged into one (``merged``, 1 unless
-    ``coarse`` merged them)."""
+    ``coarse`` merged them). A model with a companion (:mod:`ndrql.model.companion`) also names the
+    weights file that served (``weights_file``) and, on ONNX Runtime, the graph that ran (``runs_file``)."""
     out = predictor.predict_view(blocked, start_cell, goal_cell)
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
             "view": str(predictor.view), "merged": int(seen.factor)}
+    if getattr(predictor, "merged_weights", None) is not None:
+        served = predictor.serving(max(np.shape(blocked)))
+        info["weights_file"] = served.weights_file.name
+        info["companion"] = served is not predictor
+        if served.graph_file is not None:
+            info["runs_file"] = str(served.graph_file)
     return out.region, out.guideline, info, out.distance
 
 
@@ -313,6 +320,10 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock) -> Predicte
         with clock.stage("predict"):
             view = predict_region(predictor, request.grid_map, grid, request.start, request.goal)
             record["model_input"] = view.info
+            if "runs_file" in view.info:  # a companion's graph may have run instead
+                record["runs_file"] = view.info.pop("runs_file")
+            if view.info.get("companion"):
+                used_weights = str(predictor.merged_weights)
             region_map, guideline_map = view.region, view.guideline
     needs_guide = [m.name for m in ms if m.needs_guideline]
     if guideline_map is None and needs_guide:

@@ -24,10 +24,11 @@ import numpy as np
 from ndrql.dataset.layout import load_sample
 from ndrql.dataset.render import PX_PER_CELL
 from ndrql.errors import NdrqlError, NoPathError
-from ndrql.io import data_digest, file_digest, save_npz
+from ndrql.io import data_digest, save_npz
 from ndrql.maps.astar import astar4
 from ndrql.maps.grid import PLANNING_SIZE, PlanningGrid
 from ndrql.maps.problem import MapProblem
+from ndrql.model.companion import companion_path, weights_digest
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
@@ -108,11 +109,14 @@ def load_problems(root: str | Path, refs: list[tuple[str, int]],
     return out, skipped
 
 
-def _input_mode(weights: Path) -> str:
-    """What the model in the checkpoint ``weights`` sees (its config's ``input_mode``)."""
+def _seen(weights: Path) -> tuple[str, Path | None]:
+    """What the model in the checkpoint ``weights`` sees (its config's ``input_mode``) and its companion
+    (:func:`ndrql.model.companion.companion_path`)."""
     from ndrql.model.checkpoint import load_checkpoint  # lazy: loads torch
 
-    return str(load_checkpoint(weights)["config"].get("input_mode", "map"))
+    config = dict(load_checkpoint(weights)["config"])
+    mode = str(config.get("input_mode", "map"))
+    return mode, companion_path(weights, config) if mode == "grid" else None
 
 
 class PredictionCache:
@@ -133,10 +137,12 @@ class PredictionCache:
                 f"missing model weights {self.weights}: the N-C/N-Q/NDR-QL rows need the NDR model "
                 "(set NDRQL_WEIGHTS or pass --weights FILE)"
             )
-        if symmetries != 1 and _input_mode(self.weights) != "grid":
+        mode, companion = _seen(self.weights)
+        if symmetries != 1 and mode != "grid":
             self.symmetries = symmetries = 1  # a map-mode model (the paper's) sees the map, never turned
-        self.digest = file_digest(self.weights)[:16] + digest_suffix(symmetries)
-        """Names the predictions in task fingerprints and cache entries: the weights and the symmetries."""
+        self.digest = weights_digest(self.weights, companion)[:16] + digest_suffix(symmetries)
+        """Names the predictions in task fingerprints and cache entries: the weights (with the companion
+        serving the grids the view merges, :mod:`ndrql.model.companion`) and the symmetries."""
         self.threads = threads
         self._predictor: Any = None
         self.computed = 0

@@ -197,9 +197,9 @@ def test_export_weights_sets_and_clears_the_companion(model_weights, tmp_path):
     assert load_checkpoint(kept)["config"]["merged_weights"] == "ndr_general_large"
     cleared = export_weights(out, tmp_path / "cleared.pt", merged_weights="")
     assert load_checkpoint(cleared)["config"] == load_checkpoint(src)["config"]
-    with pytest.raises(CheckpointError, match="coarse view"):
+    with pytest.raises(CheckpointError, match="coarse or walls view"):
         export_weights(resolve_weights("paper"), tmp_path / "p.pt", merged_weights="x")
-    with pytest.raises(CheckpointError, match="coarse view"):
+    with pytest.raises(CheckpointError, match="coarse or walls view"):
         export_weights(src, tmp_path / "n.pt", view="native", merged_weights="x")
     for bad in ("a/b", "x.pt", ".."):
         with pytest.raises(NdrqlError, match="file stem"):

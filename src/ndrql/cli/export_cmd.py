@@ -18,9 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="output file (e.g. src/ndrql/data/ndr_default.pt)")
     p.add_argument("--fp32", action="store_true", help="keep fp32 weights")
     p.add_argument("--view", default=None, metavar="VIEW",
-                   help="serve a grid-mode model under this view: native, cap:PX or coarse:CELLS (default: the checkpoint's)")
+                   help="serve a grid-mode model under this view: native, cap:PX, coarse:CELLS or walls:CELLS (default: the checkpoint's)")
     p.add_argument("--merged-weights", default=None, metavar="STEM",
-                   help="companion weights serving the grids a coarse view merges: a file stem beside the output, "
+                   help="companion weights serving the grids a coarse or walls view merges: a file stem beside the output, "
                         "same suffix (e.g. ndr_general_large); \"\" clears it (default: the checkpoint's)")
     p.set_defaults(func=run_weights)
 

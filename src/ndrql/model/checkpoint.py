@@ -104,8 +104,8 @@ def export_weights(src: str | Path, dst: str | Path, half: bool = True, extra: d
     if merged_weights is not None:
         model_cfg = {k: v for k, v in model_cfg.items() if k != COMPANION_KEY}
         if merged_weights:
-            if not str(model_cfg.get("view") or "native").startswith("coarse:"):
-                raise CheckpointError(f"--merged-weights serves the grids a coarse view merges; {src} is served under "
+            if not str(model_cfg.get("view") or "native").startswith(("coarse:", "walls:")):
+                raise CheckpointError(f"--merged-weights serves the grids a coarse or walls view merges; {src} is served under "
                                       f"view {model_cfg.get('view') or 'native'} ({model_cfg.get('input_mode', 'map')} mode)")
             model_cfg[COMPANION_KEY] = check_stem(merged_weights)
     weights = {k: (v.half() if half and v.is_floating_point() else v) for k, v in data["model"].items()}

@@ -40,7 +40,7 @@ def companion_path(weights: Path, config: Mapping) -> Path | None:
     folder with ``weights``' suffix; ``None`` when the config names none or its view merges nothing
     (``native``, ``cap``)."""
     stem = config.get(CONFIG_KEY) or ""
-    if not stem or not str(config.get("view") or "native").startswith("coarse:"):
+    if not stem or not str(config.get("view") or "native").startswith(("coarse:", "walls:")):
         return None
     return Path(weights).parent / (check_stem(str(stem)) + Path(weights).suffix)
 

@@ -132,7 +132,7 @@ class TrainConfig:
     distance_rank: str = "raw"
     """Ranking term of the distance-head loss: raw (v5), raw+snapped (also ranks the detours as Eq. 6 snaps them; v6) or raw+snapped+moves (also scores each cell's greedy move; training.losses.distance_loss)."""
     view: str = "native"
-    """How the model sees planning grids in grid mode (ndrql.dataset.views.GridView): native (4 px per cell), cap:PX or coarse:CELLS (above CELLS, cells merged so the input stays at most 4 x CELLS px); saved in the model's config."""
+    """How the model sees planning grids in grid mode (ndrql.dataset.views.GridView): native (4 px per cell), cap:PX, coarse:CELLS (above CELLS, cells merged so the input stays at most 4 x CELLS px) or walls:CELLS (merged, thin walls kept); saved in the model's config."""
     train_only: str = ""
     """Train only these parts of the model (comma-separated top-level modules, e.g. distance); the rest keeps its weights and BatchNorm statistics."""
 

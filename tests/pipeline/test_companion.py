@@ -122,11 +122,22 @@ def test_missing_or_mismatched_companion_is_one_clear_error(model_weights, tmp_p
     b.predict_view(_grid(16), *_points(16))  # unmerged: the base alone
     with pytest.raises(NdrqlError, match=r"missing companion weights .*nope\.pt \(named by merged_weights in base\.pt"):
         b.predict_view(_grid(32), *_points(32))
-    _checkpoint(model_weights, tmp_path / "wide.pt", view="coarse:32")
-    wide = _checkpoint(model_weights, tmp_path / "base2.pt", merged_weights="wide")
-    with pytest.raises(NdrqlError, match="the companion wide.pt of base2.pt has view coarse:32, the base coarse:16") as err:
-        Predictor.load(wide, threads=1, backend="torch").predict_view(_grid(32), *_points(32))
+    _checkpoint(model_weights, tmp_path / "maps.pt", input_mode="map")
+    other = _checkpoint(model_weights, tmp_path / "base2.pt", merged_weights="maps")
+    with pytest.raises(NdrqlError, match="the companion maps.pt of base2.pt has input mode map, the base grid") as err:
+        Predictor.load(other, threads=1, backend="torch").predict_view(_grid(32), *_points(32))
     assert "\n" not in str(err.value)
+
+
+def test_a_companion_sees_the_grids_it_serves_through_its_own_view(model_weights, tmp_path):
+    """A specialist trained under another view (here ``cap:64``: the 32-cell grid at 2 px per cell, nothing
+    merged) serves the grids the base's view merges, through its own view."""
+    pytest.importorskip("torch")
+    fine = _checkpoint(model_weights, tmp_path / "fine.pt", scale=0.9, view="cap:64")
+    base = _checkpoint(model_weights, tmp_path / "base.pt", merged_weights="fine")
+    b, c = (Predictor.load(w, threads=1, backend="torch") for w in (base, fine))
+    assert str(c.view) == "cap:64" and b.serving(32).view == c.view
+    assert _same(_all(b, 32), _all(c, 32)) and b.predict_view(_grid(32), *_points(32)).seen.px == 2
 
 
 def test_digests_cover_the_companion_and_cache_entries_never_cross(model_weights, tmp_path):

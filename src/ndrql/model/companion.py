@@ -7,8 +7,9 @@ above the view's limit merged into fewer cells. A model trained on such merged g
 the base file's suffix (``.pt`` beside a checkpoint, ``.onnx`` beside a graph, whose metadata carries the
 same config). The base keeps serving every grid the view leaves unmerged (those predictions stay bit for
 bit); the companion serves every grid the view merges
-(:meth:`ndrql.model.predict.Predictor.serving`). It must see grids as the base does: the same encoding,
-input mode and view (:func:`check_companion`). A companion's own ``merged_weights`` is not followed.
+(:meth:`ndrql.model.predict.Predictor.serving`), through its own view (which may differ from the base's,
+e.g. ``cap:512`` beside ``coarse:128``); it must read the base's inputs: the same encoding and input mode
+(:func:`check_companion`). A companion's own ``merged_weights`` is not followed.
 
 Whatever names the weights behind a prediction names both files: :func:`weights_digest` covers the
 companion, so a cache entry made with one pair is never read as another's.
@@ -45,13 +46,15 @@ def companion_path(weights: Path, config: Mapping) -> Path | None:
     return Path(weights).parent / (check_stem(str(stem)) + Path(weights).suffix)
 
 
-def check_companion(base: Path, companion: Path, base_seen: tuple[str, str, str],
-                    companion_seen: tuple[str, str, str]) -> None:
-    """One clear error unless the companion sees grids as the base does: ``(encoding, input mode, view)`` of each."""
-    for what, a, b in zip(("encoding", "input mode", "view"), base_seen, companion_seen):
+def check_companion(base: Path, companion: Path, base_seen: tuple[str, str],
+                    companion_seen: tuple[str, str]) -> None:
+    """One clear error unless the companion reads the base's inputs: ``(encoding, input mode)`` of each. Its
+    view may differ: it sees the grids it serves (those the base's view merges) through its own view, e.g. a
+    specialist trained under ``cap:512`` beside a base under ``coarse:128``."""
+    for what, a, b in zip(("encoding", "input mode"), base_seen, companion_seen):
         if a != b:
             raise NdrqlError(f"the companion {companion.name} of {base.name} has {what} {b}, the base {a}; "
-                             f"a companion must have the base's encoding, input mode and view")
+                             f"a companion must have the base's encoding and input mode")
 
 
 def missing_companion(base: Path, companion: Path) -> NdrqlError:

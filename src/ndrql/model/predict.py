@@ -150,8 +150,7 @@ class Predictor:
             raise missing_companion(base, path) from None
         if self._companion.get("stat") != (st.st_size, st.st_mtime_ns):  # not loaded yet, or the file was replaced
             net = Predictor.load(path, self._threads, self.backend_name)
-            check_companion(base, path, (self.encoding, self.input_mode, str(self.view)),
-                            (net.encoding, net.input_mode, str(net.view)))
+            check_companion(base, path, (self.encoding, self.input_mode), (net.encoding, net.input_mode))
             net.merged_weights = None  # a companion's own companion is not followed
             self._companion.update(net=net, stat=(st.st_size, st.st_mtime_ns))
         net = self._companion["net"]

@@ -27,6 +27,7 @@ import numpy as np
 
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import whole_pixel_majority
+from ndrql.maps import sizing  # sizing.safe_grid, read at each call: the one builder
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances, nearest_free_euclidean
 from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import grid_shape
@@ -78,10 +79,8 @@ def connected_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> 
     """The safe grid of ``n`` cells with start and goal placed as ``ndrql plan`` places them
     (:func:`ndrql.maps.sizing.safe_grid`: a point whose cell is blocked moves to a nearby free cell it can
     see): ``(blocked, start_cell, goal_cell)``, or ``None`` when they fall in one cell or do not connect."""
-    from ndrql.maps.sizing import safe_grid  # lazy: loads numba
-
     try:
-        pg = safe_grid(obstacles, n, start, goal)
+        pg = sizing.safe_grid(obstacles, n, start, goal)
     except NoPathError:  # no free cell at all at this size
         return None
     blocked, s, g = pg.blocked, pg.start, pg.goal

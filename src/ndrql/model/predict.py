@@ -26,7 +26,8 @@ from ndrql.dataset.views import GridView, ViewInput, view_cells, view_distance_c
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
 from ndrql.limits import check_threads
 from ndrql.maps.safe import DEFAULT_MAX_SIZE, cell_size_px
-from ndrql.maps.sizing import choose_size, full_route, safe_grid
+from ndrql.maps import sizing  # sizing.safe_grid, read at each call: the one builder (tests count its calls)
+from ndrql.maps.sizing import choose_size, full_route
 from ndrql.model.companion import check_companion, companion_path, missing_companion, weights_digest
 from ndrql.model.export import cached_export
 from ndrql.model.onnx_backend import can_export, onnx_available, onnx_runner
@@ -321,7 +322,7 @@ class Predictor:
     def _predict_safe_grid(self, obstacles: np.ndarray, start: Point, goal: Point, size: int | None) -> Prediction:
         if size is None:
             size = choose_size(obstacles, start, goal, full_route(obstacles, start, goal).cost, DEFAULT_MAX_SIZE).size
-        pg = safe_grid(obstacles, int(size), start, goal)
+        pg = sizing.safe_grid(obstacles, int(size), start, goal)
         blocked, s, g = pg.blocked, pg.start, pg.goal
         cells = self.predict_cells(blocked, s, g)
         cell_px = (cell_size_px(obstacles.shape, int(size)),) * 2

@@ -28,7 +28,8 @@ from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
 from ndrql.maps.scenarios import scenario_doubts
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
-from ndrql.maps.sizing import choose_size, connected4, full_route, ladder, safe_grid, try_size
+from ndrql.maps import sizing  # sizing.safe_grid, read at each call: the one builder (tests count its calls)
+from ndrql.maps.sizing import choose_size, connected4, full_route, ladder, try_size
 from ndrql.pipeline.settings import SLOW_SIZE, PlanSettings
 
 Point = tuple[int, int]
@@ -206,7 +207,7 @@ def _suggest_size(check_map: np.ndarray, start: Point, goal: Point, size: int, m
 
 def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Point, size: int,
                max_size: int) -> PlanningGrid:
-    pg = safe_grid(check_map, size, start, goal)
+    pg = sizing.safe_grid(check_map, size, start, goal)
     blocked, cells = pg.blocked, (pg.start, pg.goal)
     for name, p, cell, moved in zip(("start", "goal"), (start, goal), cells, pg.snapped):
         if moved:

@@ -89,16 +89,19 @@ def connected_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int) -> 
     return blocked, s, g
 
 
-def merge_cells(blocked: np.ndarray, f: int) -> np.ndarray:
-    """``f`` x ``f`` cells into one, free when any of them is free (padding counts as blocked)."""
-    blocked = np.asarray(blocked, bool)
-    if f == 1:
-        return blocked
+def _cell_blocks(blocked: np.ndarray, f: int) -> np.ndarray:
+    """``blocked`` padded with blocked cells to multiples of ``f`` and viewed as ``(H, f, W, f)`` blocks."""
     h, w = blocked.shape
     H, W = -(-h // f), -(-w // f)
     pad = np.ones((H * f, W * f), bool)
     pad[:h, :w] = blocked
-    return pad.reshape(H, f, W, f).all(axis=(1, 3))
+    return pad.reshape(H, f, W, f)
+
+
+def merge_cells(blocked: np.ndarray, f: int) -> np.ndarray:
+    """``f`` x ``f`` cells into one, free when any of them is free (padding counts as blocked)."""
+    blocked = np.asarray(blocked, bool)
+    return blocked if f == 1 else _cell_blocks(blocked, f).all(axis=(1, 3))
 
 
 def merge_walls(blocked: np.ndarray, f: int, start: Point, goal: Point) -> np.ndarray:
@@ -108,11 +111,7 @@ def merge_walls(blocked: np.ndarray, f: int, start: Point, goal: Point) -> np.nd
     blocked = np.asarray(blocked, bool)
     if f == 1:
         return blocked
-    h, w = blocked.shape
-    H, W = -(-h // f), -(-w // f)
-    pad = np.ones((H * f, W * f), bool)
-    pad[:h, :w] = blocked
-    walls = pad.reshape(H, f, W, f).any(axis=(1, 3))
+    walls = _cell_blocks(blocked, f).any(axis=(1, 3))
     s, g = (start[0] // f, start[1] // f), (goal[0] // f, goal[1] // f)
     walls[s] = walls[g] = False
     if s != g and bfs_distances(walls, s)[g] >= 0:

@@ -19,8 +19,8 @@ from ndrql.planning.methods import get_method
 from ndrql.planning.preset import Preset, load_preset, write_preset
 from ndrql.tuning import space as S
 from ndrql.tuning.objective import tuning_problems
-from ndrql.tuning.report import best_setting, check_presets, tuned_preset, write_study_outputs
-from ndrql.tuning.study import TuneConfig, base_score, best_trial, default_storage, finished, open_storage, run_study, study_name
+from ndrql.tuning.report import check_presets, trial_setting, tuned_preset, write_study_outputs
+from ndrql.tuning.study import TuneConfig, base_score, best_trial, best_trials, default_storage, finished, open_storage, run_study, study_name
 from ndrql.workers import process_pool
 
 EXAMPLES = """examples:
@@ -83,6 +83,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "--methods' studies as a preset file, after checking them against spec on fresh seeds")
     p.add_argument("--methods", metavar="LIST", default="QL,O-QL,IQL,NDR-QL",
                    help="--export-preset: methods to collect (default: QL,O-QL,IQL,NDR-QL)")
+    p.add_argument("--candidates", type=int, default=1, metavar="N",
+                   help="--export-preset: when a method's best feasible trial does not win its check on fresh seeds, "
+                   "check its next best in order, up to N trials in all, and adopt the first that wins (default: 1, "
+                   "the best only)")
     p.add_argument("--keep-from", metavar="PRESET", default="",
                    help="--export-preset with --maps generated: methods not in --methods keep this per-grid "
                    "preset's constants and provenance (e.g. re-search NDR-QL alone for new weights)")
@@ -276,7 +280,7 @@ def _collect(args, cfgs, problems, storage, digest, log):
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    settings, studies = {}, {}
+    settings, studies, alternates, trials = {}, {}, {}, {}
     for cfg in cfgs:
         name = study_name(cfg, [p.key for p in problems], digest)
         try:
@@ -284,17 +288,29 @@ def _collect(args, cfgs, problems, storage, digest, log):
         except KeyError:
             raise NdrqlError(f"no study {name} for {cfg.method} in {storage}: run ndrql tune --method "
                              f"{cfg.method} with the same settings first") from None
-        settings[cfg.method], bt = best_setting(study, cfg.method, cfg.base_configs()[1])
+        ranked = best_trials(study, max(1, args.candidates))
+        fixed = cfg.base_configs()[1]
+        bt = ranked[0] if ranked else None
+        settings[cfg.method] = trial_setting(bt, fixed)
+        alternates[cfg.method] = [trial_setting(t, fixed) for t in ranked[1:]]
+        trials[cfg.method] = ranked
         studies[cfg.method] = {"study": name, "finished_trials": finished(study), "best_trial": bt.number if bt else None,
                                "best_steps": bt.value if bt else None, "baseline": study.user_attrs.get("baseline")}
-        log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}")
+        log(f"{cfg.method}: best trial {bt.number if bt else '-'} of {finished(study)}"
+            + (f" (then up to {len(ranked) - 1} next best if it does not win)" if len(ranked) > 1 else ""))
     cfg = cfgs[0]
     check_seeds = list(range(cfg.seeds, 2 * cfg.seeds))
     compiled.warm_up()
     with process_pool(args.workers, start_method="fork") as pool:
-        check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool, cfg.objective)
+        check = check_presets(problems, [c.method for c in cfgs], settings, check_seeds, pool, cfg.objective,
+                              alternates=alternates)
     key = "geomean" if cfg.objective == "geomean" else "steps"
     for m, c in check.items():
+        if c["candidate"]:  # a next-best trial won where the best did not: adopt it, and say so
+            settings[m] = alternates[m][c["candidate"] - 1]
+            adopted = trials[m][c["candidate"]]
+            studies[m].update(adopted_trial=adopted.number, adopted_steps=adopted.value, candidates_checked=c["candidates_checked"])
+            log(f"{m}: the best trial did not win its check; trial {adopted.number} (rank {c['candidate'] + 1}) did")
         log(f"{m}: fresh seeds {check_seeds[0]}..{check_seeds[-1]}: spec {c['spec'][key]:,.0f} steps "
             f"(path/A* {c['spec']['ratio']:.3f}), tuned {c['tuned'][key]:,.0f} ({c['tuned']['ratio']:.3f}, "
             f"paired difference {c['ratio_difference']['mean']:+.4f} +- {c['ratio_difference']['se']:.4f}); "

@@ -40,10 +40,13 @@ def trial_rows(study: Any) -> list[dict[str, Any]]:
 def best_setting(study: Any, method: str, fixed: PriorConfig = PriorConfig()) -> tuple[MethodSetting, Any]:
     """The best feasible trial's constants as a :class:`MethodSetting` (SPEC if no trial beat it), on top of
     ``fixed`` (the search's constants outside its space, :attr:`~ndrql.tuning.study.TuneConfig.fixed`)."""
-    bt = best_trial(study)
-    params = dict(bt.params) if bt is not None else {}
-    ql, pc = S.configs_from_params(params, QLConfig(), fixed)
-    return MethodSetting(ql, pc), bt
+    return trial_setting(best_trial(study), fixed), best_trial(study)
+
+
+def trial_setting(trial: Any, fixed: PriorConfig = PriorConfig()) -> MethodSetting:
+    """A trial's constants (the SPEC's for ``None``) on top of ``fixed``."""
+    ql, pc = S.configs_from_params(dict(trial.params) if trial is not None else {}, QLConfig(), fixed)
+    return MethodSetting(ql, pc)
 
 
 def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Path:
@@ -112,7 +115,8 @@ def path_verdict(record: dict, preset: Preset | None = None) -> list[str]:
 
 
 def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings: dict[str, MethodSetting],
-                  seeds: Sequence[int], pool: Any = None, objective: str = "pooled") -> dict[str, dict[str, Any]]:
+                  seeds: Sequence[int], pool: Any = None, objective: str = "pooled",
+                  alternates: dict[str, Sequence[MethodSetting]] | None = None) -> dict[str, dict[str, Any]]:
     """SPEC vs tuned constants per method on ``problems`` x ``seeds`` (full SPEC episode budget).
 
     The tuned constants win when they take fewer steps (by the search's ``objective``: pooled, or
@@ -121,19 +125,29 @@ def check_presets(problems: Sequence[Problem], methods: Sequence[str], settings:
     seed) is at most 1.96 standard errors above 0. (Read strictly, "no worse" would reject a set of
     constants for a difference far inside the seed noise and keep a weaker baseline.) And on the worst
     map of ``problems`` their path is within :data:`PATH_BOUND` of the optimum.
+
+    ``alternates[m]``: the search's next-best constants for ``m``, best first. When ``settings[m]`` does
+    not win, each is checked in turn (against the same SPEC runs) until one wins; ``candidate`` in the
+    result is the index of the constants judged last (0: ``settings[m]``) and ``candidates_checked``
+    how many were run. Checking several against the same fresh seeds selects on them a little: the
+    adopted constants are still to be checked on another set (``studies/adoption_check.py``).
     """
     out = {}
+    key = "geomean" if objective == "geomean" else "steps"
     for m in methods:
         spec_ev, _ = evaluate(problems, m, seeds, QLConfig(), PriorConfig(), pool=pool)
-        s = settings[m]
-        tuned_ev, _ = evaluate(problems, m, seeds, s.ql, s.priors, pool=pool)
-        a, b = spec_ev.summary(), tuned_ev.summary()
-        diff, se, pairs = paired_ratio_difference(spec_ev, tuned_ev)
-        key = "geomean" if objective == "geomean" else "steps"
-        wins = (b[key] < a[key] and b["not_converged"] <= a["not_converged"]
-                and (pairs == 0 or diff <= 1.96 * se) and b["worst_map"] <= PATH_BOUND)
-        out[m] = {"spec": a, "tuned": b, "improvement": 1.0 - b[key] / a[key], "objective": objective,
-                  "ratio_difference": {"mean": diff, "se": se, "pairs": pairs}, "tuned_wins": bool(wins)}
+        a = spec_ev.summary()
+        for i, s in enumerate([settings[m], *(alternates or {}).get(m, ())]):
+            tuned_ev, _ = evaluate(problems, m, seeds, s.ql, s.priors, pool=pool)
+            b = tuned_ev.summary()
+            diff, se, pairs = paired_ratio_difference(spec_ev, tuned_ev)
+            wins = (b[key] < a[key] and b["not_converged"] <= a["not_converged"]
+                    and (pairs == 0 or diff <= 1.96 * se) and b["worst_map"] <= PATH_BOUND)
+            out[m] = {"spec": a, "tuned": b, "improvement": 1.0 - b[key] / a[key], "objective": objective,
+                      "ratio_difference": {"mean": diff, "se": se, "pairs": pairs}, "tuned_wins": bool(wins),
+                      "candidate": i, "candidates_checked": i + 1}
+            if wins:
+                break
     return out
 
 

@@ -347,13 +347,19 @@ def objective_label(cfg: TuneConfig) -> str:
     return "geometric mean of convergence steps" if cfg.objective == "geomean" else "pooled convergence steps"
 
 
-def best_trial(study: Any) -> Any:
-    """The completed feasible trial with the fewest pooled steps (ties: the earliest); ``None`` if none."""
+def best_trials(study: Any, k: int) -> list[Any]:
+    """The ``k`` completed feasible trials with the fewest steps, best first (ties: the earliest)."""
     from optuna.trial import TrialState
 
     ok = [t for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
           if t.value is not None and all(v <= 0 for v in _constraints_func(t))]
-    return min(ok, key=lambda t: (t.value, t.number)) if ok else None
+    return sorted(ok, key=lambda t: (t.value, t.number))[:k]
+
+
+def best_trial(study: Any) -> Any:
+    """The completed feasible trial with the fewest steps (ties: the earliest); ``None`` if none."""
+    best = best_trials(study, 1)
+    return best[0] if best else None
 
 
 def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weights_digest: str | None = None,

@@ -92,12 +92,7 @@ def test_an_export_falls_through_to_the_next_best_constants_that_win(monkeypatch
     assert not only["tuned_wins"] and only["candidate"] == 0 and only["candidates_checked"] == 1
 
 
-GENERAL_IQL = pytest.mark.xfail(strict=True, reason="general's IQL (searched before the bound) reaches 3.75 / 2.83 times "
-                                "the optimum on one tune map at grids 50 / 100; a search with the bound is the fix "
-                                "(docs/results.md#path-quality). Strict: once the preset passes, this mark must go.")
-
-
-@pytest.mark.parametrize("name", [pytest.param("general", marks=GENERAL_IQL), "tuned"])
+@pytest.mark.parametrize("name", ["general", "tuned"])
 def test_every_shipped_preset_keeps_its_worst_map_within_the_bound(name):
     """The record is measured by tools/preset_path_check.py on the preset's own tuning set and check seeds."""
     rec = json.loads(builtin_path(name).read_text())["meta"].get("path_quality")

@@ -38,7 +38,8 @@ def _checkpoint(model_weights, path, scale: float = 1.0, **config):
 
     data = load_checkpoint(model_weights)
     payload = {k: v for k, v in data.items() if k not in ("format", "format_version", "ndrql_version")}
-    payload["config"] = {**dict(data["config"]), "view": VIEW, **config}
+    shipped = {k: v for k, v in dict(data["config"]).items() if k != "merged_weights"}  # the shipped base names one
+    payload["config"] = {**shipped, "view": VIEW, **config}
     if scale != 1.0:
         model = dict(data["model"])
         key = next(k for k, v in model.items() if v.ndim == 4)
@@ -55,7 +56,8 @@ def _graph(model_weights, path, scale: float = 1.0, **config):
 
     graph = onnx.load(str(model_weights.with_suffix(".onnx")))
     props = {p.key: p.value for p in graph.metadata_props}
-    props[ONNX_CONFIG_KEY] = json.dumps({**json.loads(props[ONNX_CONFIG_KEY]), "view": VIEW, **config}, sort_keys=True)
+    shipped = {k: v for k, v in json.loads(props[ONNX_CONFIG_KEY]).items() if k != "merged_weights"}
+    props[ONNX_CONFIG_KEY] = json.dumps({**shipped, "view": VIEW, **config}, sort_keys=True)
     del graph.metadata_props[:]
     onnx.helper.set_model_props(graph, props)
     if scale != 1.0:

@@ -18,8 +18,8 @@ import pytest
 
 from ndrql.io import file_digest
 from ndrql.model.export import max_differences
-from ndrql.model.shipped import CHECK_SIDES, SHIPPED_BUDGET, TOLERANCE, graph_path, read_record, shipped_bytes
-from ndrql.model.weights import SHIPPED_WEIGHTS, shipped_weights
+from ndrql.model.shipped import CHECK_SIDES, SHIPPED_BUDGET, TOLERANCE, graph_path, read_record, shipped_bytes, shipped_file
+from ndrql.model.weights import SHIPPED_WEIGHTS
 
 from helpers import REPO_ROOT
 
@@ -28,16 +28,20 @@ START_GOAL = ("--start", "25,179", "--goal", "167,5")
 REGENERATE = "regenerate the shipped graphs: python tools/export_shipped_onnx.py"
 
 
-@pytest.mark.parametrize("name", list(SHIPPED_WEIGHTS))
+#: Every shipped model: the named weights and general's large-grid companion.
+ALL_SHIPPED = [*SHIPPED_WEIGHTS, "ndr_general_large"]
+
+
+@pytest.mark.parametrize("name", ALL_SHIPPED)
 def test_shipped_graph_belongs_to_the_shipped_checkpoint(name):
     record = read_record(name)
     assert record is not None, f"no record beside {graph_path(name)}; {REGENERATE}"
-    assert record["weights_sha256"] == file_digest(shipped_weights(name)), \
-        f"{shipped_weights(name).name} changed since its graph was exported; {REGENERATE}"
+    assert record["weights_sha256"] == file_digest(shipped_file(name)), \
+        f"{shipped_file(name).name} changed since its graph was exported; {REGENERATE}"
     assert record["onnx_sha256"] == file_digest(graph_path(name)), f"{graph_path(name).name} is damaged; {REGENERATE}"
 
 
-@pytest.mark.parametrize("name", list(SHIPPED_WEIGHTS))
+@pytest.mark.parametrize("name", ALL_SHIPPED)
 def test_recorded_differences_cover_every_side_plan_uses(name):
     measured = read_record(name)["max_abs_difference"]
     assert {int(side) for side in measured} >= set(CHECK_SIDES)
@@ -48,13 +52,14 @@ def test_recorded_differences_cover_every_side_plan_uses(name):
 
 def test_all_shipped_weights_fit_the_budget():
     assert shipped_bytes() <= SHIPPED_BUDGET
-    assert all(graph_path(name).is_file() for name in SHIPPED_WEIGHTS)
+    assert all(graph_path(name).is_file() for name in ALL_SHIPPED)
 
 
-@pytest.mark.parametrize(("name", "sides"), [("paper", (201, 256)), ("general", (128, 344))])
+@pytest.mark.parametrize(("name", "sides"), [("paper", (201, 256)), ("general", (128, 344)),
+                                              ("ndr_general_large", (400, 512))])
 def test_shipped_graph_agrees_with_torch(name, sides):
     pytest.importorskip("torch")
-    diffs = max_differences(shipped_weights(name), graph_path(name), sides, count=1, seed=7)
+    diffs = max_differences(shipped_file(name), graph_path(name), sides, count=1, seed=7)
     assert max(max(d.values()) for d in diffs.values()) <= TOLERANCE, diffs
 
 

@@ -29,8 +29,9 @@ from ndrql.model.weights import SHIPPED_WEIGHTS, shipped_weights
 CHECK_SIDES: tuple[int, ...] = (128, 160, 201, 256, 320, 400, 512, 640, 800, 1024, 2048)
 #: Largest |probability difference| from torch a shipped graph may show at any checked side.
 TOLERANCE = 1e-4
-#: Budget of all shipped weights together (checkpoints and graphs), bytes.
-SHIPPED_BUDGET = 25_000_000
+#: Budget of all shipped weights together (checkpoints and graphs), bytes: three models of about 5.5 MB,
+#: each as an fp16 checkpoint and an ONNX graph (paper, general, and general's large-grid companion), ~33 MB.
+SHIPPED_BUDGET = 36_000_000
 
 
 def data_dir() -> Path:

@@ -36,7 +36,8 @@ def _coarse_checkpoint(model_weights, path, view: str):
 
     data = load_checkpoint(model_weights)
     payload = {k: v for k, v in data.items() if k not in ("format", "format_version", "ndrql_version")}
-    payload["config"] = {**dict(data["config"]), "view": view}
+    shipped = {k: v for k, v in dict(data["config"]).items() if k != "merged_weights"}  # no companion beside the copy
+    payload["config"] = {**shipped, "view": view}
     return save_checkpoint(path, payload)
 
 
@@ -174,7 +175,8 @@ def test_onnx_graph_carries_the_view(model_weights, tmp_path):
     props = {p.key: p.value for p in graph.metadata_props}
     config = json.loads(props[CONFIG_KEY])
     assert config.get("view") == load_config_view(model_weights)  # the graph serves the checkpoint's view
-    props[CONFIG_KEY] = json.dumps({**config, "view": "coarse:32"}, sort_keys=True)
+    shipped = {k: v for k, v in config.items() if k != "merged_weights"}  # no companion beside the copy
+    props[CONFIG_KEY] = json.dumps({**shipped, "view": "coarse:32"}, sort_keys=True)
     del graph.metadata_props[:]
     onnx.helper.set_model_props(graph, props)
     path = tmp_path / "coarse.onnx"

@@ -32,8 +32,8 @@ EXAMPLES = """examples:
   ndrql reproduce labels --limit 200           # our labels and endpoints against the dataset's (TEST/SEEN)
   ndrql reproduce transfer --grids 50,100      # the development set of generated maps: every row, every family
   ndrql reproduce transfer --preset spec --no-learned-distance   # the paper's Eq. 6 (straight line) with the general weights
-  ndrql reproduce release                      # the sealed sets, once per release (counted in the checkout's ledger)
-  ndrql reproduce release --eval-set sealed-large-256 --grids 256   # the large-grid model; no QL rows above 100 cells
+  ndrql reproduce release                      # the sealed set at grids 50 and 100, once per release (counted in the ledger)
+  ndrql reproduce release --eval-set sealed-large-256 --seeds 3   # a large sealed set, at its own grid (256); no QL rows above 100 cells
   ndrql reproduce scale --grids 50,100         # also on the 100x100 grid -> results/scale-g100/
   ndrql reproduce table3 --prior-from oracle   # NDR-QL with the oracle's priors (a diagnostic) -> results/table3-oracle/
   ndrql reproduce dynamic
@@ -88,7 +88,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--eval-set", default=None, metavar="NAME",
                    help="transfer: a development set of transfer_sets.json (default: transfer, the development report; sealed "
                    "sets are refused: only the release target reads them); release: sealed sets, comma-separated "
-                   "(default: every sealed set)")
+                   "(default: sealed; a large sealed set is evaluated at its own grid unless --grids is given)")
     p.add_argument("--rows", metavar="LIST", default=None,
                    help="transfer/release: the report's rows, comma-separated (IQL and NDR-QL (model) required), or all "
                    "(default: every row up to 100 cells; above, every row but QL and QL (tuned): ~10^7 steps per run)")
@@ -166,19 +166,18 @@ def _presets(args: argparse.Namespace, target: str) -> list:
 def _release(args: argparse.Namespace, opts, out: Path, log) -> str:
     """``reproduce release``: every sealed set (or ``--eval-set``'s), one preset, counted in the ledger."""
     from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
-    from ndrql.experiments.eval_sets import sealed_names  # lazy: loads scipy
-    from ndrql.experiments.release import check_sealed_names, release  # lazy: loads scipy and tqdm
+    from ndrql.experiments.release import check_sealed_names, default_release, release  # lazy: loads scipy and tqdm
     from ndrql.experiments.transfer_report import parse_rows  # lazy: loads scipy
 
-    names = check_sealed_names([n.strip() for n in args.eval_set.split(",") if n.strip()] if args.eval_set
-                               else sealed_names())
+    names, grids = default_release(check_sealed_names([n.strip() for n in args.eval_set.split(",") if n.strip()])
+                                   if args.eval_set else None, parse_sizes(args.grids) if args.grids else None)
     if args.per_family is not None:
         raise NdrqlError("--per-family does not apply to release: a sealed set is evaluated whole")
     presets = _presets(args, "release")
     if len(presets) != 1:
         raise NdrqlError("release takes one --preset")
     paths = release(out, names, rows=parse_rows(args.rows), ledger=args.ledger, allow_dirty=args.allow_dirty, weights=args.weights or "general",
-                    preset=presets[0], grids=parse_sizes(args.grids or "50,100"), seeds=args.seeds, seed0=args.seed,
+                    preset=presets[0], grids=list(grids), seeds=args.seeds, seed0=args.seed,
                     workers=args.workers, executor=args.executor, progress=not args.no_progress,
                     command=opts.command, log=log)
     return ", ".join(str(x) for x in paths)

@@ -25,7 +25,7 @@ from ndrql.planning.preset import MethodSetting, Preset, configs_dict
 from ndrql.tuning import space as S
 from ndrql.pipeline.samples import Problem
 from ndrql.tuning.objective import PATH_BOUND, Evaluation, evaluate
-from ndrql.tuning.study import TuneConfig, base_score, best_trial, objective_label
+from ndrql.tuning.study import TuneConfig, base_score, best_trial
 
 
 def trial_rows(study: Any) -> list[dict[str, Any]]:
@@ -47,6 +47,11 @@ def trial_setting(trial: Any, fixed: PriorConfig = PriorConfig()) -> MethodSetti
     """A trial's constants (the SPEC's for ``None``) on top of ``fixed``."""
     ql, pc = S.configs_from_params(dict(trial.params) if trial is not None else {}, QLConfig(), fixed)
     return MethodSetting(ql, pc)
+
+
+def objective_label(cfg: TuneConfig) -> str:
+    """The objective in words, for plots and reports."""
+    return "geometric mean of convergence steps" if cfg.objective == "geomean" else "pooled convergence steps"
 
 
 def write_study_outputs(study: Any, cfg: TuneConfig, out_dir: str | Path) -> Path:

@@ -342,11 +342,6 @@ def base_score(base: dict[str, Any], cfg: TuneConfig) -> float:
     return float(base.get("geomean", base["steps"]) if cfg.objective == "geomean" else base["steps"])
 
 
-def objective_label(cfg: TuneConfig) -> str:
-    """The objective in words, for plots and reports."""
-    return "geometric mean of convergence steps" if cfg.objective == "geomean" else "pooled convergence steps"
-
-
 def best_trials(study: Any, k: int) -> list[Any]:
     """The ``k`` completed feasible trials with the fewest steps, best first (ties: the earliest)."""
     from optuna.trial import TrialState
@@ -358,8 +353,7 @@ def best_trials(study: Any, k: int) -> list[Any]:
 
 def best_trial(study: Any) -> Any:
     """The completed feasible trial with the fewest steps (ties: the earliest); ``None`` if none."""
-    best = best_trials(study, 1)
-    return best[0] if best else None
+    return next(iter(best_trials(study, 1)), None)
 
 
 def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weights_digest: str | None = None,

@@ -40,7 +40,8 @@ def trial_rows(study: Any) -> list[dict[str, Any]]:
 def best_setting(study: Any, method: str, fixed: PriorConfig = PriorConfig()) -> tuple[MethodSetting, Any]:
     """The best feasible trial's constants as a :class:`MethodSetting` (SPEC if no trial beat it), on top of
     ``fixed`` (the search's constants outside its space, :attr:`~ndrql.tuning.study.TuneConfig.fixed`)."""
-    return trial_setting(best_trial(study), fixed), best_trial(study)
+    bt = best_trial(study)
+    return trial_setting(bt, fixed), bt
 
 
 def trial_setting(trial: Any, fixed: PriorConfig = PriorConfig()) -> MethodSetting:

@@ -107,12 +107,14 @@ def test_an_unreadable_ledger_is_refused(tmp_path):
 
 
 def test_a_release_without_sets_reads_sealed_only_and_each_large_set_at_its_own_grid():
-    from ndrql.experiments.release import default_release, set_grids
+    from ndrql.experiments.eval_sets import registry
+    from ndrql.experiments.release import default_release
 
     assert default_release(None, None) == (["sealed"], (50, 100))
     assert default_release(["sealed-large-256"], None) == (["sealed-large-256"], (256,))
     assert default_release(["sealed-large-128"], None) == (["sealed-large-128"], (128,))
     assert default_release(["sealed-large-128"], (64,)) == (["sealed-large-128"], (64,))
-    assert set_grids("sealed") == (50, 100)
+    sets = registry()
+    assert sets["sealed"].grids == sets["transfer"].grids == (50, 100) and sets["large-dev-256"].grids == (256,)
     with pytest.raises(NdrqlError, match="one at a time"):
         default_release(["sealed", "sealed-large-256"], None)

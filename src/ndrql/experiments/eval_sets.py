@@ -47,6 +47,8 @@ class EvalSet:
     use: str
     """What the set is for, in a few words (printed by reports)."""
     spec: SetSpec
+    grids: tuple[int, ...] = (50, 100)
+    """The planning grids the set is drawn for, which the release report reads it at by default."""
 
 
 def _check_entry(name: str, entry: dict) -> EvalSet:
@@ -56,7 +58,7 @@ def _check_entry(name: str, entry: dict) -> EvalSet:
     spec = SetSpec.from_dict(entry)
     if seed_role(spec.seed) != role:
         raise NdrqlError(f"{REGISTRY}: set {name!r} is {role} but its seed {spec.seed} is a {seed_role(spec.seed)} seed")
-    return EvalSet(name, role, str(entry.get("use", "")), spec)
+    return EvalSet(name, role, str(entry.get("use", "")), spec, tuple(int(n) for n in entry.get("grids", (50, 100))))
 
 
 def parse_registry(data: dict) -> dict[str, EvalSet]:

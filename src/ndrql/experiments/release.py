@@ -64,23 +64,17 @@ def read_ledger(path: Path) -> dict:
     return data
 
 
-def set_grids(name: str) -> tuple[int, ...]:
-    """The grids a sealed set is evaluated at when ``--grids`` is not given: ``sealed-large-256`` at 256,
-    ``sealed-large-128`` at 128, every other set at 50 and 100."""
-    tail = name.rsplit("-", 1)[-1]
-    return (int(tail),) if name.startswith("sealed-large-") and tail.isdigit() else (50, 100)
-
-
 def default_release(names: list[str] | None, grids: tuple[int, ...] | None) -> tuple[list[str], tuple[int, ...]]:
-    """The sets and grids of one release run: without names, the set ``sealed``; without grids, the sets'
-    own (:func:`set_grids`), which must agree (a large set is released on its own, at its own size)."""
+    """The sets and grids of one release run: without names, the set ``sealed``; without grids, the grids
+    the sets were drawn for (the registry's ``grids``), which must agree (a large set is released on its own)."""
     names = names or ["sealed"]
     if grids:
         return names, tuple(grids)
-    own = {set_grids(n) for n in names}
+    sets = registry()
+    own = {sets[n].grids for n in names}
     if len(own) > 1:
         raise NdrqlError(f"the sets {', '.join(names)} are drawn for different grids "
-                         f"({'; '.join(f'{n}: {set_grids(n)}' for n in names)}): release them one at a time or give --grids")
+                         f"({'; '.join(f'{n}: {sets[n].grids}' for n in names)}): release them one at a time or give --grids")
     return names, own.pop()
 
 

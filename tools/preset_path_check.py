@@ -4,12 +4,13 @@ No preset ships whose learned greedy grid path exceeds the grid optimum by more 
 :data:`ndrql.tuning.objective.PATH_BOUND` on the worst map of its tuning set (the mean over the check
 seeds of greedy path / A* on that map). ``ndrql tune --export-preset`` applies the bound to what it
 exports; this tool measures a preset that exists: each method's constants, per grid size, on the
-problems its search used (``general``: the ``tune`` set with the shipped general weights; ``tuned``:
+problems its search used (``general``: per grid the set its search read, ``tune`` or ``large-tune-256``, with
+the shipped general weights; ``tuned``:
 the paper's validation maps with the paper's weights), with the preset's check seeds and full episode
 budget. It writes the figures into the preset's ``meta`` (``path_quality``) and exits 2 when searched
 constants exceed the bound (entries that hold the paper's constants are reported, not judged). ``tests/tuning/test_path_bound.py`` checks every shipped preset's record.
 
-    python tools/preset_path_check.py general      # grids 50 and 100, about 15 min of one core
+    python tools/preset_path_check.py general      # grids 50, 100 and 256, about 25 min of one core
     python tools/preset_path_check.py tuned --data ../shared/data/path-planning-dataset
 """
 
@@ -63,9 +64,9 @@ def main(argv: list[str] | None = None) -> int:
         grids = {}
         for n in sorted(preset.grids):
             search = meta["grids"][str(n)]["search"]
-            problems, _, _ = generated_problems(search["samples"], n, "general")
+            problems, _, _ = generated_problems(search["samples"], n, "general", search.get("eval_set", "tune"))
             if [p.key for p in problems] != search["problems"]:
-                return _refuse(f"grid {n}: the tune set's problems differ from the search's")
+                return _refuse(f"grid {n}: the problems of set {search.get('eval_set', 'tune')!r} differ from the search's")
             only = args.methods.split(",") if args.methods else None
             old = meta.get("path_quality", {}).get("grids", {}).get(str(n), {}) if only else {}
             grids[str(n)] = {**old, **measure(preset, problems, meta["grids"][str(n)]["check_seeds"], n, only)}

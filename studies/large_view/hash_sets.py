@@ -14,13 +14,14 @@ import sys
 
 import numpy as np
 
-from ndrql.experiments.transfer import eval_set, eval_spec
+from ndrql.experiments.eval_sets import eval_set, registry
 from ndrql.io import data_digest
 
 
 def set_digest(name: str) -> tuple[str, int]:
-    """(digest, sample count) of the registered set ``name`` (generated into the cache on first use)."""
-    gs = eval_set(eval_spec(name), progress=False)
+    """(digest, sample count) of the registered set ``name`` (generated into the cache on first use; a sealed
+    set too: hashing reads no prediction and no plan, as ``tools/seal_sets.py``)."""
+    gs = eval_set(registry()[name].spec, progress=False, release=True)
     parts = []
     for i in range(len(gs)):
         raw = gs.raw(i)

@@ -1,11 +1,13 @@
-"""``ndrql tune --export-preset ... --keep-from PRESET``: re-searched methods replace theirs, the rest is kept."""
+"""``ndrql tune --export-preset ... --keep-from PRESET``: re-searched methods replace theirs, the rest is kept
+(other grids whole; a new grid is added)."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import pytest
 
 from ndrql.cli.tune_cmd import kept_entries
-from ndrql.errors import NdrqlError
 from ndrql.planning.config import QLConfig
 from ndrql.planning.preset import MethodSetting, load_preset
 
@@ -24,5 +26,20 @@ def test_kept_entries_replace_only_the_searched_methods():
         assert m["studies"]["IQL"] == base.meta["grids"][str(n)]["studies"]["IQL"]
         assert m["search_by_method"]["NDR-QL"] == {"weights_sha256_16": "new"}
         assert m["kept_spec"] == [k for k in base.meta["grids"][str(n)]["kept_spec"] if k != "NDR-QL"]
-    with pytest.raises(NdrqlError, match="grids"):
-        kept_entries(base, {50: new[50]}, {"50": metas["50"]})
+
+
+def test_kept_entries_keep_the_grids_not_searched_and_add_a_new_one():
+    base = load_preset("general")
+    new = {256: {"NDR-QL": MethodSetting(QLConfig(alpha=0.3)), "IQL": MethodSetting(QLConfig(alpha=0.4))}}
+    metas = {"256": {"studies": {m: {"study": m} for m in new[256]}, "validation_check": {}, "kept_spec": ["IQL"],
+                     "search": {"weights_sha256_16": "new"}}}
+    entries, meta = kept_entries(base, new, metas)
+    assert sorted(entries) == [50, 100, 256] and list(meta) == ["50", "100", "256"]
+    assert all(entries[n] == dict(base.grids[n]) for n in (50, 100))
+    assert meta["100"] == base.meta["grids"]["100"]
+    assert entries[256] == new[256] and meta["256"]["kept_spec"] == ["IQL"]
+    assert meta["256"]["search_by_method"] == {"NDR-QL": {"weights_sha256_16": "new"}, "IQL": {"weights_sha256_16": "new"}}
+    preset = replace(base, grids=entries)
+    assert preset.setting("NDR-QL", 200).ql.alpha == 0.3  # 200 cells: nearest to 256 on a log scale
+    assert preset.setting("NDR-QL", 150) == base.setting("NDR-QL", 100)
+    assert preset.setting("QL", 256) == base.setting("QL", 100)  # not searched at 256: the nearest entry listing it

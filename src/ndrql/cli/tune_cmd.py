@@ -89,7 +89,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "the best only)")
     p.add_argument("--keep-from", metavar="PRESET", default="",
                    help="--export-preset with --maps generated: methods not in --methods keep this per-grid "
-                   "preset's constants and provenance (e.g. re-search NDR-QL alone for new weights)")
+                   "preset's constants and provenance (e.g. re-search NDR-QL alone for new weights), and grids not in --grids "
+                   "keep their entries whole (e.g. add a grid-256 entry: --grids 256 --keep-from general)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
 
@@ -258,21 +259,23 @@ def _export_grids(args, cfgs, grids, storage, log) -> int:
 def kept_entries(base: Preset, entries: dict, metas: dict) -> tuple[dict, dict]:
     """Per grid: ``base``'s methods and provenance, with the newly searched methods of ``entries`` /
     ``metas`` replacing theirs (their search settings under ``meta["search_by_method"]``, since the
-    weights digest may differ from the kept methods' search)."""
-    if set(map(int, base.grids)) != set(entries):
-        raise NdrqlError(f"--keep-from {base.name}: it has grids {sorted(base.grids)}, the export {sorted(entries)}")
-    out_e, out_m = {}, {}
+    weights digest may differ from the kept methods' search). A grid of ``base`` the export did not search
+    is kept whole; a grid ``base`` lacks is added with the searched methods alone (the others keep taking
+    the nearest entry that lists them, :meth:`Preset.setting`)."""
+    base_metas = dict(base.meta).get("grids", {})
+    out_e = {n: dict(base.grids[n]) for n in base.grids}
+    out_m = {str(n): dict(base_metas.get(str(n), {})) for n in base.grids}
     for n, new in entries.items():
-        old_meta = dict(dict(base.meta).get("grids", {}).get(str(n), {}))
+        old_meta = dict(base_metas.get(str(n), {}))
         meta = {**old_meta, "studies": {**old_meta.get("studies", {}), **metas[str(n)]["studies"]},
                 "validation_check": {**old_meta.get("validation_check", {}), **metas[str(n)]["validation_check"]},
                 "search_by_method": {**old_meta.get("search_by_method", {}),
                                      **{m: metas[str(n)]["search"] for m in new}}}
         kept = [m for m in old_meta.get("kept_spec", []) if m not in new] + list(metas[str(n)]["kept_spec"])
         meta["kept_spec"] = kept
-        out_e[n] = {**dict(base.grids[n]), **new}
+        out_e[n] = {**dict(base.grids.get(n, {})), **new}
         out_m[str(n)] = meta
-    return out_e, out_m
+    return dict(sorted(out_e.items())), dict(sorted(out_m.items(), key=lambda kv: int(kv[0])))
 
 
 def _collect(args, cfgs, problems, storage, digest, log):
@@ -317,6 +320,7 @@ def _collect(args, cfgs, problems, storage, digest, log):
             f"{'tuned wins' if c['tuned_wins'] else 'tuned does not win'}")
     meta = {"search": {"samples": len(problems), "seeds": cfg.seed_list, "trials": cfg.trials,
                        "max_episodes": cfg.max_episodes, "sampler_seed": cfg.seed, "order_seed": cfg.order_seed,
-                       "weights_sha256_16": digest, "problems": [p.key for p in problems], "objective": cfg.objective},
+                       "weights_sha256_16": digest, "problems": [p.key for p in problems], "objective": cfg.objective,
+                       **({"eval_set": args.eval_set} if args.maps == "generated" else {})},
             "studies": studies, "check_seeds": check_seeds}
     return settings, check, meta

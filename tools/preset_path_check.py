@@ -11,6 +11,7 @@ budget. It writes the figures into the preset's ``meta`` (``path_quality``) and 
 constants exceed the bound (entries that hold the paper's constants are reported, not judged). ``tests/tuning/test_path_bound.py`` checks every shipped preset's record.
 
     python tools/preset_path_check.py general      # grids 50, 100 and 256, about 25 min of one core
+    python tools/preset_path_check.py general --grids 256   # one grid's entry; the others' records kept
     python tools/preset_path_check.py tuned --data ../shared/data/path-planning-dataset
 """
 
@@ -56,13 +57,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", help="dataset root (tuned: the paper's validation maps)")
     ap.add_argument("--methods", help="general: measure only these methods (comma-separated) and keep the record's "
                     "other entries (after a change of one method's constants)")
+    ap.add_argument("--grids", help="general: measure only these grid entries (comma-separated) and keep the "
+                    "record's other grids (after adding or changing one grid's entry)")
     args = ap.parse_args(argv)
     preset = load_preset(args.preset)
     meta = dict(preset.meta)
     if args.preset == "general":
         weights = resolve_weights("general")
-        grids = {}
-        for n in sorted(preset.grids):
+        grids = dict(meta.get("path_quality", {}).get("grids", {})) if args.grids else {}
+        chosen = {int(x) for x in args.grids.split(",")} if args.grids else set(preset.grids)
+        if not chosen <= set(preset.grids):
+            return _refuse(f"--grids {args.grids}: the preset has grids {sorted(preset.grids)}")
+        for n in sorted(chosen):
             search = meta["grids"][str(n)]["search"]
             problems, _, _ = generated_problems(search["samples"], n, "general", search.get("eval_set", "tune"))
             if [p.key for p in problems] != search["problems"]:

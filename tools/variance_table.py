@@ -25,10 +25,13 @@ from ndrql.experiments.transfer_report import MODEL, summarize
 from ndrql.experiments.report import md_table
 
 
-def load(run: Path) -> tuple[list[dict], int]:
-    """The case records of one run's report and its grid (the first it was read at)."""
+def load(run: Path) -> tuple[str, list[dict], int]:
+    """The run's name (the folder's, without the ``-<preset>`` that ``reproduce transfer`` appends), the case
+    records of its report and its grid (the first it was read at)."""
     data = json.loads((run / "summary.json").read_text())
-    return data["records"], int(data["grids"][0])
+    suffix = f"-{data.get('preset', '')}"
+    name = run.name[:-len(suffix)] if data.get("preset") and run.name.endswith(suffix) else run.name
+    return name, data["records"], int(data["grids"][0])
 
 
 def row(name: str, records: list[dict], n: int) -> tuple[list[str], dict]:
@@ -60,12 +63,12 @@ def main(argv: list[str] | None = None) -> int:
             "region F1", "worst path / A*"]
     rows, seeds, records = [], {}, {}
     for run in runs:
-        recs, n = load(run)
-        cells, s = row(run.name, recs, n)
+        name, recs, n = load(run)
+        cells, s = row(name, recs, n)
         rows.append(cells)
-        records[run.name] = [r for r in recs if r["n"] == n]
-        if run.name[len(args.prefix) + 1:].startswith("s"):
-            seeds[run.name] = s
+        records[name] = [r for r in recs if r["n"] == n]
+        if name[len(args.prefix) + 1:].startswith("s"):
+            seeds[name] = s
     print(md_table(head, rows))
     if len(seeds) > 1:
         ratios = np.array([s["rows"][MODEL]["vs_iql"]["ratio"] for s in seeds.values()])

@@ -89,7 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\n{name} against {args.prefix}-s0 (NDR-QL / IQL per family, with plan's fallback; families of the "
               f"set only):\n")
         print(md_table(["family left out", "seed-0 run", "left out", "change"], out))
-        print(f"\nThe other {len(others)} families: {gm:.2f}x the seed-0 run's ratio (geometric mean).")
+        word = "family" if len(others) == 1 else "families"
+        print(f"\nThe other {len(others)} {word}: {gm:.2f}x the seed-0 run's ratio (geometric mean).")
     return 0
 
 

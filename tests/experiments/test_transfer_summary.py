@@ -10,7 +10,8 @@ import pytest
 
 
 from ndrql.experiments.transfer import BFS_ROW, row_configs, tuned_ql
-from ndrql.experiments.transfer_report import ROWS, against_iql, judged_threshold, plan_steps, render_tables, summarize
+from ndrql.experiments.transfer_report import (ROWS, against_iql, judged_threshold, plan_steps, render_tables, summarize,
+                                               uninformative)
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.pipeline.predictions import MIN_THRESHOLD
 from ndrql.planning.preset import load_preset
@@ -126,6 +127,20 @@ def test_plan_steps_judge_the_prediction_by_the_papers_threshold_schedule():
     rec["judged_threshold"] = 0.50
     assert judged_threshold(rec) == 0.50 and plan_steps(rec) == [100] and plan_steps(rec, cut=0.5) == [100]
     assert plan_steps(rec, cut=0.6) == [300] and plan_steps({**rec, "judged_threshold": None}) == [300]
+
+
+def test_above_128_cells_plan_calls_a_low_threshold_uninformative():
+    from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD
+
+    low = LARGE_MIN_THRESHOLD / 2
+    rec = {"n": 100, "size": 100, "judged_threshold": low,
+           "runs": {"NDR-QL (model)": {"steps": [900], "threshold": low}, "IQL": {"steps": [300]}}}
+    assert plan_steps(rec) == [900] and not uninformative(rec)  # up to 128 cells any threshold keeps the model
+    grown = {**rec, "size": LARGE_GRID + 32}  # asked at 100 cells, planned on a larger grid of the ladder
+    assert plan_steps(grown) == [300] and uninformative(grown)
+    big = {**rec, "n": 256, "size": 256, "judged_threshold": LARGE_MIN_THRESHOLD}
+    assert plan_steps(big) == [900] and not uninformative(big)  # at the cut: informative
+    assert uninformative({**big, "judged_threshold": None})
 
 
 def test_the_bootstrap_is_seeded():

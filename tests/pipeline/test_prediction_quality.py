@@ -55,6 +55,26 @@ def test_quality_of_hand_made_predictions():
     assert q["reasons"] == ["67% of the guideline lies on obstacles"]
 
 
+def test_above_128_cells_a_region_that_joins_only_at_a_low_threshold_is_uninformative():
+    """Grids above LARGE_GRID cells judge by LARGE_MIN_THRESHOLD (docs/large-maps.md): the same flat region is
+    informative on a 100-cell grid and not on a 256-cell one."""
+    from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, min_threshold
+
+    assert min_threshold(LARGE_GRID) == 0.0 and min_threshold(LARGE_GRID + 1) == LARGE_MIN_THRESHOLD > 0
+    m = np.zeros((512, 512), dtype=bool)
+    m[250:262, :400] = True  # a wall with a gap on the right
+    guide = np.zeros(m.shape)
+    guide[20:500, 450] = 1.0
+    flat = LARGE_MIN_THRESHOLD / 2 + 0.01  # the region joins start and goal just below the large grids' cut
+    for size, informative in ((100, True), (256, False)):
+        grid = PlanningGrid.from_map(m, (20, 450), (500, 450), size=size)
+        q = prediction_quality(np.full(grid.blocked.shape, flat), guide, m, grid, PriorConfig())
+        assert q["informative"] is informative and q["threshold"] < LARGE_MIN_THRESHOLD
+        assert q["min_threshold"] == min_threshold(size)
+    assert q["reasons"][0] == (f"no region threshold >= {LARGE_MIN_THRESHOLD} connects start and goal "
+                               f"(Eq. 7 threshold {q['threshold']:.2f})")
+
+
 def test_fallback_runs_iql_and_says_so():
     m = corridor_map()
     flat = (np.zeros(m.shape), np.full(m.shape, 0.2))  # a region that joins start and goal at no threshold

@@ -24,7 +24,8 @@ from ndrql.experiments.report import md_table
 from ndrql.errors import NdrqlError
 from ndrql.experiments.stats import (TIE, compare_seeds, geomean_ratio, pooled_ratio, share_of_oracle,
                                      share_of_oracle_geomean, tally)
-from ndrql.pipeline.predictions import MIN_THRESHOLD
+from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD
+from ndrql.pipeline.predictions import min_threshold
 
 #: The rows of the report, in order. ``QL``: the paper's constants; ``QL (tuned)``: searched constants
 #: (:data:`ndrql.experiments.transfer.TUNED_QL`); ``IQL (BFS distance)``: IQL's constants with Eq. 5 on the
@@ -91,17 +92,23 @@ def judged_threshold(record: dict) -> float | None:
     return record["runs"][MODEL]["threshold"]
 
 
-def uninformative(record: dict, cut: float = MIN_THRESHOLD) -> bool:
-    """Whether ``ndrql plan`` calls the prediction uninformative: no Eq. 7 threshold of at least ``cut`` (plan's
-    :data:`~ndrql.pipeline.predictions.MIN_THRESHOLD`) joins start and goal (:func:`judged_threshold`)."""
+def record_cut(record: dict) -> float:
+    """Plan's cut for the case's planning grid (:func:`~ndrql.pipeline.predictions.min_threshold` of the size it
+    was planned on)."""
+    return min_threshold(int(record.get("size", record.get("n", 0))))
+
+
+def uninformative(record: dict, cut: float | None = None) -> bool:
+    """Whether ``ndrql plan`` calls the prediction uninformative: no Eq. 7 threshold of at least ``cut`` (plan's,
+    :func:`record_cut`, when not given) joins start and goal (:func:`judged_threshold`)."""
     thd = judged_threshold(record)
-    return thd is None or thd < cut
+    return thd is None or thd < (record_cut(record) if cut is None else cut)
 
 
-def plan_steps(record: dict, cut: float = MIN_THRESHOLD) -> list[int]:
+def plan_steps(record: dict, cut: float | None = None) -> list[int]:
     """The steps ``ndrql plan`` would spend on this case for NDR-QL: the model row's where the judged
-    Eq. 7 threshold (:func:`judged_threshold`) is at least ``cut`` (plan's
-    :data:`~ndrql.pipeline.predictions.MIN_THRESHOLD`), else IQL's (plan's default fallback for an
+    Eq. 7 threshold (:func:`judged_threshold`) is at least ``cut`` (plan's, :func:`record_cut`, when not
+    given), else IQL's (plan's default fallback for an
     uninformative prediction; its other test, the guideline's mass on obstacles, is not applied here)."""
     return record["runs"]["IQL" if uninformative(record, cut) else MODEL]["steps"]
 
@@ -239,6 +246,12 @@ def family_table(records: list[dict], seed: int = 0) -> str:
     return md_table(head, rows)
 
 
+def _cuts(records: list[dict]) -> str:
+    """Plan's cut(s) over the planned cases of ``records`` (a grid whose maps grew past 128 cells has two)."""
+    cuts = sorted({record_cut(r) for r in records if not r["skipped"]})
+    return " / ".join(map(str, cuts)) or str(min_threshold(0))
+
+
 def rows_run(records: list[dict]) -> tuple[str, ...]:
     """The rows of :data:`ROWS` that ran on every planned case of ``records``."""
     ok = [r for r in records if not r["skipped"]]
@@ -260,7 +273,7 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
             f"**Planning grid {n}** (safe grid; maps that need it on {finer}): {s['maps']} maps planned, "
             f"{s['skipped']} connect on no size tried.\n\n" + headline_table(s) +
             f"\n\nWhat `ndrql plan` spends (the model's run, or IQL's where the prediction does not connect start and goal "
-            f"at Eq. 7 threshold {MIN_THRESHOLD}): {_ratio(plan)} against IQL in geometric mean; more than IQL on "
+            f"at Eq. 7 threshold {_cuts(at_n)}): {_ratio(plan)} against IQL in geometric mean; more than IQL on "
             f"{100 * s['plan_worse_than_iql']:.0f}% of the maps; the prediction is uninformative on "
             f"{_pct(s['uninformative'])} of the maps; share of the oracle's gain over IQL in geometric means "
             f"{_pct(s.get('share_geo'))} with plan's fallback ({_pct(s.get('share_geo_raw'))} without)."
@@ -274,7 +287,8 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
         "bootstrap interval and the ratio without the map with the most steps. *path / A\\**: greedy path of the learned "
         "policy over the 4-connected optimum of the planning grid, over converged runs. *share of oracle (pooled, vs QL)*: "
         "(1 - NDR-QL/QL) / (1 - oracle/QL) on pooled steps (only where the QL row ran). *with plan's fallback*: a map whose "
-        f"prediction is uninformative (no Eq. 7 threshold >= {MIN_THRESHOLD} joins start and goal) counts at IQL's steps. "
+        "prediction is uninformative (no Eq. 7 threshold of at least plan's cut joins start and goal: 0 up to "
+        f"{LARGE_GRID} cells, {LARGE_MIN_THRESHOLD} above) counts at IQL's steps. "
         "*share of oracle's gain over IQL (geomean)*: (1 - G(NDR-QL/IQL)) / (1 - G(oracle/IQL)), G the geometric mean "
         "over maps, NDR-QL with plan's fallback. *not converged*: runs that hit their cap (max_episodes episodes of at "
         "most max_steps moves, recorded per row in summary.json); they count with the steps they used and win no map.")

@@ -24,6 +24,20 @@ from ndrql.planning.priors import adaptive_threshold
 #: development maps (``studies/plan_defaults``), NDR-QL beat IQL on every map a cut of 0.3-0.6 sent to
 #: IQL (Eq. 7 thresholds down to 0.00), so any cut only lost maps (0.5 lost 8 of 36).
 MIN_THRESHOLD = 0.0
+#: Grids of more cells per side than this judge the prediction by :data:`LARGE_MIN_THRESHOLD` instead.
+LARGE_GRID = 128
+#: The cut above :data:`LARGE_GRID` cells (grids the view merges, where the large-grid companion predicts).
+#: There a region that joins start and goal only at a threshold this low costs steps instead of saving
+#: them: on the development sets ``large-dev-256`` and ``large-tune-256`` NDR-QL on such maps took more
+#: steps than IQL in geometric mean (docs/large-maps.md#low-thresholds-on-large-grids), while at 50-100
+#: cells such maps still win (above).
+LARGE_MIN_THRESHOLD = 0.05
+
+
+def min_threshold(cells: int) -> float:
+    """The Eq. 7 threshold below which a prediction on a planning grid of ``cells`` cells on its longer
+    side is uninformative: :data:`MIN_THRESHOLD`, or :data:`LARGE_MIN_THRESHOLD` above :data:`LARGE_GRID`."""
+    return LARGE_MIN_THRESHOLD if cells > LARGE_GRID else MIN_THRESHOLD
 #: Largest share of the guideline's probability mass that may lie on obstacle pixels.
 MAX_GUIDE_ON_OBSTACLES = 0.5
 
@@ -32,16 +46,18 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
                        grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
     """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
 
-    Uninformative when no region threshold (>= :data:`MIN_THRESHOLD`, which is 0) makes the region connect
-    start and goal on the planning grid (Eq. 7's search, ``cfg`` a :class:`~ndrql.planning.config.PriorConfig`),
+    Uninformative when no region threshold of at least :func:`min_threshold` (0 up to 128 cells) makes the
+    region connect start and goal on the planning grid (Eq. 7's search, ``cfg`` a
+    :class:`~ndrql.planning.config.PriorConfig`),
     or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
     the map (the model draws its path through walls).
     """
     thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
     reasons = []
-    if thd is None or thd < MIN_THRESHOLD:
+    cut = min_threshold(max(grid.blocked.shape))
+    if thd is None or thd < cut:
         shown = "none" if thd is None else f"{thd:.2f}"
-        floor = f" >= {MIN_THRESHOLD}" if MIN_THRESHOLD > 0 else ""
+        floor = f" >= {cut}" if cut > 0 else ""
         reasons.append(f"no region threshold{floor} connects start and goal (Eq. 7 threshold {shown})")
     on_obstacles = None
     if guideline is not None:
@@ -52,7 +68,7 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
                 reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
         else:
             reasons.append("the guideline is empty")
-    return {"informative": not reasons, "threshold": thd, "guideline_on_obstacles": on_obstacles,
+    return {"informative": not reasons, "threshold": thd, "min_threshold": cut, "guideline_on_obstacles": on_obstacles,
             "reasons": reasons}
 
 

@@ -23,7 +23,7 @@ import numpy as np
 from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on_grid, to_model_input
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
-from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fallback, fall_back,  # noqa: F401 (re-exported)
+from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fallback, fall_back, min_threshold,  # noqa: F401 (re-exported)
                                      prediction_quality)
 from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES

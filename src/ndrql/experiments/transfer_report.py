@@ -24,8 +24,7 @@ from ndrql.experiments.report import md_table
 from ndrql.errors import NdrqlError
 from ndrql.experiments.stats import (TIE, compare_seeds, geomean_ratio, pooled_ratio, share_of_oracle,
                                      share_of_oracle_geomean, tally)
-from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD
-from ndrql.pipeline.predictions import min_threshold
+from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, min_threshold
 
 #: The rows of the report, in order. ``QL``: the paper's constants; ``QL (tuned)``: searched constants
 #: (:data:`ndrql.experiments.transfer.TUNED_QL`); ``IQL (BFS distance)``: IQL's constants with Eq. 5 on the
@@ -93,7 +92,7 @@ def judged_threshold(record: dict) -> float | None:
 
 
 def record_cut(record: dict) -> float:
-    """Plan's cut for the case's planning grid (:func:`~ndrql.pipeline.predictions.min_threshold` of the size it
+    """Plan's cut for the case's planning grid (:func:`~ndrql.pipeline.fallback.min_threshold` of the size it
     was planned on)."""
     return min_threshold(int(record.get("size", record.get("n", 0))))
 

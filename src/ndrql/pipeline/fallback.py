@@ -38,6 +38,8 @@ def min_threshold(cells: int) -> float:
     """The Eq. 7 threshold below which a prediction on a planning grid of ``cells`` cells on its longer
     side is uninformative: :data:`MIN_THRESHOLD`, or :data:`LARGE_MIN_THRESHOLD` above :data:`LARGE_GRID`."""
     return LARGE_MIN_THRESHOLD if cells > LARGE_GRID else MIN_THRESHOLD
+
+
 #: Largest share of the guideline's probability mass that may lie on obstacle pixels.
 MAX_GUIDE_ON_OBSTACLES = 0.5
 

@@ -21,17 +21,22 @@ import sys
 from ndrql.dataset.generated import GeneratedSet, build_shard, check_purpose
 from ndrql.experiments.eval_sets import digests_path, eval_set, registry, set_record
 from ndrql.io import write_json
-from ndrql.synth.families import shipped_families
+from ndrql.synth.families import family_names, shipped_families
 from ndrql.synth.generate import SetSpec
 
-#: The training sets the scripts generate (tools/train_general.sh: SEED=1, the shipped model's twelve families,
-#: 201/401/801 px).
-TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801))}
+#: The training sets the scripts and docs generate: label -> (seed, sizes, families; None = the shipped model's
+#: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (docs/large-maps.md):
+#: ``--family all`` at seed 4 (201-1,024 px) and seed 6 (512/1,024 px).
+TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801), None),
+                 "train large (seed 4)": (4, (201, 401, 512, 801, 1024), "all"),
+                 "train large (seed 6)": (6, (512, 1024), "all")}
 
 
-def training_record(seed: int, sizes: tuple[int, ...], count: int) -> dict:
-    """The digests of the first ``count`` samples of a training set (sample ``i`` depends only on seed and ``i``)."""
-    spec = SetSpec(shipped_families(), sizes, count, seed)
+def training_record(seed: int, sizes: tuple[int, ...], count: int, families: str | None = None) -> dict:
+    """The digests of the first ``count`` samples of a training set (sample ``i`` depends only on seed and ``i``);
+    ``families`` ``"all"`` draws every registered family (``ndrql data generate --family all``), ``None`` the
+    shipped model's twelve."""
+    spec = SetSpec(family_names() if families == "all" else shipped_families(), sizes, count, seed)
     check_purpose(seed, "training")
     arrays = build_shard(spec, 0, shard_size=count)
     gs = GeneratedSet(root=digests_path().parent, spec=spec, sizes=arrays["sizes"], points=arrays["points"],
@@ -64,10 +69,10 @@ def main(argv: list[str] | None = None) -> int:
             return _refuse(f"{name}: the maps differ from the recorded digests (a set is drawn once; register a new one)")
         else:
             print(f"{name}: matches its record")
-    for label, (seed, sizes) in TRAINING_SETS.items():
+    for label, (seed, sizes, families) in TRAINING_SETS.items():
         old = data["training"].get(label)
         count = len(old["maps"]) if old and args.check else args.training_count
-        rec = training_record(seed, sizes, count)
+        rec = training_record(seed, sizes, count, families)
         if old is None or (not args.check and len(old["maps"]) != count):
             data["training"][label] = rec
             changed = True

@@ -138,3 +138,41 @@ def test_the_rows_run_and_the_stage_times_are_recorded(monkeypatch, tmp_path, mo
         assert all(x["max_episodes"] == 20000 and x["max_steps"] == 4 * r["size"] ** 2 and x["seconds"] > 0
                    for x in r["runs"].values())
     assert "**Time per stage**" in text and "| run: IQL |" in text
+
+
+class _SpyModel:
+    """Stands for a grid-mode predictor: records the side of every input it is asked to predict on."""
+
+    encoding = "point"
+
+    def __init__(self, view: str, companion: "_SpyModel | None" = None):
+        from ndrql.dataset.views import GridView
+
+        self.view, self.companion, self.sides = GridView.parse(view), companion, []
+
+    def serving(self, n: int) -> "_SpyModel":
+        return self.companion if self.companion is not None and self.view.factor(n) > 1 else self
+
+    def predict_batch(self, x):
+        import numpy as np
+
+        self.sides.append(x.shape[-1])
+        return np.ones((1,) + x.shape[-2:]), np.ones((1,) + x.shape[-2:])
+
+
+@pytest.mark.parametrize("n,base_side,companion_side", [(100, 400, None), (160, None, 480)])
+def test_region_f1_above_the_views_limit_is_the_companions_under_its_own_view(n, base_side, companion_side):
+    """The report's region F1 names the prediction plan used: above 128 cells the companion's on the grid
+    drawn at its view's 3 px per cell (480 px at 160 cells), not the base model's native 640 px input."""
+    import numpy as np
+
+    from ndrql.experiments.ceiling import grid_case
+    from ndrql.experiments.transfer import _f1
+
+    companion = _SpyModel("cap:512")
+    base = _SpyModel("coarse:128", companion)
+    obstacles = np.zeros((640, 640), bool)
+    case = grid_case("k", "open", obstacles, (20, 20), (600, 610), n)
+    region_f1, guide_f1 = _f1(base, "grid", case, None)
+    assert base.sides == ([base_side] if base_side else []) and companion.sides == ([companion_side] if companion_side else [])
+    assert 0 < region_f1 < 1 and 0 < guide_f1 < 1  # an all-ones prediction: recall 1, precision the label's share

@@ -115,10 +115,17 @@ def grid_seconds(case: GridCase) -> dict[str, float]:
 
 
 def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
-    """Region and guideline F1 of the model against the labels of its input mode at this grid."""
-    # map-mode models see the map at 201 px whatever the grid (as in ndrql plan): labels at that scale
-    r = render("grid", case.obstacles, case.start, case.goal, waypoints, case.n) if mode == "grid" else \
-        render("map", case.obstacles, case.start, case.goal, waypoints, PLANNING_SIZE)
+    """Region and guideline F1 of the model that serves this grid against the labels it trained on here.
+
+    A grid-mode model: the one :meth:`~ndrql.model.predict.Predictor.serving` picks for the case's grid (the
+    companion above the base's view limit, as in ``plan``), on the grid drawn through that model's view, its
+    labels drawn the same way (:func:`~ndrql.dataset.render.render_grid`); a map-mode model sees the map at
+    201 px whatever the grid (as in ``ndrql plan``): labels at that scale."""
+    if mode == "grid":
+        predictor = predictor.serving(case.n)
+        r = render("grid", case.obstacles, case.start, case.goal, waypoints, case.n, view=predictor.view)
+    else:
+        r = render("map", case.obstacles, case.start, case.goal, waypoints, PLANNING_SIZE)
     if r is None:
         return float("nan"), float("nan")
     reg, gl = predictor.predict_batch(encode_input(r.obstacles, r.start, r.goal, predictor.encoding)[None])

@@ -27,16 +27,20 @@ from ndrql.synth.generate import SetSpec
 #: The training sets the scripts and docs generate: label -> (seed, sizes, families; None = the shipped model's
 #: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (docs/large-maps.md):
 #: ``--family all`` at seed 4 (201-1,024 px) and seed 6 (512/1,024 px).
+#: The families the third companion drew more of (``ndrql data generate --family <these> --seed 7``), in that order.
+HARD_FAMILIES = ("city", "narrow_passage", "maze", "scatter", "corridor_maze", "floor", "dungeon", "ros_scan")
 TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801), None),
                  "train large (seed 4)": (4, (201, 401, 512, 801, 1024), "all"),
-                 "train large (seed 6)": (6, (512, 1024), "all")}
+                 "train large (seed 6)": (6, (512, 1024), "all"),
+                 "train large, hard families (seed 7)": (7, (512, 1024), HARD_FAMILIES)}
 
 
-def training_record(seed: int, sizes: tuple[int, ...], count: int, families: str | None = None) -> dict:
+def training_record(seed: int, sizes: tuple[int, ...], count: int, families: str | tuple[str, ...] | None = None) -> dict:
     """The digests of the first ``count`` samples of a training set (sample ``i`` depends only on seed and ``i``);
     ``families`` ``"all"`` draws every registered family (``ndrql data generate --family all``), ``None`` the
-    shipped model's twelve."""
-    spec = SetSpec(family_names() if families == "all" else shipped_families(), sizes, count, seed)
+    shipped model's twelve, a tuple those families in that order."""
+    names = family_names() if families == "all" else shipped_families() if families is None else tuple(families)
+    spec = SetSpec(names, sizes, count, seed)
     check_purpose(seed, "training")
     arrays = build_shard(spec, 0, shard_size=count)
     gs = GeneratedSet(root=digests_path().parent, spec=spec, sizes=arrays["sizes"], points=arrays["points"],

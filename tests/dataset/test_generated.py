@@ -197,6 +197,26 @@ def test_a_run_under_a_view_draws_merged_grids_and_records_the_view(gen_set, tmp
     assert load_checkpoint(tmp_path / "run" / "last.pt")["config"]["view"] == "coarse:16"
     with pytest.raises(ValueError, match="--view needs --input-mode grid"):
         TrainConfig(view="coarse:16")
+
+
+def test_grids_above_256_cells_train_only_under_a_view_that_bounds_the_input(gen_set):
+    """The size ladder plan climbs reaches 512 cells; a capped view draws them at 1 px per cell (a native one
+    would be a 2,048 px input), so only such a run may ask for them."""
+    from ndrql.dataset.mixture import MAX_VIEW_SIZE, parse_sizes
+    from ndrql.training.config import TrainConfig
+    from ndrql.training.loop import build_mixture
+
+    assert parse_sizes("256,512", MAX_VIEW_SIZE) == (256, 512)
+    with pytest.raises(NdrqlError, match=r"grid sizes must be 8\.\.256, got '512'"):
+        parse_sizes("512")
+    with pytest.raises(NdrqlError, match=r"grid sizes must be 8\.\.512"):
+        parse_sizes("600", MAX_VIEW_SIZE)
+    base = dict(sources=f"{gen_set}:1", input_mode="grid", grid_sizes="160", model_overrides={"width": 0.25},
+                batch_size=2, bf16=False, threads=1, val_per_source=1)
+    mixture = build_mixture(TrainConfig(**base, view="cap:64"), progress=False)[0]
+    assert mixture.sizes == (160,) and mixture.batch(0, 0, 0, 2)[0].shape[-1] == 160  # 1 px per cell
+    with pytest.raises(NdrqlError, match=r"8\.\.256"):
+        build_mixture(TrainConfig(**{**base, "grid_sizes": "320"}), progress=False)
     with pytest.raises(NdrqlError, match="view must be"):
         TrainConfig(input_mode="grid", view="tiles")
 

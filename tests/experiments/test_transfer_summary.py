@@ -143,6 +143,17 @@ def test_above_128_cells_plan_calls_a_low_threshold_uninformative():
     assert uninformative({**big, "judged_threshold": None})
 
 
+def test_above_128_cells_a_region_over_most_of_the_free_cells_is_uninformative():
+    from ndrql.pipeline.fallback import MAX_REGION_COVER
+
+    rec = {"n": 256, "size": 512, "judged_threshold": 0.81, "region_cover": 0.93,
+           "runs": {"NDR-QL (model)": {"steps": [5700], "threshold": 0.81}, "IQL": {"steps": [1000]}}}
+    assert uninformative(rec) and plan_steps(rec) == [1000]  # a high threshold, but the region is everywhere
+    assert not uninformative({**rec, "region_cover": MAX_REGION_COVER})  # at the limit: informative
+    assert not uninformative({k: v for k, v in rec.items() if k != "region_cover"})  # old records: not tested
+    assert not uninformative({**rec, "n": 100, "size": 100})  # up to 128 cells the cover is not limited
+
+
 def test_the_bootstrap_is_seeded():
     from ndrql.experiments.stats import geomean_ratio, pooled_ratio
 

@@ -75,6 +75,35 @@ def test_above_128_cells_a_region_that_joins_only_at_a_low_threshold_is_uninform
                                f"(Eq. 7 threshold {q['threshold']:.2f})")
 
 
+def test_above_128_cells_a_region_over_most_of_the_free_cells_is_uninformative():
+    """A region that joins start and goal at a high threshold but covers most of the free cells does not say
+    where the path runs: uninformative above LARGE_GRID cells, informative (as before) up to it."""
+    from ndrql.pipeline.fallback import LARGE_GRID, MAX_REGION_COVER, max_region_cover, region_cover
+
+    assert max_region_cover(LARGE_GRID) is None and max_region_cover(LARGE_GRID + 1) == MAX_REGION_COVER
+    m = np.zeros((512, 512), dtype=bool)
+    m[250:262, :400] = True
+    guide = np.zeros(m.shape)
+    guide[20:500, 450] = 1.0
+    for size, informative in ((100, True), (256, False)):
+        grid = PlanningGrid.from_map(m, (20, 450), (500, 450), size=size)
+        everywhere = np.full(grid.blocked.shape, 0.9)
+        q = prediction_quality(everywhere, guide, m, grid, PriorConfig())
+        assert q["informative"] is informative and q["threshold"] == pytest.approx(0.89)
+        assert q["region_cover"] == pytest.approx(1.0)
+        band = np.zeros(grid.blocked.shape)
+        band[:, int(0.8 * size):] = 0.9  # the right fifth of the map, through the gap: informative at any size
+        q2 = prediction_quality(band, guide, m, grid, PriorConfig())
+        assert q2["informative"] and q2["region_cover"] == pytest.approx(
+            region_cover(band, grid.blocked, q2["threshold"])) and q2["region_cover"] < MAX_REGION_COVER
+    assert q["reasons"] == [f"the region covers 100% of the free cells at its Eq. 7 threshold 0.89 (at most "
+                            f"{MAX_REGION_COVER:.0%} above {LARGE_GRID} cells)"]
+    free = ~grid.blocked
+    half = np.where(np.arange(grid.blocked.size).reshape(grid.blocked.shape) % 2 == 0, 0.9, 0.0)
+    assert region_cover(half, grid.blocked, 0.5) == pytest.approx(np.count_nonzero((half > 0.5) & free) / free.sum())
+    assert region_cover(half, grid.blocked, None) is None
+
+
 def test_fallback_runs_iql_and_says_so():
     m = corridor_map()
     flat = (np.zeros(m.shape), np.full(m.shape, 0.2))  # a region that joins start and goal at no threshold

@@ -65,14 +65,21 @@ def parse_sources(text: str) -> list[SourceSpec]:
     return out
 
 
-def parse_sizes(text: str) -> tuple[int, ...]:
-    """``"50,100"`` -> planning-grid sizes for training."""
+#: Largest planning grid a report or a native-view training draws (a native input is 4 px per cell).
+MAX_SIZE = 256
+#: Largest training grid under a view that bounds the input (``cap``/``coarse``): the top of the size ladder
+#: ``plan`` climbs when a map does not connect at 256 cells, so the companion sees the grids it serves.
+MAX_VIEW_SIZE = 512
+
+
+def parse_sizes(text: str, largest: int = MAX_SIZE) -> tuple[int, ...]:
+    """``"50,100"`` -> planning-grid sizes (each 8..``largest``)."""
     try:
         sizes = tuple(int(v) for v in text.split(",") if v.strip())
     except ValueError:
         raise NdrqlError(f"grid sizes must be integers, got {text!r}") from None
-    if not sizes or any(not 8 <= s <= 256 for s in sizes):
-        raise NdrqlError(f"grid sizes must be 8..256, got {text!r}")
+    if not sizes or any(not 8 <= s <= largest for s in sizes):
+        raise NdrqlError(f"grid sizes must be 8..{largest}, got {text!r}")
     return sizes
 
 

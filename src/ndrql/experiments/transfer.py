@@ -38,6 +38,7 @@ from ndrql.experiments.transfer_report import ROWS, not_run_note, render_tables,
 from ndrql.io import save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE, bfs_distances
 from ndrql.model.predict import Predictor
+from ndrql.pipeline.fallback import region_cover
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.planning.config import PriorConfig, QLConfig
@@ -171,7 +172,9 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 f1 = _f1(predictor, mode, case, raw.waypoints)
                 # plan judges the prediction with the paper's threshold schedule whatever the preset (0.99, 0.98, ...)
                 judged = adaptive_threshold(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell, PriorConfig())
+                cover = region_cover(np.asarray(model[0]), case.blocked, judged)
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged,
+                             "region_cover": cover,
                              "seconds": {"prediction": predict_s, **grid_seconds(case)}}
                 priors = {"QL": None, "QL (tuned)": None, "IQL": None, BFS_ROW: [bfs.tolist()],
                           "NDR-QL (model)": [a.tolist() for a in model], "NDR-QL (oracle)": [a.tolist() for a in oracle]}

@@ -24,7 +24,7 @@ from ndrql.experiments.report import md_table
 from ndrql.errors import NdrqlError
 from ndrql.experiments.stats import (TIE, compare_seeds, geomean_ratio, pooled_ratio, share_of_oracle,
                                      share_of_oracle_geomean, tally)
-from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, min_threshold
+from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, max_region_cover, min_threshold
 
 #: The rows of the report, in order. ``QL``: the paper's constants; ``QL (tuned)``: searched constants
 #: (:data:`ndrql.experiments.transfer.TUNED_QL`); ``IQL (BFS distance)``: IQL's constants with Eq. 5 on the
@@ -99,9 +99,15 @@ def record_cut(record: dict) -> float:
 
 def uninformative(record: dict, cut: float | None = None) -> bool:
     """Whether ``ndrql plan`` calls the prediction uninformative: no Eq. 7 threshold of at least ``cut`` (plan's,
-    :func:`record_cut`, when not given) joins start and goal (:func:`judged_threshold`)."""
+    :func:`record_cut`, when not given) joins start and goal (:func:`judged_threshold`), or, on a grid where
+    plan limits it (:func:`~ndrql.pipeline.fallback.max_region_cover`), the region covers more of the free
+    cells than that at the judged threshold (records written before ``region_cover`` was stored: not tested)."""
     thd = judged_threshold(record)
-    return thd is None or thd < (record_cut(record) if cut is None else cut)
+    if thd is None or thd < (record_cut(record) if cut is None else cut):
+        return True
+    limit = max_region_cover(int(record.get("size", record.get("n", 0))))
+    cover = record.get("region_cover")
+    return limit is not None and cover is not None and cover > limit
 
 
 def plan_steps(record: dict, cut: float | None = None) -> list[int]:

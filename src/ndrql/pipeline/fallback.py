@@ -42,6 +42,28 @@ def min_threshold(cells: int) -> float:
 
 #: Largest share of the guideline's probability mass that may lie on obstacle pixels.
 MAX_GUIDE_ON_OBSTACLES = 0.5
+#: Above :data:`LARGE_GRID` cells, the largest share of the free cells the region may cover at its Eq. 7
+#: threshold: a region over most of the map does not say where the path runs, and Eq. 8 then rewards almost
+#: every cell. Seen where the companion sees a grid at 1 px per cell (a 1,024 px maze planned at 512 cells:
+#: the region covered 93% of the free cells at threshold 0.81 and NDR-QL took 5.7x IQL's steps;
+#: docs/large-maps.md#a-region-over-the-whole-map). On 50-128 cells a 7.5-cell band may fairly cover most
+#: of a small open map, so the test is not applied there.
+MAX_REGION_COVER = 0.5
+
+
+def region_cover(region: np.ndarray, blocked: np.ndarray, thd: float | None) -> float | None:
+    """Share of the free cells inside the region at threshold ``thd`` (Eq. 7's ``N_r > thd``); ``None``
+    when there is no threshold or no free cell."""
+    free = ~np.asarray(blocked, dtype=bool)
+    if thd is None or not free.any():
+        return None
+    return float(np.count_nonzero((np.asarray(region) > thd) & free) / np.count_nonzero(free))
+
+
+def max_region_cover(cells: int) -> float | None:
+    """The largest region cover (:func:`region_cover`) an informative prediction may have on a planning grid of
+    ``cells`` cells on its longer side: :data:`MAX_REGION_COVER` above :data:`LARGE_GRID`, else no limit."""
+    return MAX_REGION_COVER if cells > LARGE_GRID else None
 
 
 def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
@@ -52,15 +74,21 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
     region connect start and goal on the planning grid (Eq. 7's search, ``cfg`` a
     :class:`~ndrql.planning.config.PriorConfig`),
     or when more than :data:`MAX_GUIDE_ON_OBSTACLES` of the guideline's mass lies on obstacles of
-    the map (the model draws its path through walls).
+    the map (the model draws its path through walls), or, above 128 cells, when the region covers more than
+    :data:`MAX_REGION_COVER` of the free cells at that threshold (it does not say where the path runs).
     """
     thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
     reasons = []
-    cut = min_threshold(max(grid.blocked.shape))
+    cells = max(grid.blocked.shape)
+    cut = min_threshold(cells)
+    cover = region_cover(region_grid, grid.blocked, thd)
     if thd is None or thd < cut:
         shown = "none" if thd is None else f"{thd:.2f}"
         floor = f" >= {cut}" if cut > 0 else ""
         reasons.append(f"no region threshold{floor} connects start and goal (Eq. 7 threshold {shown})")
+    elif (limit := max_region_cover(cells)) is not None and cover is not None and cover > limit:
+        reasons.append(f"the region covers {cover:.0%} of the free cells at its Eq. 7 threshold {thd:.2f} "
+                       f"(at most {limit:.0%} above {LARGE_GRID} cells)")
     on_obstacles = None
     if guideline is not None:
         mass = float(np.sum(guideline))
@@ -70,8 +98,8 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
                 reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
         else:
             reasons.append("the guideline is empty")
-    return {"informative": not reasons, "threshold": thd, "min_threshold": cut, "guideline_on_obstacles": on_obstacles,
-            "reasons": reasons}
+    return {"informative": not reasons, "threshold": thd, "min_threshold": cut, "region_cover": cover,
+            "guideline_on_obstacles": on_obstacles, "reasons": reasons}
 
 
 @dataclass(frozen=True)

@@ -116,7 +116,7 @@ class TrainConfig:
     input_mode: str = "map"
     """What the model sees: map (the map at about 4 px per planning cell) or grid (the planning grid at 4 px per cell)."""
     grid_sizes: str = "50"
-    """Planning-grid sizes to train for (with --sources), e.g. 50,100: inputs of about 4 x size px."""
+    """Planning-grid sizes to train for (with --sources), e.g. 50,100: inputs of about 4 x size px; 8-256, or up to 512 under a --view that bounds the input (cap/coarse)."""
     steps_per_epoch: int = 0
     """Optimisation steps per epoch with --sources (0 = as many as one pass over the paper's training split)."""
     val_per_source: int = 64

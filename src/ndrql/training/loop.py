@@ -139,7 +139,8 @@ def _on_rank0(world: D.World, fn):
 def build_mixture(cfg: TrainConfig, progress: bool):
     """The mixture of ``cfg.sources`` (:mod:`ndrql.dataset.mixture`); returns (mixture, train ids, val ids, paper data)."""
     # lazy: loads scipy
-    from ndrql.dataset.mixture import Mixture, generated_source, paper_source, parse_families, parse_sizes, parse_sources
+    from ndrql.dataset.mixture import (MAX_SIZE, MAX_VIEW_SIZE, Mixture, generated_source, paper_source, parse_families,
+                                       parse_sizes, parse_sources)
 
     sources, paper = [], None
     for spec in parse_sources(cfg.sources):
@@ -152,7 +153,8 @@ def build_mixture(cfg: TrainConfig, progress: bool):
             sources.append(generated_source(spec, exclude=parse_families(cfg.exclude_families)))
     encoding = cfg.model_config().get("encoding") or "point"
     view = GridView.parse(cfg.view) if cfg.input_mode == "grid" and cfg.view != "native" else None
-    mixture = Mixture(sources, cfg.input_mode, parse_sizes(cfg.grid_sizes), encoding, distance=cfg.distance_head, view=view)
+    sizes = parse_sizes(cfg.grid_sizes, MAX_SIZE if view is None else MAX_VIEW_SIZE)
+    mixture = Mixture(sources, cfg.input_mode, sizes, encoding, distance=cfg.distance_head, view=view)
     tr_ids = np.concatenate([s.train_ids for s in sources])
     va_ids = np.concatenate([s.val_ids for s in sources])
     return mixture, tr_ids, va_ids, paper

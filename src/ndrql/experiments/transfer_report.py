@@ -24,7 +24,7 @@ from ndrql.experiments.report import md_table
 from ndrql.errors import NdrqlError
 from ndrql.experiments.stats import (TIE, compare_seeds, geomean_ratio, pooled_ratio, share_of_oracle,
                                      share_of_oracle_geomean, tally)
-from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, max_region_cover, min_threshold
+from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, MAX_REGION_COVER, max_region_cover, min_threshold
 
 #: The rows of the report, in order. ``QL``: the paper's constants; ``QL (tuned)``: searched constants
 #: (:data:`ndrql.experiments.transfer.TUNED_QL`); ``IQL (BFS distance)``: IQL's constants with Eq. 5 on the
@@ -293,7 +293,8 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
         "policy over the 4-connected optimum of the planning grid, over converged runs. *share of oracle (pooled, vs QL)*: "
         "(1 - NDR-QL/QL) / (1 - oracle/QL) on pooled steps (only where the QL row ran). *with plan's fallback*: a map whose "
         "prediction is uninformative (no Eq. 7 threshold of at least plan's cut joins start and goal: 0 up to "
-        f"{LARGE_GRID} cells, {LARGE_MIN_THRESHOLD} above) counts at IQL's steps. "
+        f"{LARGE_GRID} cells, {LARGE_MIN_THRESHOLD} above; above {LARGE_GRID} cells also a region over more than "
+        f"{MAX_REGION_COVER:.0%} of the free cells at that threshold) counts at IQL's steps. "
         "*share of oracle's gain over IQL (geomean)*: (1 - G(NDR-QL/IQL)) / (1 - G(oracle/IQL)), G the geometric mean "
         "over maps, NDR-QL with plan's fallback. *not converged*: runs that hit their cap (max_episodes episodes of at "
         "most max_steps moves, recorded per row in summary.json); they count with the steps they used and win no map.")

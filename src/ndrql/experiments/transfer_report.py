@@ -251,6 +251,13 @@ def family_table(records: list[dict], seed: int = 0) -> str:
     return md_table(head, rows)
 
 
+def _cover_note(records: list[dict]) -> str:
+    """``, or covers more than X% of the free cells there`` when some planned case of ``records`` lies on a grid
+    where plan limits the region's cover (:func:`~ndrql.pipeline.fallback.max_region_cover`)."""
+    limits = {max_region_cover(int(r.get("size", r["n"]))) for r in records if not r["skipped"]} - {None}
+    return f", or covers more than {max(limits):.0%} of the free cells there" if limits else ""
+
+
 def _cuts(records: list[dict]) -> str:
     """Plan's cut(s) over the planned cases of ``records`` (a grid whose maps grew past 128 cells has two)."""
     cuts = sorted({record_cut(r) for r in records if not r["skipped"]})
@@ -278,7 +285,7 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
             f"**Planning grid {n}** (safe grid; maps that need it on {finer}): {s['maps']} maps planned, "
             f"{s['skipped']} connect on no size tried.\n\n" + headline_table(s) +
             f"\n\nWhat `ndrql plan` spends (the model's run, or IQL's where the prediction does not connect start and goal "
-            f"at Eq. 7 threshold {_cuts(at_n)}): {_ratio(plan)} against IQL in geometric mean; more than IQL on "
+            f"at Eq. 7 threshold {_cuts(at_n)}{_cover_note(at_n)}): {_ratio(plan)} against IQL in geometric mean; more than IQL on "
             f"{100 * s['plan_worse_than_iql']:.0f}% of the maps; the prediction is uninformative on "
             f"{_pct(s['uninformative'])} of the maps; share of the oracle's gain over IQL in geometric means "
             f"{_pct(s.get('share_geo'))} with plan's fallback ({_pct(s.get('share_geo_raw'))} without)."

@@ -24,11 +24,11 @@ from ndrql.io import write_json
 from ndrql.synth.families import family_names, shipped_families
 from ndrql.synth.generate import SetSpec
 
-#: The training sets the scripts and docs generate: label -> (seed, sizes, families; None = the shipped model's
-#: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (docs/large-maps.md):
-#: ``--family all`` at seed 4 (201-1,024 px) and seed 6 (512/1,024 px).
 #: The families the third companion drew more of (``ndrql data generate --family <these> --seed 7``), in that order.
 HARD_FAMILIES = ("city", "narrow_passage", "maze", "scatter", "corridor_maze", "floor", "dungeon", "ros_scan")
+#: The training sets the scripts and docs generate: label -> (seed, sizes, families; None = the shipped model's
+#: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (docs/large-maps.md):
+#: ``--family all`` at seed 4 (201-1,024 px) and seed 6 (512/1,024 px), :data:`HARD_FAMILIES` at seed 7.
 TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801), None),
                  "train large (seed 4)": (4, (201, 401, 512, 801, 1024), "all"),
                  "train large (seed 6)": (6, (512, 1024), "all"),

@@ -38,9 +38,9 @@ from ndrql.experiments.transfer_report import ROWS, not_run_note, render_tables,
 from ndrql.io import save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE, bfs_distances
 from ndrql.model.predict import Predictor
-from ndrql.pipeline.fallback import region_cover
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
+from ndrql.pipeline.fallback import region_cover
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import build_priors
 from ndrql.planning.preset import Preset, load_preset, method_configs

@@ -24,7 +24,8 @@ from ndrql.experiments.report import md_table
 from ndrql.errors import NdrqlError
 from ndrql.experiments.stats import (TIE, compare_seeds, geomean_ratio, pooled_ratio, share_of_oracle,
                                      share_of_oracle_geomean, tally)
-from ndrql.pipeline.fallback import LARGE_GRID, LARGE_MIN_THRESHOLD, MAX_REGION_COVER, max_region_cover, min_threshold
+from ndrql.pipeline.fallback import (LARGE_GRID, LARGE_MIN_THRESHOLD, MAX_REGION_COVER, max_region_cover, min_threshold,
+                                    region_reason)
 
 #: The rows of the report, in order. ``QL``: the paper's constants; ``QL (tuned)``: searched constants
 #: (:data:`ndrql.experiments.transfer.TUNED_QL`); ``IQL (BFS distance)``: IQL's constants with Eq. 5 on the
@@ -91,10 +92,15 @@ def judged_threshold(record: dict) -> float | None:
     return record["runs"][MODEL]["threshold"]
 
 
+def record_size(record: dict) -> int:
+    """Cells per side of the grid the case was planned on (the size asked for in records without ``size``)."""
+    return int(record.get("size", record.get("n", 0)))
+
+
 def record_cut(record: dict) -> float:
     """Plan's cut for the case's planning grid (:func:`~ndrql.pipeline.fallback.min_threshold` of the size it
     was planned on)."""
-    return min_threshold(int(record.get("size", record.get("n", 0))))
+    return min_threshold(record_size(record))
 
 
 def uninformative(record: dict, cut: float | None = None) -> bool:
@@ -102,12 +108,7 @@ def uninformative(record: dict, cut: float | None = None) -> bool:
     :func:`record_cut`, when not given) joins start and goal (:func:`judged_threshold`), or, on a grid where
     plan limits it (:func:`~ndrql.pipeline.fallback.max_region_cover`), the region covers more of the free
     cells than that at the judged threshold (records written before ``region_cover`` was stored: not tested)."""
-    thd = judged_threshold(record)
-    if thd is None or thd < (record_cut(record) if cut is None else cut):
-        return True
-    limit = max_region_cover(int(record.get("size", record.get("n", 0))))
-    cover = record.get("region_cover")
-    return limit is not None and cover is not None and cover > limit
+    return region_reason(judged_threshold(record), record.get("region_cover"), record_size(record), cut) is not None
 
 
 def plan_steps(record: dict, cut: float | None = None) -> list[int]:
@@ -254,7 +255,7 @@ def family_table(records: list[dict], seed: int = 0) -> str:
 def _cover_note(records: list[dict]) -> str:
     """``, or covers more than X% of the free cells there`` when some planned case of ``records`` lies on a grid
     where plan limits the region's cover (:func:`~ndrql.pipeline.fallback.max_region_cover`)."""
-    limits = {max_region_cover(int(r.get("size", r["n"]))) for r in records if not r["skipped"]} - {None}
+    limits = {max_region_cover(record_size(r)) for r in records if not r["skipped"]} - {None}
     return f", or covers more than {max(limits):.0%} of the free cells there" if limits else ""
 
 

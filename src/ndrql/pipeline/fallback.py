@@ -66,6 +66,23 @@ def max_region_cover(cells: int) -> float | None:
     return MAX_REGION_COVER if cells > LARGE_GRID else None
 
 
+def region_reason(thd: float | None, cover: float | None, cells: int, cut: float | None = None) -> str | None:
+    """Why the region cannot guide planning on a grid of ``cells`` cells, or ``None`` when it can: no Eq. 7
+    threshold of at least ``cut`` (default :func:`min_threshold`) joins start and goal (``thd`` the highest that
+    does), or it covers more of the free cells at ``thd`` than :func:`max_region_cover` allows (``cover`` from
+    :func:`region_cover`; ``None``: not tested). One rule for ``plan`` and the reports that replay it."""
+    cut = min_threshold(cells) if cut is None else cut
+    if thd is None or thd < cut:
+        shown = "none" if thd is None else f"{thd:.2f}"
+        floor = f" >= {cut}" if cut > 0 else ""
+        return f"no region threshold{floor} connects start and goal (Eq. 7 threshold {shown})"
+    limit = max_region_cover(cells)
+    if limit is not None and cover is not None and cover > limit:
+        return (f"the region covers {cover:.0%} of the free cells at its Eq. 7 threshold {thd:.2f} "
+                f"(at most {limit:.0%} above {LARGE_GRID} cells)")
+    return None
+
+
 def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
                        grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
     """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
@@ -78,17 +95,9 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
     :data:`MAX_REGION_COVER` of the free cells at that threshold (it does not say where the path runs).
     """
     thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
-    reasons = []
     cells = max(grid.blocked.shape)
-    cut = min_threshold(cells)
     cover = region_cover(region_grid, grid.blocked, thd)
-    if thd is None or thd < cut:
-        shown = "none" if thd is None else f"{thd:.2f}"
-        floor = f" >= {cut}" if cut > 0 else ""
-        reasons.append(f"no region threshold{floor} connects start and goal (Eq. 7 threshold {shown})")
-    elif (limit := max_region_cover(cells)) is not None and cover is not None and cover > limit:
-        reasons.append(f"the region covers {cover:.0%} of the free cells at its Eq. 7 threshold {thd:.2f} "
-                       f"(at most {limit:.0%} above {LARGE_GRID} cells)")
+    reasons = [why] if (why := region_reason(thd, cover, cells)) else []
     on_obstacles = None
     if guideline is not None:
         mass = float(np.sum(guideline))
@@ -98,7 +107,7 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
                 reasons.append(f"{on_obstacles:.0%} of the guideline lies on obstacles")
         else:
             reasons.append("the guideline is empty")
-    return {"informative": not reasons, "threshold": thd, "min_threshold": cut, "region_cover": cover,
+    return {"informative": not reasons, "threshold": thd, "min_threshold": min_threshold(cells), "region_cover": cover,
             "guideline_on_obstacles": on_obstacles, "reasons": reasons}
 
 

@@ -21,7 +21,7 @@ from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
 from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
-from ndrql.pipeline.predictions import load_predictions
+from ndrql.pipeline.predictions import load_predictions, second_opinion_note
 from ndrql.pipeline.request import PRIOR_FIELDS, QL_FIELDS
 from ndrql.pipeline.settings import GRID_RULES
 from ndrql.planning.config import PriorConfig, QLConfig, field_docs
@@ -310,6 +310,7 @@ def run(args: argparse.Namespace) -> int:
         graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
         companion = f"; the companion of {Path(request.weights_file or '').name} for the grids its view merges" \
             if seen.get("companion") else ""
+        companion += second_opinion_note(seen)
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
              f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}"
              f"{note}{companion}){graph}; constants: preset {request.preset.name}")

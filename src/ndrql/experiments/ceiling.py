@@ -104,15 +104,18 @@ def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, .
     return out + (np.where(d >= 0, d, d.max() + 1.0),)
 
 
-def model_priors(predictor, mode: str, case: GridCase) -> tuple[np.ndarray, ...]:
+def model_priors(predictor, mode: str, case: GridCase, seen: dict | None = None) -> tuple[np.ndarray, ...]:
     """Region and guideline of the model on the grid, for a model trained on input ``mode``, and its goal
     distance per cell (cells) when it has a distance head.
 
     ``grid``: the safe grid at 4 px per cell; ``map``: the map at ``4n + 1`` px; ``map201``: the map at
-    201 px whatever the grid (the input of the paper's model before multi-scale training).
+    201 px whatever the grid (the input of the paper's model before multi-scale training). ``seen``: filled
+    with what a grid-mode model saw (:func:`~ndrql.pipeline.predictions.predict_on_grid`'s ``info``).
     """
     if mode == "grid":
-        r, gl, _, d = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
+        r, gl, info, d = predict_on_grid(predictor, case.blocked, case.start_cell, case.goal_cell)
+        if seen is not None:
+            seen.update(info)
         return (r, gl) if d is None else (r, gl, d)
     side = MODEL_SIDE if mode == "map201" else input_side("map", case.n)
     img, s, g, scale = to_model_input(case.obstacles, case.start, case.goal, side)

@@ -162,7 +162,8 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 if case is None:
                     meta[key] = {"family": fam, "n": n, "skipped": True}
                     continue
-                model, predict_s = _timed(model_priors, predictor, "map201" if mode == "map" else mode, case)  # what plan shows the model
+                seen: dict = {}
+                model, predict_s = _timed(model_priors, predictor, "map201" if mode == "map" else mode, case, seen)  # what plan shows the model
                 model = model if learned_distance else model[:2]
                 *oracle, bfs = oracle_priors(case, distance=True)  # a perfect version of what the model predicts
                 oracle = oracle + [bfs] if len(model) > 2 else oracle
@@ -174,7 +175,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 judged = adaptive_threshold(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell, PriorConfig())
                 cover = region_cover(np.asarray(model[0]), case.blocked, judged)
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged,
-                             "region_cover": cover,
+                             "region_cover": cover, "second_opinion": seen.get("second_opinion"),
                              "seconds": {"prediction": predict_s, **grid_seconds(case)}}
                 priors = {"QL": None, "QL (tuned)": None, "IQL": None, BFS_ROW: [bfs.tolist()],
                           "NDR-QL (model)": [a.tolist() for a in model], "NDR-QL (oracle)": [a.tolist() for a in oracle]}

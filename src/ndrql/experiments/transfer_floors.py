@@ -123,6 +123,18 @@ def stages_table(records: list[dict], grids: tuple[int, ...]) -> str:
     return md_table(["grid"] + [names.get(c, f"run: {c}") for c in cols], rows)
 
 
+def second_opinion_line(records: list[dict]) -> str | None:
+    """How often the base model was asked for a second opinion where the companion's region was uninformative,
+    and how often it served (``plan``'s rule, :func:`~ndrql.pipeline.predictions.predict_on_grid`); ``None``
+    when it never was."""
+    planned = [r for r in records if not r["skipped"]]
+    asked = [r["second_opinion"] for r in planned if r.get("second_opinion")]
+    if not asked:
+        return None
+    return (f"- second opinion (the base model through its own view, asked where the companion's region was "
+            f"uninformative): asked on {len(asked)} of {len(planned)} maps, served on {sum(a['served'] for a in asked)}")
+
+
 def render_large(records: list[dict], grids: tuple[int, ...], seed: int = 0) -> str:
     """Markdown: the median seconds per stage and grid, then for each grid of at least :data:`FLOOR_GRID` cells
     the floors block (each floor met or missed, with its number)."""
@@ -137,8 +149,9 @@ def render_large(records: list[dict], grids: tuple[int, ...], seed: int = 0) -> 
             parts.append(f"**Floors at grid {n}** (docs/large-maps.md): no map planned, nothing judged.")
             continue
         met = sum(f.met for f in fl)
+        second = second_opinion_line([r for r in records if r["n"] == n])
         parts.append(f"**Floors at grid {n}** (docs/large-maps.md, 'Floors for the next model'): {met} of {len(fl)} met.\n\n"
                      + "\n".join(f.line() for f in fl)
                      + "\n- figures at grids 50 and 100 and on the paper's data no worse: not judged by this report "
-                       "(compare with docs/results.md)")
+                       "(compare with docs/results.md)" + (f"\n{second}" if second else ""))
     return "\n\n".join(parts) + "\n"

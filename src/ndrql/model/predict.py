@@ -257,14 +257,15 @@ class Predictor:
         (:meth:`predict_grid_all`)."""
         return self.predict_grid_all(blocked, start_cell, goal_cell)[:2]
 
-    def predict_view(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point) -> CellPrediction:
+    def predict_view(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point,
+                     companion: bool = True) -> CellPrediction:
         """A grid-mode model's outputs per planning cell of ``blocked``: the input drawn through :attr:`view`
         (:func:`~ndrql.dataset.views.view_input`; ``native`` is the grid at 4 px per cell, padded with
         obstacles to a square of ``4 max(h, w)`` px), averaged over :attr:`symmetries` orientations, and
         brought back per planning cell (:func:`~ndrql.dataset.views.view_cells`,
         :func:`~ndrql.dataset.views.view_distance_cells`). A grid the view merges goes to the companion
-        (:meth:`serving`)."""
-        served = self.serving(max(np.shape(blocked)))
+        (:meth:`serving`) unless ``companion`` is ``False``: then this model predicts it through its own view."""
+        served = self.serving(max(np.shape(blocked))) if companion else self
         if served is not self:  # a grid the view merges: the companion's
             return served.predict_view(blocked, start_cell, goal_cell)
         seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)

@@ -83,6 +83,16 @@ def region_reason(thd: float | None, cover: float | None, cells: int, cut: float
     return None
 
 
+def region_verdict(region: np.ndarray, blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
+                   cfg: Any) -> tuple[float | None, float | None, str | None]:
+    """``(thd, cover, reason)`` of a region on a planning grid: its Eq. 7 threshold (``cfg`` a
+    :class:`~ndrql.planning.config.PriorConfig`), its cover there (:func:`region_cover`) and why it cannot
+    guide planning (:func:`region_reason`; ``None``: it can)."""
+    thd = adaptive_threshold(region, blocked, start, goal, cfg)
+    cover = region_cover(region, blocked, thd)
+    return thd, cover, region_reason(thd, cover, max(np.shape(blocked)))
+
+
 def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, obstacles: np.ndarray,
                        grid: PlanningGrid, cfg: Any) -> dict[str, Any]:
     """Whether the model's prediction can guide planning on this problem (JSON ``prediction_quality``).
@@ -94,10 +104,9 @@ def prediction_quality(region_grid: np.ndarray, guideline: np.ndarray | None, ob
     the map (the model draws its path through walls), or, above 128 cells, when the region covers more than
     :data:`MAX_REGION_COVER` of the free cells at that threshold (it does not say where the path runs).
     """
-    thd = adaptive_threshold(region_grid, grid.blocked, grid.start, grid.goal, cfg)
+    thd, cover, why = region_verdict(region_grid, grid.blocked, grid.start, grid.goal, cfg)
     cells = max(grid.blocked.shape)
-    cover = region_cover(region_grid, grid.blocked, thd)
-    reasons = [why] if (why := region_reason(thd, cover, cells)) else []
+    reasons = [why] if why else []
     on_obstacles = None
     if guideline is not None:
         mass = float(np.sum(guideline))

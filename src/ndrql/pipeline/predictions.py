@@ -24,10 +24,11 @@ from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
 from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fallback, fall_back, min_threshold,  # noqa: F401 (re-exported)
-                                     prediction_quality)
+                                     prediction_quality, region_verdict)
 from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.pipeline.report import StageClock
+from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
 from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
 
@@ -79,26 +80,57 @@ def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     return cells_to_map(cells, grid.source_shape, grid.cell_size)
 
 
-def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point
+def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point,
+                    cfg: PriorConfig | None = None
                     ) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any], np.ndarray | None]:
     """A grid-mode model's region, guideline and goal distance (cells; ``None`` for a model without a distance
     head) per cell of the planning grid ``blocked``, seen through the model's view
     (:meth:`~ndrql.model.predict.Predictor.predict_view`), and what it saw: the input's side, where start and
     goal landed, the view and how many cells along each side it merged into one (``merged``, 1 unless
     ``coarse`` merged them). A model with a companion (:mod:`ndrql.model.companion`) also names the
-    weights file that served (``weights_file``) and, on ONNX Runtime, the graph that ran (``runs_file``)."""
+    weights file that served (``weights_file``) and, on ONNX Runtime, the graph that ran (``runs_file``).
+
+    *Second opinion*: when the companion served and its region cannot guide planning
+    (:func:`~ndrql.pipeline.fallback.region_verdict` with ``cfg``, default the paper's constants), the base
+    model predicts the grid through its own view (cells merged), and its prediction is returned when its
+    region can; ``info["second_opinion"]`` says why it was asked and whether it served
+    (docs/large-maps.md#a-second-opinion)."""
     out = predictor.predict_view(blocked, start_cell, goal_cell)
+    served = predictor.serving(max(np.shape(blocked))) if getattr(predictor, "merged_weights", None) is not None \
+        else None
+    second = None
+    if served is not None and served is not predictor:
+        cfg = PriorConfig() if cfg is None else cfg
+        why = region_verdict(out.region, blocked, start_cell, goal_cell, cfg)[2]
+        if why is not None:
+            own = predictor.predict_view(blocked, start_cell, goal_cell, companion=False)
+            why_own = region_verdict(own.region, blocked, start_cell, goal_cell, cfg)[2]
+            second = {"asked_because": why, "served": why_own is None, "reason": why_own}
+            if why_own is None:
+                out, served = own, predictor
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
             "view": str(predictor.view), "merged": int(seen.factor)}
-    if getattr(predictor, "merged_weights", None) is not None:
-        served = predictor.serving(max(np.shape(blocked)))
+    if served is not None:
         info["weights_file"] = served.weights_file.name
         info["companion"] = served is not predictor
         if served.graph_file is not None:
             info["runs_file"] = str(served.graph_file)
+    if second is not None:
+        info["second_opinion"] = second
     return out.region, out.guideline, info, out.distance
+
+
+def second_opinion_note(info: dict[str, Any]) -> str:
+    """What the summary lines of ``plan`` and ``predict`` say about :func:`predict_on_grid`'s second opinion
+    (``info``: its ``model_input``); empty when none was asked."""
+    asked = info.get("second_opinion")
+    if not asked:
+        return ""
+    if asked["served"]:
+        return f"; the companion's prediction was uninformative ({asked['asked_because']}), the base model's served"
+    return f"; the base model, asked too, was uninformative as well ({asked['reason']})"
 
 
 def _on_grid(region: np.ndarray, guide: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],
@@ -117,17 +149,19 @@ def oracle_view(grid: PlanningGrid) -> ModelView:
                     {"oracle": True, "px_per_cell": PX_PER_CELL})
 
 
-def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
+def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point,
+                   cfg: PriorConfig | None = None) -> ModelView:
     """Region and guideline for planning ``grid`` from ``start`` to ``goal`` (map pixels), at the map's resolution.
 
     ``predictor``: a loaded model (:func:`ndrql.model.predict.load_predictor`). What the model sees
     follows its input mode (``predictor.input_mode``, from its checkpoint): ``grid`` models see the
     planning grid itself at 4 px per cell (start and goal in their cells' centres), through the view they
     were trained under (``predictor.view``: ``coarse:128`` merges a grid above 128 cells), and predict on it;
-    ``map`` models (the paper's) see the map resized to 201 px.
+    ``map`` models (the paper's) see the map resized to 201 px. ``cfg``: the constants the prediction's
+    quality is judged with (:func:`predict_on_grid`'s second opinion).
     """
     if getattr(predictor, "input_mode", "map") == "grid":
-        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
+        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal, cfg)
         return _on_grid(region, guide, grid, info, distance)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)
@@ -318,7 +352,7 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock) -> Predicte
             record["symmetries"] = predictor.symmetries
         used_weights = request.weights_file
         with clock.stage("predict"):
-            view = predict_region(predictor, request.grid_map, grid, request.start, request.goal)
+            view = predict_region(predictor, request.grid_map, grid, request.start, request.goal, request.quality_config)
             record["model_input"] = view.info
             if "runs_file" in view.info:  # a companion's graph may have run instead
                 record["runs_file"] = view.info.pop("runs_file")

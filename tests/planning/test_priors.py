@@ -199,3 +199,30 @@ def test_no_warning_when_the_region_connects():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         P.ndr_qi(FREE, (0, 0), (0, 2), REGION)
+
+
+def _walk_down(region, blocked, start, goal, cfg):
+    """Sec. 3.3 as written: every threshold from ``thd_start`` down by ``thd_step`` until one connects."""
+    n = int(np.floor(cfg.thd_start / cfg.thd_step + 1e-9))
+    for i in range(n + 1):
+        thd = round(cfg.thd_start - i * cfg.thd_step, 9)
+        if thd < 0:
+            break
+        if P.region_connects(region, blocked, start, goal, thd):
+            return thd
+    return None
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_adaptive_threshold_equals_the_walk_down_of_sec_3_3(seed):
+    """The galloping search down the schedule gives the walk's answer, for smooth and noisy regions, walls, start
+    or goal outside the region, and the paper's and coarser schedules."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 24))
+    blocked = rng.random((n, n)) < rng.uniform(0.0, 0.35)
+    region = rng.random((n, n)) if seed % 2 else np.clip(np.cumsum(rng.normal(0, 0.2, (n, n)), axis=1) % 1.0, 0, 1)
+    region = np.round(region, 2) if seed % 3 == 0 else region  # values on the schedule's own steps
+    start, goal = (0, 0), (n - 1, n - 1)
+    blocked[start] = blocked[goal] = False
+    for cfg in (PriorConfig(), PriorConfig(thd_start=0.9333, thd_step=0.0505), PriorConfig(thd_start=0.5, thd_step=0.2)):
+        assert P.adaptive_threshold(region, blocked, start, goal, cfg) == _walk_down(region, blocked, start, goal, cfg)

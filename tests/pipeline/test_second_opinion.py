@@ -59,6 +59,7 @@ class _Model:
 
     view = "coarse:128"
     graph_file = None
+    input_mode = "grid"
 
     def __init__(self, name: str, region: np.ndarray, companion: "_Model | None" = None, side: int = 512,
                  factor: int = 1):
@@ -139,3 +140,42 @@ def test_a_model_without_a_companion_is_never_second_guessed():
     region, _, info, _ = predict_on_grid(alone, BLOCKED, START, GOAL)
     assert np.array_equal(region, _broken()) and "second_opinion" not in info and "companion" not in info
     assert alone.calls == ["own"]
+
+
+class _Merging:
+    """A view that merges every grid (what ``coarse:128`` does above 128 cells)."""
+
+    def shows_native(self, n: int) -> bool:
+        return False
+
+    def __str__(self) -> str:
+        return "coarse:128"
+
+
+def test_the_prediction_cache_of_tuning_and_tables_takes_the_second_opinion_too(model_weights, tmp_path):
+    """``PredictionCache`` (``ndrql tune``, the tables) on a grid the view merges gives plan's prediction: the
+    base's where the companion's region is uninformative; an entry made by the companion alone before the
+    second opinion existed is predicted again, a current one is read back as it is."""
+    from ndrql.maps.problem import MapProblem
+    from ndrql.pipeline.samples import PredictionCache, Problem
+    from ndrql.io import save_npz
+
+    p = Problem("hand", 0, "", MapProblem(np.kron(BLOCKED, np.ones((2, 2), bool)), (5, 5), (5, 2 * N - 5)),
+                BLOCKED, START, GOAL, 0)
+    cache = PredictionCache(tmp_path / "c", model_weights)
+    base = _base(_broken(), _corridor())
+    base.view = _Merging()
+    cache._predictor = base
+    got = cache.attach(p)
+    assert np.allclose(got.region, _corridor(), atol=1e-3) and base.calls == ["own"]
+    assert cache.computed == 1
+    # an entry of the companion alone (no rule recorded), as the cache wrote them before: predicted again
+    with np.load(cache.path(p)) as d:
+        old = {k: d[k] for k in d.files if k != "rule"}
+    save_npz(cache.path(p), **{**old, "region": _broken().astype(np.float16)})
+    again = PredictionCache(tmp_path / "c", model_weights)
+    again._predictor = base
+    assert np.allclose(again.attach(p).region, _corridor(), atol=1e-3) and again.computed == 1
+    third = PredictionCache(tmp_path / "c", model_weights)
+    third._predictor = None  # a current entry is read without loading any model
+    assert np.allclose(third.attach(p).region, _corridor(), atol=1e-3) and third.computed == 0

@@ -32,6 +32,7 @@ from ndrql.model.companion import companion_path, weights_digest
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import digest_suffix
 from ndrql.model.weights import PAPER_WEIGHTS, resolve_weights
+from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.dataset.render import cell_means, grid_cells_to_map, to_map_pixels
 from ndrql.maps.safe import grid_shape
 from ndrql.planning.methods import downscale_priors
@@ -119,6 +120,12 @@ def _seen(weights: Path) -> tuple[str, Path | None]:
     return mode, companion_path(weights, config) if mode == "grid" else None
 
 
+#: How a ``cells`` entry was made: :func:`~ndrql.pipeline.predictions.predict_on_grid`, plan's own call (the
+#: companion on a grid the view merges, the base's second opinion where the companion's region is uninformative).
+#: A ``cells`` entry without it was made by the companion alone and is predicted again.
+CELLS_RULE = "predict_on_grid"
+
+
 class PredictionCache:
     """NDR predictions per sample, made once and kept on disk (module docstring)."""
 
@@ -166,8 +173,9 @@ class PredictionCache:
         if path.is_file():
             try:
                 with np.load(path, allow_pickle=False) as d:
-                    if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs:
-                        mode = str(d["mode"]) if "mode" in d.files else "map"
+                    mode = str(d["mode"]) if "mode" in d.files else "map"
+                    current = mode != "cells" or ("rule" in d.files and str(d["rule"]) == CELLS_RULE)
+                    if str(d["weights"]) == self.digest and str(d["inputs"]) == inputs and current:
                         dist = d["distance"].astype(np.float32) if "distance" in d.files else None
                         return mode, d["region"].astype(np.float32), d["guideline"].astype(np.float32), dist
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
@@ -179,8 +187,8 @@ class PredictionCache:
         mode = getattr(self._predictor, "input_mode", "map")
         distance = None
         if mode == "grid" and not self._predictor.view.shows_native(max(p.blocked.shape)):
-            mode = "cells"  # per planning cell, through the model's view (Predictor.predict_cells)
-            region, guideline, distance = self._predictor.predict_cells(p.blocked, p.start, p.goal)
+            mode = "cells"  # per planning cell, through the model's view and plan's second opinion
+            region, guideline, _, distance = predict_on_grid(self._predictor, p.blocked, p.start, p.goal)
         elif mode == "grid":  # the model's own pixels, 4 px per planning cell (Predictor.predict_grid_all)
             region, guideline, distance = self._predictor.predict_grid_all(p.blocked, p.start, p.goal)
         else:
@@ -190,6 +198,8 @@ class PredictionCache:
             raise NdrqlError(f"the model {self.weights} has no guideline output; N-C needs one")
         region, guideline = np.asarray(region).astype(np.float16), np.asarray(guideline).astype(np.float16)
         extra = {} if distance is None else {"distance": np.asarray(distance, np.float32)}  # fp16 would blur neighbours
+        if mode == "cells":
+            extra["rule"] = np.array(CELLS_RULE)
         save_npz(path, region=region, guideline=guideline, weights=np.array(self.digest), inputs=np.array(inputs),
                  mode=np.array(mode), **extra)
         self.computed += 1

@@ -160,10 +160,12 @@ class _SpyModel:
         return np.ones((1,) + x.shape[-2:]), np.ones((1,) + x.shape[-2:])
 
 
-@pytest.mark.parametrize("n,base_side,companion_side", [(100, 400, None), (160, None, 480)])
-def test_region_f1_above_the_views_limit_is_the_companions_under_its_own_view(n, base_side, companion_side):
+@pytest.mark.parametrize("n,own,base_side,companion_side", [(100, False, 400, None), (160, False, None, 480),
+                                                        (160, True, 320, None)])
+def test_region_f1_above_the_views_limit_is_the_companions_under_its_own_view(n, own, base_side, companion_side):
     """The report's region F1 names the prediction plan used: above 128 cells the companion's on the grid
-    drawn at its view's 3 px per cell (480 px at 160 cells), not the base model's native 640 px input."""
+    drawn at its view's 3 px per cell (480 px at 160 cells), not the base model's native 640 px input; where
+    the base's second opinion served (``own``), the base's under its own view (80 merged cells, 320 px)."""
     import numpy as np
 
     from ndrql.experiments.ceiling import grid_case
@@ -173,6 +175,6 @@ def test_region_f1_above_the_views_limit_is_the_companions_under_its_own_view(n,
     base = _SpyModel("coarse:128", companion)
     obstacles = np.zeros((640, 640), bool)
     case = grid_case("k", "open", obstacles, (20, 20), (600, 610), n)
-    region_f1, guide_f1 = _f1(base, "grid", case, None)
+    region_f1, guide_f1 = _f1(base, "grid", case, None, own=own)
     assert base.sides == ([base_side] if base_side else []) and companion.sides == ([companion_side] if companion_side else [])
     assert 0 < region_f1 < 1 and 0 < guide_f1 < 1  # an all-ones prediction: recall 1, precision the label's share

@@ -115,15 +115,16 @@ def grid_seconds(case: GridCase) -> dict[str, float]:
     return {"astar": astar, "bfs": bfs}
 
 
-def _f1(predictor, mode: str, case: GridCase, waypoints) -> tuple[float, float]:
+def _f1(predictor, mode: str, case: GridCase, waypoints, own: bool = False) -> tuple[float, float]:
     """Region and guideline F1 of the model that serves this grid against the labels it trained on here.
 
     A grid-mode model: the one :meth:`~ndrql.model.predict.Predictor.serving` picks for the case's grid (the
-    companion above the base's view limit, as in ``plan``), on the grid drawn through that model's view, its
-    labels drawn the same way (:func:`~ndrql.dataset.render.render_grid`); a map-mode model sees the map at
-    201 px whatever the grid (as in ``ndrql plan``): labels at that scale."""
+    companion above the base's view limit, as in ``plan``), or with ``own`` the base itself (its second
+    opinion served, :func:`~ndrql.pipeline.predictions.predict_on_grid`), on the grid drawn through that
+    model's view, its labels drawn the same way (:func:`~ndrql.dataset.render.render_grid`); a map-mode model
+    sees the map at 201 px whatever the grid (as in ``ndrql plan``): labels at that scale."""
     if mode == "grid":
-        predictor = predictor.serving(case.n)
+        predictor = predictor if own else predictor.serving(case.n)
         r = render("grid", case.obstacles, case.start, case.goal, waypoints, case.n, view=predictor.view)
     else:
         r = render("map", case.obstacles, case.start, case.goal, waypoints, PLANNING_SIZE)
@@ -170,7 +171,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 if panels is not None and n == grids[0] and fam not in {p.family for p in panels}:
                     panels.append(PredictionPanel(fam, case.blocked, case.start_cell, case.goal_cell, model, oracle,
                                                   f"({case.n}x{case.n})"))
-                f1 = _f1(predictor, mode, case, raw.waypoints)
+                f1 = _f1(predictor, mode, case, raw.waypoints, own=bool((seen.get("second_opinion") or {}).get("served")))
                 # plan judges the prediction with the paper's threshold schedule whatever the preset (0.99, 0.98, ...)
                 judged = adaptive_threshold(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell, PriorConfig())
                 cover = region_cover(np.asarray(model[0]), case.blocked, judged)

@@ -40,11 +40,11 @@ from ndrql.maps.grid import PLANNING_SIZE, bfs_distances
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
-from ndrql.pipeline.fallback import region_cover
+from ndrql.pipeline.fallback import region_verdict
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import build_priors
 from ndrql.planning.preset import Preset, load_preset, method_configs
-from ndrql.planning.priors import adaptive_threshold, d_qi
+from ndrql.planning.priors import d_qi
 from ndrql.planning.runner import astar_length, run_plan
 from ndrql.training.metrics import f1_per_image
 from ndrql.viz.transfer import PredictionPanel, transfer_figure
@@ -173,8 +173,8 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                                                   f"({case.n}x{case.n})"))
                 f1 = _f1(predictor, mode, case, raw.waypoints, own=bool((seen.get("second_opinion") or {}).get("served")))
                 # plan judges the prediction with the paper's threshold schedule whatever the preset (0.99, 0.98, ...)
-                judged = adaptive_threshold(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell, PriorConfig())
-                cover = region_cover(np.asarray(model[0]), case.blocked, judged)
+                judged, cover, _ = region_verdict(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell,
+                                                  PriorConfig())
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged,
                              "region_cover": cover, "second_opinion": seen.get("second_opinion"),
                              "seconds": {"prediction": predict_s, **grid_seconds(case)}}

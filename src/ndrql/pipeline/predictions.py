@@ -27,6 +27,7 @@ from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fall
                                      prediction_quality, region_verdict)
 from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
+from ndrql.pipeline.relay import relay
 from ndrql.pipeline.report import StageClock
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
@@ -94,7 +95,9 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
     (:func:`~ndrql.pipeline.fallback.region_verdict` with ``cfg``, default the paper's constants), the base
     model predicts the grid through its own view (cells merged), and its prediction is returned when its
     region can; ``info["second_opinion"]`` says why it was asked and whether it served
-    (docs/large-maps.md#a-second-opinion)."""
+    (docs/large-maps.md#a-second-opinion). Where the base's region cannot either, the companion's prediction is
+    relayed (:func:`~ndrql.pipeline.relay.relay`: asked again from where its region ends, the regions joined);
+    ``info["second_opinion"]["relay"]`` gives the hops and whether the union can guide planning."""
     out = predictor.predict_view(blocked, start_cell, goal_cell)
     served = predictor.serving(max(np.shape(blocked))) if getattr(predictor, "merged_weights", None) is not None \
         else None
@@ -108,6 +111,8 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
             second = {"asked_because": why, "served": why_own is None, "reason": why_own}
             if why_own is None:
                 out, served = own, predictor
+            else:  # both uninformative: the companion asked again from where its region ends
+                out, second["relay"] = relay(predictor, blocked, start_cell, goal_cell, out, cfg)
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
@@ -130,7 +135,14 @@ def second_opinion_note(info: dict[str, Any]) -> str:
         return ""
     if asked["served"]:
         return f"; the companion's prediction was uninformative ({asked['asked_because']}), the base model's served"
-    return f"; the base model, asked too, was uninformative as well ({asked['reason']})"
+    note = f"; the base model, asked too, was uninformative as well ({asked['reason']})"
+    relayed = asked.get("relay")
+    if relayed and relayed["hops"]:
+        hops = len(relayed["hops"])
+        note += (f"; the companion, asked again from {hops} cell{'s' if hops > 1 else ''} where its region ended, "
+                 + ("joined start and goal (its regions together served)" if relayed["served"]
+                    else f"did not join them ({relayed['reason']})"))
+    return note
 
 
 def _on_grid(region: np.ndarray, guide: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],

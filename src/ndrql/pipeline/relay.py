@@ -1,0 +1,84 @@
+"""A relay: the model asked again from where its own region ends (docs/large-maps.md#a-relay).
+
+On a large grid the companion's region can break between start and goal: the part joined to the start
+ends somewhere short of the goal (mazes, floors of many rooms, whose route depends on the whole map). A
+relay asks the same model again, for the same goal, from the cell of that part which the model's own
+distance head puts nearest the goal, and takes the union of the regions (and of the guidelines); it hops
+again while the union still breaks, up to :data:`MAX_HOPS` times. Every region, guideline and distance is
+the model's own and every hop starts where its own outputs point; nothing searches the grid for a route
+(joining the region's pieces by a shortest path was tried and rejected for that reason,
+docs/large-maps.md#a-second-opinion).
+
+:func:`relay` is called by :func:`ndrql.pipeline.predictions.predict_on_grid` only above 128 cells and
+only where the companion and the base model were both uninformative; its verdict uses the same test
+(:func:`~ndrql.pipeline.fallback.region_verdict`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ndrql.pipeline.fallback import min_threshold, region_verdict
+
+Point = tuple[int, int]
+
+#: Most hops of a relay. On the development maps where both models were uninformative the relays that
+#: joined start and goal took 1-3 hops (docs/large-maps.md#a-relay); each hop is one more forward pass.
+MAX_HOPS = 4
+
+
+def start_part(region: np.ndarray, blocked: np.ndarray, start: Point, cut: float) -> np.ndarray:
+    """The free cells 4-connected to ``start`` through region cells above ``cut`` (Eq. 7's ``N_r > cut``),
+    ``start`` included; empty when ``start`` itself is not above ``cut``."""
+    from scipy import ndimage  # lazy: only a relay needs it
+
+    inside = (np.asarray(region) > cut) & ~np.asarray(blocked, bool)
+    if not inside[start]:
+        return np.zeros_like(inside)
+    labels, _ = ndimage.label(inside)
+    return labels == labels[start]
+
+
+def next_hop(part: np.ndarray, distance: np.ndarray) -> Point | None:
+    """The cell of ``part`` the model's goal distance puts nearest the goal (the first in row-major order on a
+    tie); ``None`` for an empty part."""
+    if not part.any():
+        return None
+    d = np.where(part, np.asarray(distance, np.float64), np.inf)
+    return tuple(int(v) for v in np.unravel_index(int(np.argmin(d)), d.shape))  # type: ignore[return-value]
+
+
+def relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first: Any, cfg: Any,
+          max_hops: int = MAX_HOPS) -> tuple[Any, dict[str, Any]]:
+    """``first`` (a :class:`~ndrql.model.predict.CellPrediction` of the model that serves the grid, with a goal
+    distance) relayed: at most ``max_hops`` more predictions of ``predictor`` for ``goal``, each from
+    :func:`next_hop` of the start's part of the union so far (:func:`start_part` above the grid's
+    :func:`~ndrql.pipeline.fallback.min_threshold`), until the union passes
+    :func:`~ndrql.pipeline.fallback.region_verdict` (``cfg`` a :class:`~ndrql.planning.config.PriorConfig`).
+
+    Returns the union (region and guideline the cellwise maxima, the first prediction's distance and
+    view) and ``{"hops": [[row, col], ...], "served": bool, "reason": why it still cannot guide planning or
+    None}``. A prediction without a distance, or a part that cannot move on, ends the relay."""
+    region = np.asarray(first.region, np.float64)
+    guide = None if first.guideline is None else np.asarray(first.guideline, np.float64)
+    cut = min_threshold(max(np.shape(blocked)))
+    hops: list[list[int]] = []
+    why = region_verdict(region, blocked, start, goal, cfg)[2]
+    visited = {tuple(start)}
+    while why is not None and first.distance is not None and len(hops) < max_hops:
+        part = start_part(region, blocked, start, cut)
+        if part[goal]:  # joined, but the region fails otherwise (it covers too much): another hop cannot help
+            break
+        cell = next_hop(part, first.distance)
+        if cell is None or cell in visited:
+            break
+        visited.add(cell)
+        hops.append([int(cell[0]), int(cell[1])])
+        out = predictor.predict_view(blocked, cell, goal)
+        region = np.maximum(region, out.region)
+        guide = guide if guide is None or out.guideline is None else np.maximum(guide, out.guideline)
+        why = region_verdict(region, blocked, start, goal, cfg)[2]
+    return replace(first, region=region, guideline=guide), {"hops": hops, "served": why is None, "reason": why}

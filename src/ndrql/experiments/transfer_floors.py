@@ -125,14 +125,20 @@ def stages_table(records: list[dict], grids: tuple[int, ...]) -> str:
 
 def second_opinion_line(records: list[dict]) -> str | None:
     """How often the base model was asked for a second opinion where the companion's region was uninformative,
-    and how often it served (``plan``'s rule, :func:`~ndrql.pipeline.predictions.predict_on_grid`); ``None``
-    when it never was."""
+    and how often it served (``plan``'s rule, :func:`~ndrql.pipeline.predictions.predict_on_grid`), and the relays
+    where both were (:mod:`ndrql.pipeline.relay`); ``None`` when it never was asked."""
     planned = [r for r in records if not r["skipped"]]
     asked = [r["second_opinion"] for r in planned if r.get("second_opinion")]
     if not asked:
         return None
-    return (f"- second opinion (the base model through its own view, asked where the companion's region was "
+    line = (f"- second opinion (the base model through its own view, asked where the companion's region was "
             f"uninformative): asked on {len(asked)} of {len(planned)} maps, served on {sum(a['served'] for a in asked)}")
+    relayed = [a["relay"] for a in asked if (a.get("relay") or {}).get("hops")]
+    if relayed:
+        line += (f"; where both were uninformative the companion was relayed (asked again from where its region "
+                 f"ended) on {len(relayed)} maps, {sum(len(r['hops']) for r in relayed)} hops in all, and its joined "
+                 f"regions served on {sum(r['served'] for r in relayed)}")
+    return line
 
 
 def render_large(records: list[dict], grids: tuple[int, ...], seed: int = 0) -> str:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -21,12 +22,9 @@ BLOCKED = np.zeros((N, N), bool)
 DISTANCE = np.abs(np.arange(N)[None, :] - GOAL[1]) + np.abs(np.arange(N)[:, None] - GOAL[0]).astype(float)
 
 
-@dataclass
-class _Seen:
-    image: np.ndarray
-    start: tuple[int, int]
-    goal: tuple[int, int]
-    factor: int
+def _seen(image: np.ndarray, start: tuple[int, int], goal: tuple[int, int], factor: int) -> SimpleNamespace:
+    """What a stand-in model saw (the fields ``predict_on_grid`` reads of a ``ViewInput``)."""
+    return SimpleNamespace(image=image, start=start, goal=goal, factor=factor)
 
 
 @dataclass(frozen=True)
@@ -34,7 +32,7 @@ class _Out:
     region: np.ndarray
     guideline: np.ndarray
     distance: np.ndarray | None
-    seen: _Seen
+    seen: SimpleNamespace
 
 
 class _Reach:
@@ -53,7 +51,7 @@ class _Reach:
         self.asked.append(tuple(start))
         r = np.zeros((N, N))
         r[1:4, start[1]:min(N, start[1] + self.reach)] = 0.9
-        return _Out(r, r * 0.5, self.distance, _Seen(np.zeros((512, 512)), (1, 1), (2, 2), 1))
+        return _Out(r, r * 0.5, self.distance, _seen(np.zeros((512, 512)), (1, 1), (2, 2), 1))
 
     def serving(self, n: int) -> "_Reach":
         return self
@@ -78,7 +76,7 @@ class _Base(_Reach):
         self.own += 1
         r = np.zeros((N, N))
         r[START] = 0.9
-        return _Out(r, r, None, _Seen(np.zeros((640, 640)), (1, 1), (2, 2), 2))
+        return _Out(r, r, None, _seen(np.zeros((640, 640)), (1, 1), (2, 2), 2))
 
 
 def test_start_part_and_next_hop_follow_the_region_and_the_distance():
@@ -128,7 +126,7 @@ def test_no_distance_or_no_way_on_means_no_hop():
 def test_a_region_that_joins_but_covers_too_much_is_not_relayed():
     comp = _Reach(reach=N)
     wide = np.full((N, N), 0.9)  # joins start and goal over every cell: the cover test fails, hops cannot help
-    first = _Out(wide, wide, DISTANCE, _Seen(np.zeros((512, 512)), (1, 1), (2, 2), 1))
+    first = _Out(wide, wide, DISTANCE, _seen(np.zeros((512, 512)), (1, 1), (2, 2), 1))
     _, info = relay(comp, BLOCKED, START, GOAL, first, PriorConfig())
     assert info["hops"] == [] and "covers" in info["reason"] and comp.asked == []
 

@@ -4,14 +4,14 @@ No preset ships whose learned greedy grid path exceeds the grid optimum by more 
 :data:`ndrql.tuning.objective.PATH_BOUND` on the worst map of its tuning set (the mean over the check
 seeds of greedy path / A* on that map). ``ndrql tune --export-preset`` applies the bound to what it
 exports; this tool measures a preset that exists: each method's constants, per grid size, on the
-problems its search used (``general``: per grid the set its search read, ``tune`` or ``large-tune-256``, with
+problems its search used (``general``: per grid the set its search read, ``tune`` or ``large-dev2-128``, with
 the shipped general weights; ``tuned``:
 the paper's validation maps with the paper's weights), with the preset's check seeds and full episode
 budget. It writes the figures into the preset's ``meta`` (``path_quality``) and exits 2 when searched
 constants exceed the bound (entries that hold the paper's constants are reported, not judged). ``tests/tuning/test_path_bound.py`` checks every shipped preset's record.
 
-    python tools/preset_path_check.py general      # grids 50, 100 and 256, about 25 min of one core
-    python tools/preset_path_check.py general --grids 256   # one grid's entry; the others' records kept
+    python tools/preset_path_check.py general      # grids 50, 100 and 128, about 25 min of one core
+    python tools/preset_path_check.py general --grids 128   # one grid's entry (under a minute); the others' records kept
     python tools/preset_path_check.py tuned --data ../shared/data/path-planning-dataset
 """
 

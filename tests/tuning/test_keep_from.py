@@ -32,12 +32,13 @@ def test_kept_entries_keep_the_grids_not_searched_and_add_a_new_one():
     base = load_preset("general")
     new = {256: {"NDR-QL": MethodSetting(QLConfig(alpha=0.3)), "IQL": MethodSetting(QLConfig(alpha=0.4))}}
     metas = {"256": {"studies": {m: {"study": m} for m in new[256]}, "validation_check": {}, "kept_spec": ["IQL"],
-                     "search": {"weights_sha256_16": "new"}}}
+                     "search": {"weights_sha256_16": "new"}, "check_seeds": [2, 3]}}
     entries, meta = kept_entries(base, new, metas)
     assert sorted(entries) == sorted([*base.grids, 256]) and list(meta) == [str(n) for n in sorted(entries)]
     assert all(entries[n] == dict(base.grids[n]) for n in base.grids)
     assert meta["100"] == base.meta["grids"]["100"]
     assert entries[256] == new[256] and meta["256"]["kept_spec"] == ["IQL"]
+    assert meta["256"]["search"] == {"weights_sha256_16": "new"} and meta["256"]["check_seeds"] == [2, 3]
     assert meta["256"]["search_by_method"] == {"NDR-QL": {"weights_sha256_16": "new"}, "IQL": {"weights_sha256_16": "new"}}
     preset = replace(base, grids=entries)
     assert preset.setting("NDR-QL", 200).ql.alpha == 0.3  # 200 cells: nearest to 256 on a log scale

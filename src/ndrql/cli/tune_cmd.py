@@ -261,7 +261,8 @@ def kept_entries(base: Preset, entries: dict, metas: dict) -> tuple[dict, dict]:
     ``metas`` replacing theirs (their search settings under ``meta["search_by_method"]``, since the
     weights digest may differ from the kept methods' search). A grid of ``base`` the export did not search
     is kept whole; a grid ``base`` lacks is added with the searched methods alone (the others keep taking
-    the nearest entry that lists them, :meth:`Preset.setting`)."""
+    the nearest entry that lists them, :meth:`Preset.setting`) and with the search's settings and check seeds
+    as its own provenance."""
     base_metas = dict(base.meta).get("grids", {})
     out_e = {n: dict(base.grids[n]) for n in base.grids}
     out_m = {str(n): dict(base_metas.get(str(n), {})) for n in base.grids}
@@ -273,6 +274,8 @@ def kept_entries(base: Preset, entries: dict, metas: dict) -> tuple[dict, dict]:
                                      **{m: metas[str(n)]["search"] for m in new}}}
         kept = [m for m in old_meta.get("kept_spec", []) if m not in new] + list(metas[str(n)]["kept_spec"])
         meta["kept_spec"] = kept
+        if str(n) not in base_metas:  # a new grid: its search is the grid's provenance (tools/preset_path_check.py)
+            meta.update({k: metas[str(n)][k] for k in ("search", "check_seeds") if k in metas[str(n)]})
         out_e[n] = {**dict(base.grids.get(n, {})), **new}
         out_m[str(n)] = meta
     return dict(sorted(out_e.items())), dict(sorted(out_m.items(), key=lambda kv: int(kv[0])))

@@ -106,10 +106,14 @@ class PriorConfig:
     guideline_ties: float = 0.0
     """Eq. 6 with a predicted distance, beyond the paper: weight (under 1) of the guideline in choosing
     among equally distant moves; 0 = the straight line alone."""
+    region_distance: int = 0
+    """Eq. 6, beyond the paper: 1 = dist(s', goal) counts the moves to the goal through the region of Eq. 7
+    (free cells above its threshold) wherever the region reaches the goal, the given distance or the straight
+    line elsewhere; 0 = the given distance or the straight line alone (the paper)."""
 
     def __post_init__(self) -> None:
         check_numbers(self, ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start",
-                             "thd_step", "region_dilation", "guideline_ties"))
+                             "thd_step", "region_dilation", "guideline_ties", "region_distance"))
         for name in ("omega_crf", "omega_qi", "thd_start"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
@@ -122,6 +126,9 @@ class PriorConfig:
             raise ValueError(f"region_dilation must be a whole number of cells in [0, {MAX_DILATION}], "
                              f"got {self.region_dilation}")
         object.__setattr__(self, "region_dilation", int(self.region_dilation))  # a preset file's 1.0 is 1 cell
+        if self.region_distance not in (0, 1):
+            raise ValueError(f"region_distance must be 0 (the paper) or 1 (moves through the region), got {self.region_distance}")
+        object.__setattr__(self, "region_distance", int(self.region_distance))
         if not 0.0 <= self.guideline_ties <= MAX_TIES:
             raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
 

@@ -55,12 +55,13 @@ VERSION = 2
 READS = (1, 2)
 #: Presets shipped with the package, by name.
 BUILTIN = ("spec", "tuned", "general")
-#: The constants a preset may set, per config: what the search explores, and the two choices beyond the
-#: paper that a preset fixes per grid (region_dilation, guideline_ties; docs/results.md#transfer).
+#: The constants a preset may set, per config: what the search explores, and the choices beyond the
+#: paper that a preset fixes per grid (region_dilation, guideline_ties: docs/results.md#transfer;
+#: region_distance: docs/large-maps.md#distance-through-the-region).
 PRESET_FIELDS: dict[str, tuple[str, ...]] = {
     "ql": ("alpha", "epsilon", "gamma"),
     "priors": ("r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step",
-               "region_dilation", "guideline_ties"),
+               "region_dilation", "guideline_ties", "region_distance"),
 }
 
 

@@ -7,7 +7,8 @@ Two kinds, freely composed by :mod:`ndrql.planning.methods`:
 - Q-table initialisations (a ``(H * W, 4)`` array): D-QI (Eq. 5) and NDR-QI (Eq. 6, or its mask
   term alone for Table 2's ablation) whose mask (Eq. 7) uses the adaptive threshold of
   :func:`adaptive_threshold`; Eq. 6's distance term is the straight line (the paper) or, given, a
-  predicted distance to the goal through free space.
+  predicted distance to the goal through free space, and with ``cfg.region_distance`` the moves to the
+  goal through the thresholded region itself (:func:`region_distance`).
 
 Coordinates: the paper's ``x`` is the row and ``y`` the column (the dataset's convention), so
 ``G_x`` is :attr:`PriorConfig.g_row`. Region and guideline arrays must already be at the planning
@@ -20,6 +21,7 @@ import warnings
 
 import numpy as np
 
+from ndrql.maps.grid import bfs_distances
 from ndrql.maps.sizing import connected4  # the compiled A*: no scipy import (~0.15 s)
 from ndrql.planning import rules
 from ndrql.planning.config import PriorConfig
@@ -166,7 +168,9 @@ def ndr_qi(
     :func:`snapped_distance`; default the straight line, as in the paper. ``guideline`` (with
     ``distance`` and ``cfg.guideline_ties > 0``): equally distant moves are told apart by how near
     they lie to the predicted route (:func:`route_nearness`) rather than by the straight line alone.
-    Returns ``(q0, thd)``.
+    ``cfg.region_distance`` (beyond the paper): ``dist(s', goal)`` counts the moves through the region
+    above ``thd`` wherever it reaches the goal (:func:`region_distance`), so the distance term and the mask
+    agree on the route. Returns ``(q0, thd)``.
     """
     blocked = np.asarray(blocked, dtype=bool)
     region = widen_region(_check_field("region", region, blocked.shape), cfg.region_dilation)
@@ -183,6 +187,8 @@ def ndr_qi(
     if mask_only:
         return masked, thd
     r2, c2 = _next_cells(blocked)
+    if cfg.region_distance and thd is not None:
+        distance = region_distance(blocked, region, thd, goal, distance)
     if distance is None:
         dist = np.hypot(r2 - goal[0], c2 - goal[1])
     else:
@@ -192,6 +198,28 @@ def ndr_qi(
         dist = snapped_distance(_check_distance(distance, blocked.shape), goal, near, cfg.guideline_ties)[r2, c2]
     q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-dist)
     return q0, thd
+
+
+def region_distance(blocked: np.ndarray, region: np.ndarray, thd: float, goal: tuple[int, int],
+                    distance: np.ndarray | None = None) -> np.ndarray:
+    """The distance through the region, for Eq. 6's ``dist(s, goal)`` (beyond the paper;
+    :attr:`PriorConfig.region_distance`): per cell, the number of 4-connected moves to ``goal`` through free
+    cells whose region value is above
+    ``thd`` (the cells Eq. 7's mask leaves at 0), wherever those cells reach the goal; elsewhere
+    ``distance`` (cells) or, without it, the straight line. ``(H, W)`` float64.
+
+    A predicted distance field can promise a shorter way than the region holds (a gap the region's band
+    crosses, a pocket where it dips); counted through the region, every cell's distance falls by one along
+    some move that stays inside, so the distance term leads where the mask lets the agent go
+    (docs/large-maps.md#distance-through-the-region)."""
+    blocked = np.asarray(blocked, dtype=bool)
+    inside = bfs_distances(blocked | ~(_check_field("region", region, blocked.shape) > thd), goal)
+    if distance is None:
+        rows, cols = np.indices(blocked.shape)
+        other = np.hypot(rows - goal[0], cols - goal[1])
+    else:
+        other = _check_distance(distance, blocked.shape)
+    return np.where(inside >= 0, inside.astype(np.float64), other)
 
 
 #: Weight of the straight line that breaks ties between equally distant cells in :func:`snapped_distance`.

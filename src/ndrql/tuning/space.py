@@ -58,10 +58,10 @@ THD_START = Param("thd_start", 0.5, 0.99, False, "priors", ("thd_start",), "firs
 THD_STEP = Param("thd_step", 0.005, 0.1, True, "priors", ("thd_step",), "threshold decrement (Eq. 7)")
 
 
-#: Prior constants a preset may set that no search explores (beyond the paper: Eq. 6's route ties and Eq. 7's
-#: widened region). A search that starts from a preset holds them at its values (:func:`fixed_priors`), so a
-#: re-searched preset keeps them.
-FIXED_PRIORS = ("region_dilation", "guideline_ties")
+#: Prior constants a preset may set that no search explores (beyond the paper: Eq. 6's route ties and distance
+#: through the region, Eq. 7's widened region). A search that starts from a preset holds them at its values
+#: (:func:`fixed_priors`), so a re-searched preset keeps them.
+FIXED_PRIORS = ("region_dilation", "guideline_ties", "region_distance")
 
 
 def fixed_priors(priors: PriorConfig) -> tuple[tuple[str, float], ...]:

@@ -38,7 +38,7 @@ from ndrql.pipeline.predictions import GivenPredictions, Predicted, load_predict
 from ndrql.pipeline.problem import build_grid, check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
 from ndrql.pipeline.request import PlanRequest, build_request
-from ndrql.pipeline.runs import check_workers, learn, method_priors
+from ndrql.pipeline.runs import check_workers, learn, method_priors, qi_distance
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning import compiled
 from ndrql.planning.methods import get_method
@@ -83,6 +83,8 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     warn_fallbacks(pred.fallbacks, stacklevel=_caller + 1)
     with clock.stage("priors"):
         priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts, pred.distance)
+    if "qi_distance" in pred.record:
+        pred.record["qi_distance"] = qi_distance(ms, consts, thresholds, pred.record["qi_distance"])
     with clock.stage("startup"):
         compiled.warm_up()  # numba's kernels load from its disk cache (compile on the first run); C ones: nothing
     n_workers = check_workers(workers)

@@ -154,8 +154,10 @@ def summary_lines(report: Any) -> list[str]:
                  f"max {report.config.max_episodes} episodes")
     if not single:
         lines += table(list(report.methods), list(report.results))
+    through = str(report.info.get("qi_distance", "")).startswith("moves through the region")
     for name, thd in report.thresholds.items():
-        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else 'none (mask 0 everywhere)'}")
+        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else 'none (mask 0 everywhere)'}"
+                     + (f"; Eq. 6's distance: {report.info['qi_distance']}" if through else ""))
     not_conv = sum(not r.converged for r in report.results)
     if not_conv:
         lines.append(f"{not_conv} of {len(report.results)} runs did not converge (reported, not dropped)")

@@ -61,6 +61,14 @@ def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray |
     return priors, thresholds
 
 
+def qi_distance(ms: Sequence[Method], consts: Constants, thresholds: dict[str, float | None], base: str) -> str:
+    """What Eq. 6's distance was (``plan --json``'s ``qi_distance``): ``base`` (``model`` or ``straight line``), or
+    the moves through the region for the methods whose constants ask for it and whose region has a threshold
+    (:func:`ndrql.planning.priors.region_distance`), ``base`` elsewhere."""
+    through = [m.name for m in ms if m.n_qi and consts(m.name)[1].region_distance and thresholds.get(m.name) is not None]
+    return f"moves through the region ({', '.join(through)}), the {base} elsewhere" if through else base
+
+
 def check_workers(workers: int | None) -> int:
     """Worker processes for the runs (default: all cores); :class:`NdrqlError` below 1."""
     n = default_workers() if workers is None else int(workers)

@@ -1,0 +1,88 @@
+"""Eq. 6's distance through the region (``region_distance``) end to end: one request, one answer from the CLI
+and the API, said in the JSON and the summary, refused in one line when out of range."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import ndrql
+from ndrql.planning import priors as P
+
+from ndrql.pipeline.settings import PlanSettings
+
+from helpers.cli import assert_one_line_error, run_cli
+from helpers import REPO_ROOT
+
+
+def _walls() -> np.ndarray:
+    grid = np.zeros((120, 160), dtype=bool)
+    grid[40:46, :120] = True
+    grid[80:86, 40:] = True
+    return grid
+
+
+@pytest.fixture(scope="module")
+def walls_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rd") / "walls.npy"
+    np.save(path, _walls())
+    return path
+
+
+SAMPLE = REPO_ROOT / "src" / "ndrql" / "data" / "sample_map.png"
+START, GOAL = (25, 179), (167, 5)
+
+
+def test_cli_and_api_give_the_same_run_and_say_which_distance(tmp_path, ndrql_exe):
+    out = tmp_path / "plan.json"
+    r = run_cli(ndrql_exe, "plan", SAMPLE, "--start", "25,179", "--goal", "167,5", "--region-distance", "1",
+                "--json", out)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "Eq. 6's distance: moves through the region (NDR-QL), the model elsewhere" in r.stdout
+    cli = json.loads(out.read_text())
+    assert cli["qi_distance"] == "moves through the region (NDR-QL), the model elsewhere"
+    assert cli["prior_config"]["region_distance"] == 1
+    api = ndrql.solve(str(SAMPLE), START, GOAL, priors={"region_distance": 1})
+    assert api.info["qi_distance"] == cli["qi_distance"] and api.prior_config.region_distance == 1
+    run = api.results[0]
+    assert run.method == "NDR-QL" and run.converged
+    assert [run.convergence_steps, run.path_length] == [cli["runs"][0]["convergence_steps"], cli["runs"][0]["path_length"]]
+    plain = ndrql.solve(str(SAMPLE), START, GOAL)
+    assert plain.info["qi_distance"] == "model" and plain.prior_config.region_distance == 0
+    assert plain.thresholds == api.thresholds  # the same region and threshold; only Eq. 6's distance differs
+
+
+def test_no_threshold_says_the_distance_that_was_used(walls_file):
+    # on these walls the general preset's region joins start and goal at no threshold of NDR-QL's schedule:
+    # the mask is 0 everywhere, nothing is counted through the region, and the JSON does not claim it was
+    with pytest.warns(P.ThresholdWarning):
+        report = ndrql.solve(str(walls_file), (10, 10), (110, 150), priors={"region_distance": 1},
+                             settings=PlanSettings(fallback=None))
+    assert report.thresholds["NDR-QL"] is None
+    assert report.info["qi_distance"] == "model"
+
+
+def test_region_distance_never_below_the_free_space_distance():
+    # moves through the region are moves through free space: never fewer than the grid's BFS distance
+    from ndrql.maps.grid import bfs_distances
+    from ndrql.planning.methods import downscale_priors
+
+    report = ndrql.solve(str(SAMPLE), START, GOAL, priors={"region_distance": 1})
+    pg, thd = report.grid, report.thresholds["NDR-QL"]
+    region, _ = downscale_priors(report.region, report.guideline, pg.shape)
+    free = bfs_distances(pg.blocked, pg.goal)
+    through = P.region_distance(pg.blocked, region, thd, pg.goal, np.full(pg.shape, 1e9))
+    inside = through < 1e9
+    assert inside[pg.start] and inside.sum() > 50
+    assert np.all(through[inside] >= free[inside])
+
+
+@pytest.mark.parametrize("value", ["2", "-1", "0.5", "nan"])
+def test_out_of_range_is_one_line_exit_2(walls_file, tmp_path, ndrql_exe, value):
+    out = tmp_path / "plan.json"
+    r = run_cli(ndrql_exe, "plan", walls_file, "--start", "10,10", "--goal", "110,150", "--region-distance", value,
+                "--json", out)
+    assert_one_line_error(r, "region_distance" if value in ("2", "-1") else "--region-distance")
+    assert not out.exists()

@@ -11,14 +11,11 @@ import ndrql
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.methods import build_priors
 
+from helpers import two_walls
 from helpers.cli import run_cli
 
 
-def _walls() -> np.ndarray:
-    grid = np.zeros((120, 160), dtype=bool)
-    grid[40:46, :120] = True
-    grid[80:86, 40:] = True
-    return grid
+_walls = two_walls
 
 
 @pytest.fixture(scope="module")

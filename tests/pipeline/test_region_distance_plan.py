@@ -9,19 +9,13 @@ import numpy as np
 import pytest
 
 import ndrql
+from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning import priors as P
 
-from ndrql.pipeline.settings import PlanSettings
-
+from helpers import REPO_ROOT, two_walls
 from helpers.cli import assert_one_line_error, run_cli
-from helpers import REPO_ROOT
 
-
-def _walls() -> np.ndarray:
-    grid = np.zeros((120, 160), dtype=bool)
-    grid[40:46, :120] = True
-    grid[80:86, 40:] = True
-    return grid
+_walls = two_walls
 
 
 @pytest.fixture(scope="module")

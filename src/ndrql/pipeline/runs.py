@@ -65,7 +65,8 @@ def qi_distance(ms: Sequence[Method], consts: Constants, thresholds: dict[str, f
     """What Eq. 6's distance was (``plan --json``'s ``qi_distance``): ``base`` (``model`` or ``straight line``), or
     the moves through the region for the methods whose constants ask for it and whose region has a threshold
     (:func:`ndrql.planning.priors.region_distance`), ``base`` elsewhere."""
-    through = [m.name for m in ms if m.n_qi and consts(m.name)[1].region_distance and thresholds.get(m.name) is not None]
+    through = [m.name for m in ms
+               if m.n_qi and consts(m.name)[1].region_distance and thresholds.get(m.name) is not None]
     return f"moves through the region ({', '.join(through)}), the {base} elsewhere" if through else base
 
 

@@ -127,7 +127,8 @@ class PriorConfig:
                              f"got {self.region_dilation}")
         object.__setattr__(self, "region_dilation", int(self.region_dilation))  # a preset file's 1.0 is 1 cell
         if self.region_distance not in (0, 1):
-            raise ValueError(f"region_distance must be 0 (the paper) or 1 (moves through the region), got {self.region_distance}")
+            raise ValueError("region_distance must be 0 (the paper) or 1 (moves through the region), "
+                             f"got {self.region_distance}")
         object.__setattr__(self, "region_distance", int(self.region_distance))
         if not 0.0 <= self.guideline_ties <= MAX_TIES:
             raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")

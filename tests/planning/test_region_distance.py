@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ndrql.errors import NdrqlError
+from ndrql.maps.grid import bfs_distances
 from ndrql.planning import priors as P
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import build_priors
@@ -128,3 +131,37 @@ def test_requests_and_presets_take_it(tmp_path):
         ndrql.build_request(grid, (1, 1), (18, 18), preset="general", priors={"region_distance": 3})
     spec = load_preset("spec")
     assert spec.configs("NDR-QL", grid=50)[1].region_distance == 0  # the paper's constants stay the paper's
+
+
+# --- properties on random grids (Hypothesis) ---------------------------------------------------------------
+
+
+@st.composite
+def _grids(draw):
+    h, w = draw(st.integers(3, 12)), draw(st.integers(3, 12))
+    seed = draw(st.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(seed)
+    blocked = rng.random((h, w)) < draw(st.floats(0.0, 0.4))
+    region = rng.random((h, w))
+    goal = (int(rng.integers(h)), int(rng.integers(w)))
+    blocked[goal] = False
+    return blocked, region, goal, draw(st.floats(0.0, 0.95))
+
+
+@settings(max_examples=200, deadline=None)
+@given(_grids())
+def test_region_distance_is_the_bfs_of_the_region_where_it_reaches(case):
+    blocked, region, goal, thd = case
+    other = np.full(blocked.shape, 1000.0)
+    d = P.region_distance(blocked, region, thd, goal, other)
+    free = bfs_distances(blocked, goal)
+    inside = bfs_distances(blocked | ~(region > thd), goal)
+    reached = inside >= 0
+    # where the region reaches the goal: its own move count, never below the free grid's
+    np.testing.assert_array_equal(d[reached], inside[reached])
+    assert np.all(d[reached] >= free[reached])
+    # elsewhere: the given distance, untouched
+    assert np.all(d[~reached] == 1000.0)
+    # a region over every cell is the free grid's BFS distance
+    full = P.region_distance(blocked, np.ones_like(region), thd, goal, other)
+    np.testing.assert_array_equal(full[free >= 0], free[free >= 0])

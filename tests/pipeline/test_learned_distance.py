@@ -15,7 +15,6 @@ from helpers import two_walls
 from helpers.cli import run_cli
 
 
-_walls = two_walls
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +43,7 @@ def test_plan_uses_the_models_distance_in_eq6(distance_model):
     from ndrql.model.predict import Predictor
     from ndrql.pipeline.predictions import predict_region
 
-    report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
+    report = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
                          workers=1, settings=PlanSettings(fallback=None))
     assert report.info["qi_distance"] == "model"
     pg = report.grid
@@ -56,16 +55,16 @@ def test_plan_uses_the_models_distance_in_eq6(distance_model):
     without = build_priors("NDR-QL", pg.blocked, pg.start, pg.goal, view.region_grid, view.guideline_grid,
                            report.prior_config)
     assert not np.allclose(with_d.q0, without.q0)
-    off = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
+    off = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
                       workers=1, settings=PlanSettings(fallback=None, learned_distance=False))
     assert off.info["qi_distance"] == "straight line"
     # without a distance head nothing changes: the paper's straight line
-    oracle = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1)
+    oracle = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1)
     assert oracle.info["qi_distance"] == "straight line"
 
 
 def test_predict_file_carries_the_distance_to_plan(distance_model, tmp_path, ndrql_exe):
-    np.save(tmp_path / "m.npy", _walls())
+    np.save(tmp_path / "m.npy", two_walls())
     common = ("--start", "10,10", "--goal", "110,150")
     out = run_cli(ndrql_exe, "predict", str(tmp_path / "m.npy"), *common, "--weights", str(distance_model),
                   "--backend", "torch", "--out", str(tmp_path / "pred"))
@@ -117,7 +116,7 @@ def test_reproduce_prediction_cache_keeps_the_distance(distance_model, tmp_path)
     from ndrql.planning.config import PriorConfig, QLConfig
     from ndrql.planning.methods import get_method
 
-    obstacles = _walls()
+    obstacles = two_walls()
     blocked = conservative_grid(obstacles, 40)
     start, goal = (2, 2), (27, 37)
     p = Problem("hand", 0, "walls", MapProblem(obstacles, (10, 10), (110, 150)), blocked, start, goal,
@@ -146,7 +145,7 @@ def test_shipped_general_model_has_the_distance_head_and_plan_uses_it():
     from ndrql.model.weights import shipped_weights
 
     pred = Predictor.load(shipped_weights("general"), threads=1)
-    obstacles = _walls()
+    obstacles = two_walls()
     p = pred.predict(obstacles, (10, 10), (110, 150))
     d = p.grid.distance
     assert d is not None and d.shape == p.grid.blocked.shape and np.isfinite(d).all()
@@ -161,13 +160,13 @@ def test_plan_averages_over_the_grid_symmetries_it_reports(distance_model, tmp_p
     from helpers.cli import assert_one_line_error
 
     for k in (1, 4):
-        report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
+        report = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
                              workers=1, settings=PlanSettings(fallback=None, symmetries=k, backend="torch"))
         assert report.info["symmetries"] == k and report.results[0].total_steps > 0
     assert PlanSettings().symmetries == 1  # one forward pass by default (studies/plan_defaults)
     with pytest.raises(ndrql.api.NdrqlError, match="symmetries must be one of 1, 2, 4, 8, got 3"):
         PlanSettings(symmetries=3)
-    np.save(tmp_path / "m.npy", _walls())
+    np.save(tmp_path / "m.npy", two_walls())
     for cmd in ("plan", "predict"):
         out = run_cli(ndrql_exe, cmd, str(tmp_path / "m.npy"), "--start", "10,10", "--goal", "110,150",
                       "--weights", str(distance_model), "--symmetries", "3", "--out" if cmd == "predict" else "--json",

@@ -15,13 +15,12 @@ from ndrql.planning import priors as P
 from helpers import REPO_ROOT, two_walls
 from helpers.cli import assert_one_line_error, run_cli
 
-_walls = two_walls
 
 
 @pytest.fixture(scope="module")
 def walls_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("rd") / "walls.npy"
-    np.save(path, _walls())
+    np.save(path, two_walls())
     return path
 
 

@@ -204,9 +204,8 @@ def region_distance(blocked: np.ndarray, region: np.ndarray, thd: float, goal: t
                     distance: np.ndarray | None = None) -> np.ndarray:
     """The distance through the region, for Eq. 6's ``dist(s, goal)`` (beyond the paper;
     :attr:`PriorConfig.region_distance`): per cell, the number of 4-connected moves to ``goal`` through free
-    cells whose region value is above
-    ``thd`` (the cells Eq. 7's mask leaves at 0), wherever those cells reach the goal; elsewhere
-    ``distance`` (cells) or, without it, the straight line. ``(H, W)`` float64.
+    cells whose region value is above ``thd`` (the cells Eq. 7's mask leaves at 0), wherever those cells reach
+    the goal; elsewhere ``distance`` (cells) or, without it, the straight line. ``(H, W)`` float64.
 
     A predicted distance field can promise a shorter way than the region holds (a gap the region's band
     crosses, a pocket where it dips); counted through the region, every cell's distance falls by one along

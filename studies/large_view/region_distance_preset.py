@@ -1,6 +1,7 @@
 """The candidate preset of docs/large-maps.md#distance-through-the-region: the shipped ``general`` preset with
 ``region_distance`` 1 in NDR-QL's entries for the given grids (default 128: every grid above 113 cells), named
-``general-rd``; checked by loading it back::
+``general-rd``; checked by loading it back. Its default is what the development reports judged; since
+2026-11-27 the shipped preset has it at grid 128 too, so today only ``--grids 50,100`` changes anything::
 
     PYTHONPATH=src python studies/large_view/region_distance_preset.py --out general-rd.json [--grids 128]
     ndrql reproduce transfer --eval-set large-dev2-256 --grids 256 --weights general --preset general-rd.json ...

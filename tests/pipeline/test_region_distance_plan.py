@@ -79,3 +79,22 @@ def test_out_of_range_is_one_line_exit_2(walls_file, tmp_path, ndrql_exe, value)
                 "--json", out)
     assert_one_line_error(r, "region_distance" if value in ("2", "-1") else "--region-distance")
     assert not out.exists()
+
+
+def test_the_general_preset_counts_through_the_region_above_113_cells_only(tmp_path, ndrql_exe):
+    # the shipped general preset: its grid-128 entry (every grid above 113 cells) has region_distance 1,
+    # the entries for grids 50 and 100 keep the learned distance; CLI and API agree, and a flag turns it off
+    out = tmp_path / "plan.json"
+    r = run_cli(ndrql_exe, "plan", SAMPLE, "--start", "25,179", "--goal", "167,5", "--size", "128", "--json", out)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "Eq. 6's distance: moves through the region (NDR-QL), the model elsewhere" in r.stdout
+    cli = json.loads(out.read_text())
+    assert cli["prior_config"]["region_distance"] == 1 and cli["ndr_qi_threshold"]["NDR-QL"] is not None
+    api = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=128))
+    assert api.info["qi_distance"] == cli["qi_distance"]
+    assert [api.results[0].convergence_steps, api.results[0].path_length] == \
+        [cli["runs"][0]["convergence_steps"], cli["runs"][0]["path_length"]]
+    off = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=128), priors={"region_distance": 0})
+    assert off.info["qi_distance"] == "model" and off.prior_config.region_distance == 0
+    small = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=100))
+    assert small.info["qi_distance"] == "model" and small.prior_config.region_distance == 0

@@ -151,7 +151,9 @@ def test_method_table_of_spec_section_4():
         "IQL": (True, False, True, False),
         "O-QL": (False, False, True, False),
         "NDR-QL": (True, True, True, True),
+        "IQL-BFS": (True, False, True, False),  # beyond the paper: IQL with Eq. 5 on the exact BFS distance
     }
+    assert [n for n, m in METHODS.items() if m.exact_distance or m.constants] == ["IQL-BFS"]
 
 
 def test_unknown_method_lists_valid_names():

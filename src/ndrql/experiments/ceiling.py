@@ -18,11 +18,12 @@ from ndrql.dataset.encodings import encode_input
 from ndrql.dataset.render import PX_PER_CELL, connected_grid, from_model_output, input_side, to_model_input
 from ndrql.experiments.stats import share_of_oracle
 from ndrql.maps.astar import astar4
-from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances
+from ndrql.maps.grid import MODEL_SIDE, area_downscale
 from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import cell_size_px
 from ndrql.maps.sizing import SIZE_LADDER
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.priors import exact_distance
 from ndrql.dataset.render import cell_means
 from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.pipeline.samples import Problem
@@ -100,8 +101,7 @@ def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, .
     out = (cell_means(region, case.blocked.shape), cell_means(guide, case.blocked.shape))
     if not distance:
         return out
-    d = bfs_distances(case.blocked, case.goal_cell).astype(np.float64)
-    return out + (np.where(d >= 0, d, d.max() + 1.0),)
+    return out + (exact_distance(case.blocked, case.goal_cell),)
 
 
 def model_priors(predictor, mode: str, case: GridCase, seen: dict | None = None) -> tuple[np.ndarray, ...]:

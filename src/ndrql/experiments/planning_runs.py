@@ -95,7 +95,7 @@ def preset_json(opts: SweepOptions) -> dict | None:
 def method_fields(m: Method) -> dict[str, Any]:
     """What of a method determines its runs (its name and priors; the description does not), for fingerprints."""
     return {"name": m.name, "d_crf": m.d_crf, "n_crf": m.n_crf, "d_qi": m.d_qi, "n_qi": m.n_qi,
-            "qi_mask_only": m.qi_mask_only}
+            "qi_mask_only": m.qi_mask_only, **({"exact_distance": True} if m.exact_distance else {})}
 
 
 def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], method: Method,

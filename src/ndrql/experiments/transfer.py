@@ -42,9 +42,7 @@ from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.pipeline.fallback import region_verdict
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.methods import build_priors
 from ndrql.planning.preset import Preset, load_preset, method_configs
-from ndrql.planning.priors import d_qi
 from ndrql.planning.runner import astar_length, run_plan
 from ndrql.training.metrics import f1_per_image
 from ndrql.viz.transfer import PredictionPanel, transfer_figure
@@ -83,15 +81,10 @@ def _runs(blocked, s, g, priors: dict, seeds: list[int], configs: dict[str, tupl
     out: dict = {}
     opt = astar_length(blocked, s, g)
     for row, pr in priors.items():
-        method = row.split(" ")[0]
+        method = "IQL-BFS" if row == BFS_ROW else row.split(" ")[0]  # IQL-BFS: Eq. 5 on the exact BFS distance
         ql, pc = configs[row]
-        if row == BFS_ROW:  # Eq. 5 on the exact distance: IQL's rewards, its Q-table from the BFS field
-            base = build_priors("IQL", blocked, s, g, cfg=pc)
-            fixed = type(base)(r_c=base.r_c, q0=np.ascontiguousarray(d_qi(blocked, g, np.asarray(pr[0]))))
-            runs = [run_plan(blocked, s, g, "IQL", seed, ql, pc, priors=fixed, astar=opt) for seed in seeds]
-        else:
-            region, guide, dist = prior_arrays(pr)
-            runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide, distance=dist, astar=opt) for seed in seeds]
+        region, guide, dist = prior_arrays(pr)
+        runs = [run_plan(blocked, s, g, method, seed, ql, pc, region, guide, distance=dist, astar=opt) for seed in seeds]
         out[row] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
                     "converged": [bool(r.converged) for r in runs],
                     "ratio": [float(r.length_ratio) if r.converged and r.length_ratio is not None else None for r in runs],
@@ -178,7 +171,7 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged,
                              "region_cover": cover, "second_opinion": seen.get("second_opinion"),
                              "seconds": {"prediction": predict_s, **grid_seconds(case)}}
-                priors = {"QL": None, "QL (tuned)": None, "IQL": None, BFS_ROW: [bfs.tolist()],
+                priors = {"QL": None, "QL (tuned)": None, "IQL": None, BFS_ROW: None,
                           "NDR-QL (model)": [a.tolist() for a in model], "NDR-QL (oracle)": [a.tolist() for a in oracle]}
                 priors = {row: pr for row, pr in priors.items() if row in run_rows}
                 grid_id = array_digest(np.packbits(case.blocked))

@@ -13,6 +13,7 @@ N-Q       NDR-QI (Eq. 6 with the adaptive threshold of Eq. 7)
 IQL       D-C + D-Q (Low et al.: its distance-based initialisation and continuous reward only)
 O-QL      D-Q (see below)
 NDR-QL    D-C + N-C (mixed by Eq. 4) + D-Q + N-Q (Eq. 6)
+IQL-BFS   IQL with Eq. 5 on the exact BFS distance to the goal (beyond the paper; no model)
 ========  ===============================================================================
 
 Composition: rewards use Eq. 4 when both D-C and N-C are on, else Eq. 2 or Eq. 3 alone; the
@@ -29,6 +30,13 @@ epsilon 0.2, which rules out O-QL's learning-rate and action-selection changes i
 comparison. The formulas of O-QL's reward function were not available from the public sources we
 could consult (abstract and index pages only), so ``O-QL`` here is exactly D-Q. It is kept as its
 own name so results tables match the paper and a fuller O-QL can replace it without touching callers.
+
+**IQL-BFS** (beyond the paper) is not a learning-guided method but a reference: IQL's rewards and its Eq. 5
+Q-table with ``dist`` the exact number of moves to the goal through free cells
+(:func:`ndrql.planning.priors.exact_distance`) instead of the straight line. It needs no model and runs a
+search over the whole grid; on large grids it takes about as few steps as NDR-QL or fewer
+(docs/large-maps.md#distance-through-the-region), which is why the reports carry it as the row
+``IQL (BFS distance)``. It takes IQL's constants from a preset unless the preset has its own entry.
 """
 
 from __future__ import annotations
@@ -59,6 +67,10 @@ class Method:
     """Region-based Q-table initialisation (Eqs. 6-7)."""
     qi_mask_only: bool = False
     """With ``n_qi``: Eq. 6's mask term alone, without its distance term (Table 2's lone N-Q row)."""
+    exact_distance: bool = False
+    """With ``d_qi`` (not ``n_qi``): Eq. 5's ``dist`` is the exact BFS distance to the goal, not the straight line."""
+    constants: str | None = None
+    """The method whose preset entry this one takes where a preset has none of its own (``None``: none)."""
     description: str = ""
     """One line for help texts."""
 
@@ -90,6 +102,8 @@ METHODS: dict[str, Method] = {
         Method(
             "NDR-QL", d_crf=True, n_crf=True, d_qi=True, n_qi=True, description="D-C + N-C (Eq. 4) + D-Q + N-Q (Eq. 6)"
         ),
+        Method("IQL-BFS", d_crf=True, d_qi=True, exact_distance=True, constants="IQL",
+               description="IQL with Eq. 5 on the exact BFS distance (beyond the paper; a reference, no model)"),
     )
 }
 
@@ -166,7 +180,7 @@ def build_priors(
         q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only,  # type: ignore[arg-type]
                            distance=distance, guideline=guideline)
     elif m.d_qi:
-        q0 = P.d_qi(blocked, goal)
+        q0 = P.d_qi(blocked, goal, P.exact_distance(blocked, goal) if m.exact_distance else None)
     else:
         q0 = np.zeros((blocked.size, 4), dtype=np.float64)
     return Priors(r_c=np.ascontiguousarray(r_c, dtype=np.float64), q0=np.ascontiguousarray(q0), threshold=thd)

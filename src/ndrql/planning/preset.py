@@ -111,21 +111,24 @@ class Preset:
     def setting(self, method: str, grid: int | None = None) -> MethodSetting:
         """The constants of ``method`` on a grid of ``grid`` cells per side (``None``: unknown): the entry
         of :attr:`grids` nearest in size that lists it (unknown grid: the smallest size's), else its entry
-        in :attr:`methods`, else the fallback entry, else ``default``."""
+        in :attr:`methods`; then the same for the method whose constants it takes (``Method.constants``:
+        IQL-BFS takes IQL's); else the fallback entry, else ``default``."""
         try:
-            name = get_method(method).name
+            m = get_method(method)
+            names = [m.name] + ([m.constants] if m.constants else [])  # IQL-BFS: its own entry, else IQL's
         except NdrqlError:  # a table's own row (e.g. Table 2's D-C+N-C) is not a registry method
-            name = method
-        if self.grids:
-            sizes = sorted(self.grids)
-            if grid is not None:
-                sizes.sort(key=lambda n: (abs(math.log(max(grid, 1) / n)), n))
-            for size in sizes:
-                entry = self.grids[size]
-                if name in entry or ANY in entry:  # ANY: an ablation's one setting for every row (:meth:`only`)
-                    return entry.get(name, entry.get(ANY))
-        if name in self.methods:
-            return self.methods[name]
+            names = [method]
+        for name in names:
+            if self.grids:
+                sizes = sorted(self.grids)
+                if grid is not None:
+                    sizes.sort(key=lambda n: (abs(math.log(max(grid, 1) / n)), n))
+                for size in sizes:
+                    entry = self.grids[size]
+                    if name in entry or ANY in entry:  # ANY: an ablation's one setting for every row (:meth:`only`)
+                        return entry.get(name, entry.get(ANY))
+            if name in self.methods:
+                return self.methods[name]
         if self.fallback is not None:
             return self.methods[self.fallback]
         return self.default

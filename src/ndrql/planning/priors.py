@@ -84,6 +84,14 @@ def d_qi(blocked: np.ndarray, goal: tuple[int, int], distance: np.ndarray | None
     return np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
 
 
+def exact_distance(blocked: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
+    """The exact goal distance per cell (beyond the paper): 4-connected moves to ``goal`` through free cells, the
+    largest such distance plus one where a cell cannot reach it (blocked cells included). ``(H, W)`` float64;
+    what :func:`d_qi` takes for IQL-BFS and the oracle's distance in the reports."""
+    d = bfs_distances(np.asarray(blocked, dtype=bool), goal).astype(np.float64)
+    return np.where(d >= 0, d, d.max() + 1.0)
+
+
 def region_connects(
     region: np.ndarray, blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], thd: float
 ) -> bool:

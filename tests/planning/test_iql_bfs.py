@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 import ndrql
 from ndrql.planning import priors as P
@@ -104,3 +105,21 @@ def test_the_reports_row_runs_this_method_with_the_numbers_it_had():
     now = [run_plan(g, s, goal, "IQL-BFS", seed, ql, pc).convergence_steps for seed in (0, 1)]
     row = _runs(g, s, goal, {BFS_ROW: None}, [0, 1], {BFS_ROW: (ql, pc)})[BFS_ROW]
     assert before == now == row["steps"]
+
+
+def test_an_uninformative_prediction_can_fall_back_to_it_and_says_so():
+    # --fallback IQL-BFS: where the model's region joins start and goal at no threshold, the no-model reference
+    # runs instead of NDR-QL, and the run and the report say so
+    from ndrql.errors import FallbackWarning
+    from ndrql.pipeline.settings import PlanSettings
+
+    m = np.zeros((60, 80), dtype=bool)
+    m[20:22, :60] = True
+    flat = (np.zeros(m.shape), np.full(m.shape, 0.2))  # a region that joins start and goal at no threshold
+    with pytest.warns(FallbackWarning, match="IQL-BFS ran instead"):
+        report = ndrql.solve(m, (5, 5), (50, 10), "NDR-QL", 1, predictions=flat, workers=1,
+                             settings=PlanSettings(fallback="IQL-BFS"))
+    run = report.results[0]
+    assert report.methods == ("IQL-BFS",) and run.requested_method == "NDR-QL" and run.fell_back
+    assert report.info["fallback"]["ran"] == "IQL-BFS" and run.converged
+    assert run.path_length >= report.astar_length

@@ -8,8 +8,11 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import ndrql
+from ndrql.maps.grid import bfs_distances
 from ndrql.planning import priors as P
 from ndrql.planning.config import QLConfig
 from ndrql.planning.methods import build_priors, get_method
@@ -123,3 +126,38 @@ def test_an_uninformative_prediction_can_fall_back_to_it_and_says_so():
     assert report.methods == ("IQL-BFS",) and run.requested_method == "NDR-QL" and run.fell_back
     assert report.info["fallback"]["ran"] == "IQL-BFS" and run.converged
     assert run.path_length >= report.astar_length
+
+
+@st.composite
+def _maps(draw):
+    h, w = draw(st.integers(2, 14)), draw(st.integers(2, 14))
+    rng = np.random.default_rng(draw(st.integers(0, 2**31 - 1)))
+    blocked = rng.random((h, w)) < draw(st.floats(0.0, 0.45))
+    goal = (int(rng.integers(h)), int(rng.integers(w)))
+    blocked[goal] = False
+    return blocked, goal
+
+
+@settings(max_examples=200, deadline=None)
+@given(_maps())
+def test_exact_distance_is_a_consistent_move_count(case):
+    # on random grids: 0 at the goal, never below the Manhattan distance, neighbours differ by at most one move,
+    # every other reachable cell has a neighbour one move nearer, and the cells that cannot reach the goal share
+    # one value above every reachable one; it equals A*'s length from any reachable cell
+    blocked, goal = case
+    d = P.exact_distance(blocked, goal)
+    reach = bfs_distances(blocked, goal) >= 0
+    h, w = blocked.shape
+    assert d[goal] == 0 and reach[goal]
+    rows, cols = np.indices(blocked.shape)
+    assert np.all(d[reach] >= np.abs(rows - goal[0])[reach] + np.abs(cols - goal[1])[reach])
+    if (~reach).any():
+        assert np.unique(d[~reach]).size == 1 and d[~reach][0] == d[reach].max() + 1
+    for r, c in zip(*np.nonzero(reach)):
+        near = [(r + dr, c + dc) for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)) if 0 <= r + dr < h and 0 <= c + dc < w]
+        near = [n for n in near if reach[n]]
+        assert all(abs(d[n] - d[r, c]) <= 1 for n in near)
+        if (r, c) != goal:
+            assert any(d[n] == d[r, c] - 1 for n in near)
+    cell = tuple(int(v) for v in np.argwhere(reach)[-1])
+    assert astar_length(blocked, cell, goal) == d[cell]

@@ -1,4 +1,4 @@
-"""studies/large_view/cut_choice.py and cut_transfer.py: the cut rule of docs/large-maps.md#low-thresholds-on-large-grids
+"""studies/large_view/cut_choice.py, cut_transfer.py and route_probe.py: the cut rule of docs/large-maps.md#low-thresholds-on-large-grids
 on hand-made records, and the cut reaching plan's verdict."""
 
 from __future__ import annotations
@@ -64,3 +64,10 @@ def test_cut_transfer_sets_plans_cut_and_refuses_out_of_range():
         assert fallback.min_threshold(256) == 0.02 and fallback.min_threshold(128) == fallback.MIN_THRESHOLD
     finally:
         fallback.LARGE_MIN_THRESHOLD = shipped
+
+
+def test_route_probe_buckets_count_maps_and_uninformative_ones():
+    probe = _load("route_probe")
+    rows = [{"detour": 1.05, "uninformative": False}, {"detour": 1.0, "uninformative": True},
+            {"detour": 2.5, "uninformative": True}, {"detour": 1.2, "uninformative": False}]
+    assert probe.buckets(rows, "detour", (1.0, 1.1, 2.0, 10**6)) == [("1-1.1", 2, 1), ("1.1-2", 1, 0), ("2 or more", 1, 1)]

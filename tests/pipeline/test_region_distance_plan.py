@@ -98,3 +98,20 @@ def test_the_general_preset_counts_through_the_region_above_113_cells_only(tmp_p
     assert off.info["qi_distance"] == "model" and off.prior_config.region_distance == 0
     small = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=100))
     assert small.info["qi_distance"] == "model" and small.prior_config.region_distance == 0
+
+
+def test_a_fallback_to_iql_names_the_exact_distance_reference(walls_file, tmp_path, ndrql_exe):
+    # where the prediction is uninformative (here a region of zeros given with --prior-from), plan's summary says
+    # how to plan on the exact distance instead, and --fallback IQL-BFS does
+    flat = tmp_path / "flat.npz"
+    np.savez(flat, region=np.zeros((120, 160)), guideline=np.full((120, 160), 0.2))
+    args = ("plan", walls_file, "--start", "10,10", "--goal", "110,150", "--prior-from", flat, "--fallback")
+    r = run_cli(ndrql_exe, *args, "IQL")
+    assert r.returncode == 0, r.stderr[-2000:]
+    line = [x for x in r.stdout.splitlines() if x.startswith("prediction: uninformative")]
+    assert len(line) == 1 and "NDR-QL fell back to IQL" in line[0]
+    assert "--fallback IQL-BFS plans on the exact distance instead" in line[0]
+    r2 = run_cli(ndrql_exe, *args, "IQL-BFS")
+    assert r2.returncode == 0, r2.stderr[-2000:]
+    assert "NDR-QL fell back to IQL-BFS (distance priors; --fallback none" in r2.stdout
+    assert "IQL-BFS (fallback for NDR-QL) seed 0: converged" in r2.stdout

@@ -116,8 +116,9 @@ def prediction_lines(report: Any) -> list[str]:
         return [f"prediction: informative (region threshold {thd:.2f}{on})"]
     why = "; ".join(q["reasons"])
     if fb:
+        exact = "--fallback IQL-BFS plans on the exact distance instead, " if fb["ran"] == "IQL" else ""
         return [f"prediction: uninformative ({why}); {', '.join(fb['requested'])} fell back to {fb['ran']} "
-                f"(distance priors; --fallback none keeps the model's priors)"]
+                f"(distance priors; {exact}--fallback none keeps the model's priors)"]
     return [f"prediction: uninformative ({why}); the model's priors were used anyway"]
 
 

@@ -170,3 +170,45 @@ def test_the_report_line_counts_second_opinions_relays_and_hops():
     assert "relayed (asked again from where its region ended) on 2 maps, 3 hops in all" in line
     assert line.endswith("served on 1")
     assert "relayed" not in second_opinion_line(records[:2])
+
+
+class _Toward(_Reach):
+    """A stand-in companion that draws its band from where it is asked ``reach`` columns towards the goal it is
+    asked for (left or right), with the Manhattan distance to that goal: asked for the reversed problem it
+    draws from the goal back towards the start."""
+
+    def predict_view(self, blocked, start, goal, companion: bool = True) -> _Out:
+        self.asked.append((tuple(start), tuple(goal)))
+        r = np.zeros((N, N))
+        step = 1 if goal[1] >= start[1] else -1
+        end = start[1] + step * self.reach
+        lo, hi = sorted((start[1], end))
+        r[1:4, max(lo, 0):min(hi, N - 1) + 1] = 0.9
+        dist = np.abs(np.arange(N)[None, :] - goal[1]) + np.abs(np.arange(N)[:, None] - goal[0]).astype(float)
+        return _Out(r, r * 0.5, dist, _seen(np.zeros((512, 512)), (1, 1), (2, 2), 1))
+
+
+def test_the_way_back_joins_what_the_hops_from_the_start_could_not():
+    comp = _Toward(reach=20)  # 4 hops from the start reach about column 100 of 157; the way back covers the rest
+    first = comp.predict_view(BLOCKED, START, GOAL)
+    one_way, info1 = relay(_Toward(reach=20), BLOCKED, START, GOAL, first, PriorConfig(), back=False)
+    assert info1["served"] is False and "back" not in info1 and len(info1["hops"]) == MAX_HOPS
+    out, info = relay(comp, BLOCKED, START, GOAL, first, PriorConfig())
+    assert info["hops"] == info1["hops"] and info["served"] is True and info["reason"] is None
+    assert comp.asked[1 + MAX_HOPS] == (GOAL, START)  # the reversed problem, after the hops from the start
+    assert all(goal == START for _, goal in comp.asked[2 + MAX_HOPS:])  # the way back's hops head for the start
+    assert 1 <= len(info["back"]) <= MAX_HOPS and info["back"][0][1] < GOAL[1]
+    assert (out.region[1:4, START[1]:GOAL[1] + 1] == 0.9).all()
+    assert np.array_equal(out.distance, first.distance)  # Eq. 6 keeps the distance to the goal
+    note = second_opinion_note({"second_opinion": {"asked_because": "x", "served": False, "reason": "y", "relay": info}})
+    assert f"asked again from {MAX_HOPS} cells where its region ended and from the goal's side" in note
+    assert "joined start and goal" in note
+
+
+def test_the_report_line_counts_the_way_back():
+    from ndrql.experiments.transfer_floors import second_opinion_line
+
+    so = {"asked_because": "x", "served": False, "reason": "y",
+          "relay": {"hops": [[1, 2]], "back": [[3, 4], [5, 6]], "served": True, "reason": None}}
+    line = second_opinion_line([{"skipped": False, "second_opinion": so}])
+    assert "relayed (asked again from where its region ended) on 1 maps, 3 hops in all (on 1 also from the goal's side)" in line

@@ -133,11 +133,13 @@ def second_opinion_line(records: list[dict]) -> str | None:
         return None
     line = (f"- second opinion (the base model through its own view, asked where the companion's region was "
             f"uninformative): asked on {len(asked)} of {len(planned)} maps, served on {sum(a['served'] for a in asked)}")
-    relayed = [a["relay"] for a in asked if (a.get("relay") or {}).get("hops")]
+    relayed = [a["relay"] for a in asked if (a.get("relay") or {}).get("hops") or "back" in (a.get("relay") or {})]
     if relayed:
+        back = [r for r in relayed if "back" in r]
         line += (f"; where both were uninformative the companion was relayed (asked again from where its region "
-                 f"ended) on {len(relayed)} maps, {sum(len(r['hops']) for r in relayed)} hops in all, and its joined "
-                 f"regions served on {sum(r['served'] for r in relayed)}")
+                 f"ended) on {len(relayed)} maps, {sum(len(r['hops']) + len(r.get('back', [])) for r in relayed)} hops "
+                 f"in all" + (f" (on {len(back)} also from the goal's side)" if back else "")
+                 + f", and its joined regions served on {sum(r['served'] for r in relayed)}")
     return line
 
 

@@ -137,9 +137,9 @@ def second_opinion_note(info: dict[str, Any]) -> str:
         return f"; the companion's prediction was uninformative ({asked['asked_because']}), the base model's served"
     note = f"; the base model, asked too, was uninformative as well ({asked['reason']})"
     relayed = asked.get("relay")
-    if relayed and relayed["hops"]:
-        hops = len(relayed["hops"])
-        note += (f"; the companion, asked again from {hops} cell{'s' if hops > 1 else ''} where its region ended, "
+    if relayed and (relayed["hops"] or "back" in relayed):
+        hops, back = len(relayed["hops"]), " and from the goal's side" if "back" in relayed else ""
+        note += (f"; the companion, asked again from {hops} cell{'s' if hops != 1 else ''} where its region ended{back}, "
                  + ("joined start and goal (its regions together served)" if relayed["served"]
                     else f"did not join them ({relayed['reason']})"))
     return note

@@ -4,10 +4,12 @@ On a large grid the companion's region can break between start and goal: the par
 ends somewhere short of the goal (mazes, floors of many rooms, whose route depends on the whole map). A
 relay asks the same model again, for the same goal, from the cell of that part which the model's own
 distance head puts nearest the goal, and takes the union of the regions (and of the guidelines); it hops
-again while the union still breaks, up to :data:`MAX_HOPS` times. Every region, guideline and distance is
-the model's own and every hop starts where its own outputs point; nothing searches the grid for a route
-(joining the region's pieces by a shortest path was tried and rejected for that reason,
-docs/large-maps.md#a-second-opinion).
+again while the union still breaks, up to :data:`MAX_HOPS` times. Where that does not join them, the way
+back: the model is asked for the reversed problem (from the goal to the start) and relayed from the goal's
+part of the union the same way, towards the start (docs/large-maps.md#what-the-uninformative-maps-have-in-common).
+Every region, guideline and distance is the model's own and every hop starts where its own outputs point;
+nothing searches the grid for a route (joining the region's pieces by a shortest path was tried and rejected
+for that reason, docs/large-maps.md#a-second-opinion).
 
 :func:`relay` is called by :func:`ndrql.pipeline.predictions.predict_on_grid` only above 128 cells and
 only where the companion and the base model were both uninformative; its verdict uses the same test
@@ -51,28 +53,22 @@ def next_hop(part: np.ndarray, distance: np.ndarray) -> Point | None:
     return tuple(int(v) for v in np.unravel_index(int(np.argmin(d)), d.shape))  # type: ignore[return-value]
 
 
-def relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first: Any, cfg: Any,
-          max_hops: int = MAX_HOPS) -> tuple[Any, dict[str, Any]]:
-    """``first`` (a :class:`~ndrql.model.predict.CellPrediction` of the model that serves the grid, with a goal
-    distance) relayed: at most ``max_hops`` more predictions of ``predictor`` for ``goal``, each from
-    :func:`next_hop` of the start's part of the union so far (:func:`start_part` above the grid's
-    :func:`~ndrql.pipeline.fallback.min_threshold`), until the union passes
-    :func:`~ndrql.pipeline.fallback.region_verdict` (``cfg`` a :class:`~ndrql.planning.config.PriorConfig`).
-
-    Returns the union (region and guideline the cellwise maxima, the first prediction's distance and
-    view) and ``{"hops": [[row, col], ...], "served": bool, "reason": why it still cannot guide planning or
-    None}``. A prediction without a distance, or a part that cannot move on, ends the relay."""
-    region = np.asarray(first.region, np.float64)
-    guide = None if first.guideline is None else np.asarray(first.guideline, np.float64)
+def _hops(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, region: np.ndarray,
+          guide: np.ndarray | None, distance: np.ndarray | None, cfg: Any, max_hops: int
+          ) -> tuple[np.ndarray, np.ndarray | None, list[list[int]], str | None]:
+    """One direction of a relay: from the part of ``region`` joined to ``start``, at most ``max_hops`` predictions
+    for ``goal``, each from the cell of that part ``distance`` (the goal distance of the direction's first
+    prediction) puts nearest ``goal``, joined into ``region`` and ``guide``; ``(region, guide, hops, why)``, ``why``
+    the verdict of :func:`~ndrql.pipeline.fallback.region_verdict` on the union (``None``: it can guide planning)."""
     cut = min_threshold(max(np.shape(blocked)))
     hops: list[list[int]] = []
     why = region_verdict(region, blocked, start, goal, cfg)[2]
     visited = {tuple(start)}
-    while why is not None and first.distance is not None and len(hops) < max_hops:
+    while why is not None and distance is not None and len(hops) < max_hops:
         part = start_part(region, blocked, start, cut)
         if part[goal]:  # joined, but the region fails otherwise (it covers too much): another hop cannot help
             break
-        cell = next_hop(part, first.distance)
+        cell = next_hop(part, distance)
         if cell is None or cell in visited:
             break
         visited.add(cell)
@@ -81,4 +77,35 @@ def relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first:
         region = np.maximum(region, out.region)
         guide = guide if guide is None or out.guideline is None else np.maximum(guide, out.guideline)
         why = region_verdict(region, blocked, start, goal, cfg)[2]
-    return replace(first, region=region, guideline=guide), {"hops": hops, "served": why is None, "reason": why}
+    return region, guide, hops, why
+
+
+def relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first: Any, cfg: Any,
+          max_hops: int = MAX_HOPS, back: bool = True) -> tuple[Any, dict[str, Any]]:
+    """``first`` (a :class:`~ndrql.model.predict.CellPrediction` of the model that serves the grid, with a goal
+    distance) relayed: at most ``max_hops`` more predictions of ``predictor`` for ``goal``, each from
+    :func:`next_hop` of the start's part of the union so far (:func:`start_part` above the grid's
+    :func:`~ndrql.pipeline.fallback.min_threshold`), until the union passes
+    :func:`~ndrql.pipeline.fallback.region_verdict` (``cfg`` a :class:`~ndrql.planning.config.PriorConfig`).
+
+    With ``back`` (the default), where those hops leave start and goal apart and the model has a distance, the
+    way back: one prediction of the reversed problem (from ``goal`` to ``start``), joined, and at most ``max_hops``
+    more from the goal's part of the union towards the start (its distance now the reversed prediction's).
+
+    Returns the union (region and guideline the cellwise maxima, the first prediction's distance and
+    view) and ``{"hops": [[row, col], ...], "served": bool, "reason": why it still cannot guide planning or
+    None}``, with ``"back": [[row, col], ...]`` (the way back's hops) when the way back was asked. A prediction
+    without a distance, or a part that cannot move on, ends a direction."""
+    region = np.asarray(first.region, np.float64)
+    guide = None if first.guideline is None else np.asarray(first.guideline, np.float64)
+    region, guide, hops, why = _hops(predictor, blocked, start, goal, region, guide, first.distance, cfg, max_hops)
+    info: dict[str, Any] = {"hops": hops}
+    joined = start_part(region, blocked, start, min_threshold(max(np.shape(blocked))))[goal]
+    if back and why is not None and first.distance is not None and not joined:
+        rev = predictor.predict_view(blocked, goal, start)
+        region = np.maximum(region, rev.region)
+        guide = guide if guide is None or rev.guideline is None else np.maximum(guide, rev.guideline)
+        region, guide, info["back"], why = _hops(predictor, blocked, goal, start, region, guide, rev.distance, cfg,
+                                                  max_hops)
+    info.update(served=why is None, reason=why)
+    return replace(first, region=region, guideline=guide), info

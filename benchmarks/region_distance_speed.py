@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import statistics
-import time
 import warnings
 
 import numpy as np
@@ -26,16 +25,7 @@ from ndrql.model.weights import resolve_weights
 from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.planning.preset import load_preset
 from ndrql.planning.priors import ThresholdWarning, ndr_qi
-
-
-def best_of(fn, repeat: int) -> float:
-    """The shortest of ``repeat`` timed calls, in seconds."""
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+from threshold_speed import best_of  # benchmarks run from this folder: the same timer
 
 
 def main() -> None:
@@ -53,13 +43,13 @@ def main() -> None:
         case = grid_case(f"m{i}", raw.family, raw.obstacles, raw.start, raw.goal, 256, larger_sizes(256))
         b, s, g = case.blocked, case.start_cell, case.goal_cell
         region, guide, _, dist = predict_on_grid(model, b, s, g)
-        cfg = preset.configs("NDR-QL", grid=case.n)[1]
-        through = dataclasses.replace(cfg, region_distance=1)
+        shipped = preset.configs("NDR-QL", grid=case.n)[1]  # region_distance 1 above 113 cells since 2026-11-27
+        cfg, through = (dataclasses.replace(shipped, region_distance=v) for v in (0, 1))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ThresholdWarning)
             thd = ndr_qi(b, s, g, region, cfg, distance=dist, guideline=guide)[1]
-            a = best_of(lambda: ndr_qi(b, s, g, region, cfg, distance=dist, guideline=guide), args.repeat)
-            c = best_of(lambda: ndr_qi(b, s, g, region, through, distance=dist, guideline=guide), args.repeat)
+            a = best_of(lambda: ndr_qi(b, s, g, region, cfg, distance=dist, guideline=guide), args.repeat)[0]
+            c = best_of(lambda: ndr_qi(b, s, g, region, through, distance=dist, guideline=guide), args.repeat)[0]
         plains.append(a)
         throughs.append(c)
         ratios.append(c / a)

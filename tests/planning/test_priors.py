@@ -228,3 +228,19 @@ def test_adaptive_threshold_equals_the_walk_down_of_sec_3_3(seed):
     blocked[start] = blocked[goal] = False
     for cfg in (PriorConfig(), PriorConfig(thd_start=0.9333, thd_step=0.0505), PriorConfig(thd_start=0.5, thd_step=0.2)):
         assert P.adaptive_threshold(region, blocked, start, goal, cfg) == _walk_down(region, blocked, start, goal, cfg)
+
+
+def test_threshold_schedule_and_its_words():
+    paper = P.threshold_schedule(PriorConfig())
+    assert len(paper) == 100 and paper[0] == 0.99 and paper[1] == 0.98 and paper[-1] == 0.0
+    assert P.schedule_text(PriorConfig()) == "[0, 0.99]"
+    coarse = PriorConfig(thd_start=0.9, thd_step=0.25)
+    assert P.threshold_schedule(coarse) == [0.9, 0.65, 0.4, 0.15]  # stops above 0: 0.15 - 0.25 < 0
+    assert P.schedule_text(coarse) == "[0.15, 0.9] by 0.25"
+
+
+def test_the_warning_names_the_schedule_searched():
+    region = REGION.copy()
+    region[0, 2] = 0.0
+    with pytest.warns(P.ThresholdWarning, match=r"no threshold in \[0.15, 0.9\] by 0.25 makes"):
+        P.ndr_qi(FREE, (0, 0), (0, 2), region, PriorConfig(thd_start=0.9, thd_step=0.25))

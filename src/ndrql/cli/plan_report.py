@@ -7,6 +7,7 @@ from typing import Any
 from ndrql.api import WORK_STAGES
 from ndrql.cli.text import text_table
 from ndrql.pipeline.route import octile_cost
+from ndrql.planning.priors import schedule_text, threshold_schedule
 from ndrql.planning.results import geometric_ci, summarize
 
 
@@ -137,6 +138,23 @@ def run_name(r: Any) -> str:
     return r.method if asked in (None, r.method) else f"{r.method} (fallback for {asked})"
 
 
+def no_threshold(report: Any, name: str) -> str:
+    """Why ``name`` has no NDR-QI threshold: none of its constants' schedule joins start and goal. When the
+    prediction was still judged informative (its test searches the paper's schedule, down to 0), the line says
+    that the method's schedule stops above the threshold that joins them, so the two lines do not read as a
+    contradiction."""
+    request = getattr(report, "request", None)
+    if request is None:
+        return "none (mask 0 everywhere)"
+    cfg = request.constants(name, max(report.grid.blocked.shape))[1]
+    q = report.info.get("prediction_quality") or {}
+    joins, lowest = q.get("threshold"), threshold_schedule(cfg)[-1]
+    if q.get("informative") and joins is not None and joins < lowest:
+        return (f"none (mask 0 everywhere: its schedule {schedule_text(cfg)} stops above {joins:.2f}, the highest "
+                f"threshold that joins start and goal)")
+    return f"none (mask 0 everywhere: no threshold in {schedule_text(cfg)} joins start and goal)"
+
+
 def summary_lines(report: Any) -> list[str]:
     """The short summary printed by ``plan``: runs, A* optimum, NDR-QI threshold, path on the map, time per stage."""
     lines = grid_lines(report)
@@ -157,7 +175,7 @@ def summary_lines(report: Any) -> list[str]:
         lines += table(list(report.methods), list(report.results))
     through = str(report.info.get("qi_distance", "")).startswith("moves through the region")
     for name, thd in report.thresholds.items():
-        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else 'none (mask 0 everywhere)'}"
+        lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else no_threshold(report, name)}"
                      + (f"; Eq. 6's distance: {report.info['qi_distance']}" if through else ""))
     not_conv = sum(not r.converged for r in report.results)
     if not_conv:

@@ -102,6 +102,21 @@ def region_connects(
     return connected4(~inside, tuple(start), tuple(goal))
 
 
+def threshold_schedule(cfg: PriorConfig = PriorConfig()) -> list[float]:
+    """The thresholds Eq. 7's search tries, highest first: ``thd_start`` down by ``thd_step`` while at least 0
+    (rounded to 1e-9; the paper's 0.99, 0.98, ..., 0)."""
+    n = int(np.floor(cfg.thd_start / cfg.thd_step + 1e-9))
+    return [t for t in (round(cfg.thd_start - i * cfg.thd_step, 9) for i in range(n + 1)) if t >= 0]
+
+
+def schedule_text(cfg: PriorConfig = PriorConfig()) -> str:
+    """The schedule of :func:`threshold_schedule` in words: ``[0, 0.99]`` for the paper's, with the step when it
+    is not 0.01 (``[0.0639, 0.983] by 0.0919``)."""
+    sched = threshold_schedule(cfg)
+    step = "" if abs(cfg.thd_step - 0.01) < 1e-12 else f" by {cfg.thd_step:.3g}"
+    return f"[{sched[-1]:.3g}, {sched[0]:.3g}]{step}"
+
+
 def adaptive_threshold(
     region: np.ndarray,
     blocked: np.ndarray,
@@ -120,8 +135,7 @@ def adaptive_threshold(
     """
     blocked = np.asarray(blocked, dtype=bool)
     region = _check_field("region", region, blocked.shape)
-    n = int(np.floor(cfg.thd_start / cfg.thd_step + 1e-9))
-    schedule = [t for t in (round(cfg.thd_start - i * cfg.thd_step, 9) for i in range(n + 1)) if t >= 0]
+    schedule = threshold_schedule(cfg)
     connects = lambda i: region_connects(region, blocked, start, goal, schedule[i])  # noqa: E731
     lo, probe, step = 0, 0, 1  # no threshold before lo connects
     while probe < len(schedule) and not connects(probe):
@@ -186,7 +200,7 @@ def ndr_qi(
         thd = adaptive_threshold(region, blocked, start, goal, cfg)
         if thd is None:
             warnings.warn(
-                "NDR-QI: no threshold in [0, 0.99] makes the region connect start and goal; "
+                f"NDR-QI: no threshold in {schedule_text(cfg)} makes the region connect start and goal; "
                 "the region mask is 0 everywhere",
                 ThresholdWarning,
                 stacklevel=2,

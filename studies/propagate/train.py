@@ -29,15 +29,15 @@ def batches(data, batch: int, rng):
         yield n, x, y
 
 
-def loss_of(logit, y, x):
+def loss_of(logit, y, x, pos_weight: float = 5.0):
     free = x[:, :1]
-    w = free * (1 + 4 * y)
+    w = free * (1 + (pos_weight - 1) * y)
     return (F.binary_cross_entropy_with_logits(logit, y, reduction="none") * w).sum() / w.sum()
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("data")
+    ap.add_argument("data", help="one or more .npz files of data.py, joined by ':'")
     ap.add_argument("out")
     ap.add_argument("--width", type=int, default=12)
     ap.add_argument("--minutes", type=float, default=12)
@@ -46,11 +46,12 @@ def main() -> None:
     ap.add_argument("--alpha", type=float, default=0.5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--init", default=None)
+    ap.add_argument("--pos-weight", type=float, default=5.0, help="weight of a route cell in the loss")
     a = ap.parse_args()
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
-    data = np.load(a.data, allow_pickle=True)
-    data = {k: data[k] for k in data.files}
+    parts = [np.load(f, allow_pickle=True) for f in a.data.split(":")]
+    data = {k: [v for p in parts for v in p[k]] for k in ("blocked", "start", "goal", "route")}
     net = Propagator(a.width)
     if a.init:
         net.load_state_dict(torch.load(a.init)["state"])
@@ -59,20 +60,20 @@ def main() -> None:
     for n, x, y in batches(data, a.batch, rng):
         T = max(8, int(round(a.iters * n / 48)))
         logit, _ = net(x, T)
-        loss = (1 - a.alpha) * loss_of(logit, y, x)
+        loss = (1 - a.alpha) * loss_of(logit, y, x, a.pos_weight)
         if a.alpha > 0:
             m = int(rng.integers(0, T))
             k = int(rng.integers(1, T - m + 1))
             with torch.no_grad():
                 _, h = net(x, m)
             logit2, _ = net(x, k, h.detach())
-            loss = loss + a.alpha * loss_of(logit2, y, x)
+            loss = loss + a.alpha * loss_of(logit2, y, x, a.pos_weight)
         opt.zero_grad()
         loss.backward()
         torch.nn.utils.clip_grad_norm_(net.parameters(), 2.0)
         opt.step()
         step += 1
-        hist.append(float(loss))
+        hist.append(float(loss.detach()))
         el = time.time() - t0
         if step % 50 == 0:
             print(f"step {step} {el/60:.1f} min loss {np.mean(hist[-50:]):.4f}", flush=True)

@@ -161,3 +161,15 @@ def test_the_bootstrap_is_seeded():
     a, b = rng.lognormal(6, 1, 40), rng.lognormal(6.3, 1, 40)
     assert geomean_ratio(a, b, seed=1) == geomean_ratio(a, b, seed=1) != geomean_ratio(a, b, seed=2)
     assert pooled_ratio(a, b, seed=1) == pooled_ratio(a, b, seed=1)
+
+
+def test_a_run_without_a_threshold_is_recorded_not_warned(recwarn):
+    from ndrql.experiments.transfer import _runs
+
+    blocked = np.zeros((8, 8), bool)
+    region = np.zeros((8, 8))  # joins start and goal at no threshold: NDR-QI's mask is 0 everywhere
+    priors = {"NDR-QL (model)": (region, region.copy())}
+    out = _runs(blocked, (0, 0), (7, 7), priors, [0], {"NDR-QL (model)": (QLConfig(max_episodes=50), PriorConfig())})
+    assert out["NDR-QL (model)"]["threshold"] is None
+    assert len(out["NDR-QL (model)"]["steps"]) == 1
+    assert not [w for w in recwarn if "NDR-QI" in str(w.message)]

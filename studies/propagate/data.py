@@ -28,8 +28,22 @@ def on_route(blocked: np.ndarray, s: tuple[int, int], g: tuple[int, int]) -> np.
     return (ds >= 0) & (dg >= 0) & (ds + dg == best)
 
 
-def sample(seed: int, i: int, cells: tuple[int, ...]) -> tuple[np.ndarray, tuple, tuple, np.ndarray] | None:
-    """``(blocked, start, goal, route)`` of sample ``i``, or ``None`` when the draw does not connect."""
+def one_path(blocked: np.ndarray, s: tuple[int, int], g: tuple[int, int]) -> np.ndarray:
+    """The free cells within one move of one shortest 4-connected path (A*'s, its own tie-breaking): a target that
+    narrows where :func:`on_route` fills a whole rectangle of open space."""
+    from scipy import ndimage
+
+    from ndrql.maps.astar import astar4
+
+    out = np.zeros(blocked.shape, bool)
+    for r, c in astar4(blocked, s, g).path:
+        out[r, c] = True
+    return ndimage.binary_dilation(out, structure=ndimage.generate_binary_structure(2, 1)) & ~np.asarray(blocked, bool)
+
+
+def sample(seed: int, i: int, cells: tuple[int, ...], target: str = "routes") -> tuple[np.ndarray, tuple, tuple, np.ndarray] | None:
+    """``(blocked, start, goal, target)`` of sample ``i`` (``target`` ``routes``: :func:`on_route`; ``path``:
+    :func:`one_path`), or ``None`` when the draw does not connect."""
     fams = family_names()
     rng = np.random.default_rng([seed, i])
     n = int(cells[int(rng.integers(len(cells)))])
@@ -43,7 +57,7 @@ def sample(seed: int, i: int, cells: tuple[int, ...]) -> tuple[np.ndarray, tuple
         if placed is None:
             continue
         blocked, s, g = placed
-        return blocked, s, g, on_route(blocked, s, g)
+        return blocked, s, g, (one_path if target == "path" else on_route)(blocked, s, g)
     return None
 
 
@@ -51,9 +65,9 @@ def _one(args):
     return sample(*args)
 
 
-def build(seed: int, count: int, cells: tuple[int, ...], workers: int = 2) -> list:
+def build(seed: int, count: int, cells: tuple[int, ...], target: str = "routes", workers: int = 2) -> list:
     with Pool(workers) as pool:
-        out = pool.map(_one, [(seed, i, cells) for i in range(count)], chunksize=64)
+        out = pool.map(_one, [(seed, i, cells, target) for i in range(count)], chunksize=64)
     return [o for o in out if o is not None]
 
 
@@ -67,6 +81,7 @@ def save(path: Path, samples: list) -> None:
 if __name__ == "__main__":
     seed, count = int(sys.argv[1]), int(sys.argv[2])
     cells = tuple(int(c) for c in sys.argv[3].split(","))
-    out = build(seed, count, cells)
-    save(CACHE / f"seed{seed}-{count}-{sys.argv[3]}.npz", out)
+    target = sys.argv[4] if len(sys.argv) > 4 else "routes"
+    out = build(seed, count, cells, target)
+    save(CACHE / f"seed{seed}-{count}-{sys.argv[3]}{'' if target == 'routes' else '-' + target}.npz", out)
     print(len(out), "samples")

@@ -38,6 +38,22 @@ def test_on_route_marks_every_shortest_route_and_nothing_else():
     assert data.on_route(np.zeros((2, 2), bool), (0, 0), (1, 1)).all()
 
 
+def test_one_path_is_a_thin_band_inside_the_routes():
+    data = _load("data")
+    blocked = np.zeros((9, 9), bool)
+    blocked[4, :7] = True  # a wall with its gap on the right
+    s, g = (0, 0), (8, 0)
+    band = data.one_path(blocked, s, g)
+    assert band[s] and band[g] and not (band & blocked).any()
+    from scipy import ndimage
+    labels, _ = ndimage.label(band)
+    assert labels[s] == labels[g]  # one piece from start to goal
+    routes = data.on_route(blocked, s, g)
+    # every shortest route fills the open rectangles on both sides of the gap (65 cells); the band follows one path
+    assert routes.sum() == 65 and band.sum() == 47
+    assert (band & routes).sum() >= 23  # the path's own cells: the 22 moves of the optimum, 23 cells
+
+
 def test_the_head_carries_nothing_through_walls():
     net_mod = _load("net")
     torch.manual_seed(0)

@@ -39,3 +39,14 @@ def test_no_threshold_in_the_schedule_the_judge_searched_too():
     assert report.thresholds["NDR-QL"] is None
     assert no_threshold(report, "NDR-QL") == "none (mask 0 everywhere: no threshold in [0.1, 0.9] by 0.4 joins start and goal)"
     assert "prediction: uninformative" in "\n".join(summary_lines(report))
+
+
+def test_the_json_carries_the_same_reason():
+    report = _solve()
+    out = report.to_dict()
+    assert out["ndr_qi_threshold"]["NDR-QL"] is None
+    reason = out["ndr_qi_threshold_reason"]["NDR-QL"]
+    assert reason.startswith("mask 0 everywhere: its schedule ") and "stops above" in reason
+    assert f"NDR-QI threshold none ({reason})" in "\n".join(summary_lines(report))
+    joined = _solve(priors={"thd_start": 0.99, "thd_step": 0.01})  # the paper's schedule reaches 0.02: a threshold
+    assert joined.thresholds["NDR-QL"] is not None and joined.to_dict()["ndr_qi_threshold_reason"] == {}

@@ -103,8 +103,8 @@ ROW = {r[0]: r for r in ROWS}
 
 #: What must agree between the CLI's JSON and the API's report.
 KEYS = ("planning_size", "grid", "start", "goal", "source_start", "source_goal", "astar_length", "methods",
-        "requested_methods", "seeds", "config", "prior_config", "ndr_qi_threshold", "fallback", "planning_grid",
-        "preset", "prediction_quality", "request")
+        "requested_methods", "seeds", "config", "prior_config", "ndr_qi_threshold", "ndr_qi_threshold_reason",
+        "fallback", "planning_grid", "preset", "prediction_quality", "request")
 RUN_KEYS = ("method", "requested_method", "fallback_reason", "seed", "converged", "convergence_episode",
             "convergence_steps", "episodes", "total_steps", "path", "path_length", "length_ratio", "path_pixels",
             "collisions", "path_world", "success")

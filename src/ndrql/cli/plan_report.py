@@ -7,7 +7,6 @@ from typing import Any
 from ndrql.api import WORK_STAGES
 from ndrql.cli.text import text_table
 from ndrql.pipeline.route import octile_cost
-from ndrql.planning.priors import schedule_text, threshold_schedule
 from ndrql.planning.results import geometric_ci, summarize
 
 
@@ -139,20 +138,10 @@ def run_name(r: Any) -> str:
 
 
 def no_threshold(report: Any, name: str) -> str:
-    """Why ``name`` has no NDR-QI threshold: none of its constants' schedule joins start and goal. When the
-    prediction was still judged informative (its test searches the paper's schedule, down to 0), the line says
-    that the method's schedule stops above the threshold that joins them, so the two lines do not read as a
-    contradiction."""
-    request = getattr(report, "request", None)
-    if request is None:
-        return "none (mask 0 everywhere)"
-    cfg = request.constants(name, max(report.grid.blocked.shape))[1]
-    q = report.info.get("prediction_quality") or {}
-    joins, lowest = q.get("threshold"), threshold_schedule(cfg)[-1]
-    if q.get("informative") and joins is not None and joins < lowest:
-        return (f"none (mask 0 everywhere: its schedule {schedule_text(cfg)} stops above {joins:.2f}, the highest "
-                f"threshold that joins start and goal)")
-    return f"none (mask 0 everywhere: no threshold in {schedule_text(cfg)} joins start and goal)"
+    """The summary's word for ``name``'s missing NDR-QI threshold, with the report's reason
+    (:meth:`~ndrql.pipeline.report.PlanReport.threshold_reason`)."""
+    why = report.threshold_reason(name) if hasattr(report, "threshold_reason") else None
+    return f"none ({why or 'mask 0 everywhere'})"
 
 
 def summary_lines(report: Any) -> list[str]:

@@ -16,6 +16,7 @@ from ndrql.pipeline.problem import GridSetup
 from ndrql.pipeline.route import Route, make_route, octile_cost
 from ndrql.pipeline.settings import PlanSettings
 from ndrql.planning.config import PriorConfig, QLConfig
+from ndrql.planning.priors import schedule_text, threshold_schedule
 from ndrql.planning.results import PlanResult, summarize
 
 Point = tuple[int, int]
@@ -153,6 +154,23 @@ class PlanReport:
         """The results of one method, in seed order."""
         return [r for r in self.results if r.method == method]
 
+    def threshold_reason(self, method: str) -> str | None:
+        """Why ``method`` ran without an NDR-QI threshold (``None`` when it had one, or runs no NDR-QI): its
+        constants' Eq. 7 schedule joins start and goal nowhere. When the prediction was still judged informative
+        (the judge searches the paper's schedule, down to 0), it says that the method's schedule stops above the
+        threshold that joins them, so the two verdicts do not read as a contradiction."""
+        if method not in self.thresholds or self.thresholds[method] is not None:
+            return None
+        if self.request is None:
+            return "mask 0 everywhere"
+        cfg = self.request.constants(method, max(self.grid.blocked.shape))[1]
+        q = self.info.get("prediction_quality") or {}
+        joins, lowest = q.get("threshold"), threshold_schedule(cfg)[-1]
+        if q.get("informative") and joins is not None and joins < lowest:
+            return (f"mask 0 everywhere: its schedule {schedule_text(cfg)} stops above {joins:.2f}, the highest "
+                    f"threshold that joins start and goal")
+        return f"mask 0 everywhere: no threshold in {schedule_text(cfg)} joins start and goal"
+
     def _run_dict(self, r: PlannedRun, include_records: bool) -> dict[str, Any]:
         out = r.to_dict(include_records=include_records)
         out["success"] = r.success
@@ -202,6 +220,8 @@ class PlanReport:
             "weights": self.weights,
             "prior_from": self.info.get("prior_from"),
             "ndr_qi_threshold": dict(self.thresholds),
+            "ndr_qi_threshold_reason": {m: self.threshold_reason(m) for m in self.thresholds
+                                        if self.thresholds[m] is None},
             "timings": {"wall": dict(self.timings), "cpu": dict(self.cpu_times), "work_wall": self.work_time},
             "summary": {
                 m: {

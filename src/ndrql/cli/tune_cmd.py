@@ -60,8 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--start-from", metavar="PRESET", default="",
                    help="make trial 1 this preset's constants for the method (spec, tuned, general or a FILE; of a "
                    "per-grid preset, the searched grid's entry), so the search starts from the best point known, and "
-                   "hold the preset's constants that no search explores (--guideline-ties, --region-dilation) in every "
-                   "trial and in the export (default: none)")
+                   "hold the preset's constants that no search explores (--guideline-ties, --region-dilation, "
+                   "--region-distance, --thd-tail) in every trial and in the export (default: none)")
     p.add_argument("--objective", choices=("pooled", "geomean"),
                    help="minimise the pooled mean of the steps or their geometric mean (default: pooled with "
                    "--maps paper, geomean with --maps generated)")

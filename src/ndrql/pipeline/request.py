@@ -50,7 +50,8 @@ QL_FIELDS: tuple[str, ...] = ("alpha", "epsilon", "gamma", "max_steps", "max_epi
                               "reward_collision", "reward_goal", "reward_revisit")
 #: Prior constants a caller may set (``priors={...}``).
 PRIOR_FIELDS: tuple[str, ...] = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start",
-                                 "thd_step", "region_dilation", "guideline_ties", "region_distance")
+                                 "thd_step", "region_dilation", "guideline_ties", "region_distance",
+                                 "thd_tail")
 
 
 @dataclass(frozen=True, eq=False)

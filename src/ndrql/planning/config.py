@@ -110,10 +110,14 @@ class PriorConfig:
     """Eq. 6, beyond the paper: 1 = dist(s', goal) counts the moves to the goal through the region of Eq. 7
     (free cells above its threshold) wherever the region reaches the goal, the given distance or the straight
     line elsewhere; 0 = the given distance or the straight line alone (the paper)."""
+    thd_tail: int = 0
+    """Eq. 7, beyond the paper: 1 = a schedule that ends above 0 goes on by the paper's step (0.01) down to 0,
+    so a coarse ``thd_step`` still tries the low thresholds where a faint region joins start and goal; 0 = the
+    schedule alone (the paper's, 0.99 by 0.01, already ends at 0)."""
 
     def __post_init__(self) -> None:
         check_numbers(self, ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start",
-                             "thd_step", "region_dilation", "guideline_ties", "region_distance"))
+                             "thd_step", "region_dilation", "guideline_ties", "region_distance", "thd_tail"))
         for name in ("omega_crf", "omega_qi", "thd_start"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
@@ -130,6 +134,9 @@ class PriorConfig:
             raise ValueError("region_distance must be 0 (the paper) or 1 (moves through the region), "
                              f"got {self.region_distance}")
         object.__setattr__(self, "region_distance", int(self.region_distance))
+        if self.thd_tail not in (0, 1):
+            raise ValueError(f"thd_tail must be 0 (the schedule alone) or 1 (on by 0.01 down to 0), got {self.thd_tail}")
+        object.__setattr__(self, "thd_tail", int(self.thd_tail))
         if not 0.0 <= self.guideline_ties <= MAX_TIES:
             raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
 

@@ -17,6 +17,7 @@ grid's resolution (see :func:`ndrql.planning.methods.downscale_priors`).
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -102,16 +103,29 @@ def region_connects(
     return connected4(~inside, tuple(start), tuple(goal))
 
 
+#: The step of the paper's schedule (Sec. 3.3), by which ``thd_tail`` goes on below a coarser schedule's end.
+PAPER_STEP = 0.01
+
+
 def threshold_schedule(cfg: PriorConfig = PriorConfig()) -> list[float]:
     """The thresholds Eq. 7's search tries, highest first: ``thd_start`` down by ``thd_step`` while at least 0
-    (rounded to 1e-9; the paper's 0.99, 0.98, ..., 0)."""
+    (rounded to 1e-9; the paper's 0.99, 0.98, ..., 0); with ``thd_tail`` 1 a schedule that ends above 0 goes on
+    at the multiples of 0.01 below its end, down to 0."""
     n = int(np.floor(cfg.thd_start / cfg.thd_step + 1e-9))
-    return [t for t in (round(cfg.thd_start - i * cfg.thd_step, 9) for i in range(n + 1)) if t >= 0]
+    sched = [t + 0.0 for t in (round(cfg.thd_start - i * cfg.thd_step, 9) for i in range(n + 1)) if t >= 0]  # no -0.0
+    if cfg.thd_tail and sched[-1] > 0:
+        below = int(np.ceil(sched[-1] / PAPER_STEP - 1e-9)) - 1  # the largest multiple of 0.01 below the end
+        sched += [round(k * PAPER_STEP, 9) for k in range(below, -1, -1)]
+    return sched
 
 
 def schedule_text(cfg: PriorConfig = PriorConfig()) -> str:
     """The schedule of :func:`threshold_schedule` in words: ``[0, 0.99]`` for the paper's, with the step when it
     is not 0.01 (``[0.0639, 0.983] by 0.0919``)."""
+    if cfg.thd_tail:
+        coarse = threshold_schedule(dataclasses.replace(cfg, thd_tail=0))
+        if coarse[-1] > 0:
+            return f"{schedule_text(dataclasses.replace(cfg, thd_tail=0))}, then by 0.01 to 0"
     sched = threshold_schedule(cfg)
     step = "" if abs(cfg.thd_step - 0.01) < 1e-12 else f" by {cfg.thd_step:.3g}"
     return f"[{sched[-1]:.3g}, {sched[0]:.3g}]{step}"

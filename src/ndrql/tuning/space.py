@@ -61,7 +61,7 @@ THD_STEP = Param("thd_step", 0.005, 0.1, True, "priors", ("thd_step",), "thresho
 #: Prior constants a preset may set that no search explores (beyond the paper: Eq. 6's route ties and distance
 #: through the region, Eq. 7's widened region). A search that starts from a preset holds them at its values
 #: (:func:`fixed_priors`), so a re-searched preset keeps them.
-FIXED_PRIORS = ("region_dilation", "guideline_ties", "region_distance")
+FIXED_PRIORS = ("region_dilation", "guideline_ties", "region_distance", "thd_tail")
 
 
 def fixed_priors(priors: PriorConfig) -> tuple[tuple[str, float], ...]:

@@ -43,8 +43,9 @@ def test_plan_uses_the_models_distance_in_eq6(distance_model):
     from ndrql.model.predict import Predictor
     from ndrql.pipeline.predictions import predict_region
 
+    # the learned distance alone: the general preset counts it through the region (tests/pipeline/test_region_distance_plan.py)
     report = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
-                         workers=1, settings=PlanSettings(fallback=None))
+                         workers=1, settings=PlanSettings(fallback=None), priors={"region_distance": 0})
     assert report.info["qi_distance"] == "model"
     pg = report.grid
     view = predict_region(Predictor.load(distance_model, threads=1, backend="torch"), report.grid_map, pg,
@@ -56,10 +57,11 @@ def test_plan_uses_the_models_distance_in_eq6(distance_model):
                            report.prior_config)
     assert not np.allclose(with_d.q0, without.q0)
     off = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
-                      workers=1, settings=PlanSettings(fallback=None, learned_distance=False))
+                      workers=1, settings=PlanSettings(fallback=None, learned_distance=False), priors={"region_distance": 0})
     assert off.info["qi_distance"] == "straight line"
     # without a distance head nothing changes: the paper's straight line
-    oracle = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1)
+    oracle = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1,
+                         priors={"region_distance": 0})
     assert oracle.info["qi_distance"] == "straight line"
 
 
@@ -81,7 +83,9 @@ def test_predict_file_carries_the_distance_to_plan(distance_model, tmp_path, ndr
         runs[name] = json.loads((tmp_path / f"{name}.json").read_text())
         for run in runs[name]["runs"]:
             run.pop("wall_time")
-    assert runs["file"]["prior_grid"] == "as given" and runs["file"]["qi_distance"] == "model"
+    # the general preset counts Eq. 6's distance through the region; the file's learned distance serves elsewhere
+    assert runs["file"]["prior_grid"] == "as given"
+    assert runs["file"]["qi_distance"] == runs["model"]["qi_distance"] == "moves through the region (NDR-QL), the model elsewhere"
     assert runs["file"]["runs"] == runs["model"]["runs"]
 
 

@@ -42,7 +42,7 @@ def test_cli_and_api_give_the_same_run_and_say_which_distance(tmp_path, ndrql_ex
     run = api.results[0]
     assert run.method == "NDR-QL" and run.converged
     assert [run.convergence_steps, run.path_length] == [cli["runs"][0]["convergence_steps"], cli["runs"][0]["path_length"]]
-    plain = ndrql.solve(str(SAMPLE), START, GOAL)
+    plain = ndrql.solve(str(SAMPLE), START, GOAL, priors={"region_distance": 0})
     assert plain.info["qi_distance"] == "model" and plain.prior_config.region_distance == 0
     assert plain.thresholds == api.thresholds  # the same region and threshold; only Eq. 6's distance differs
 
@@ -50,8 +50,8 @@ def test_cli_and_api_give_the_same_run_and_say_which_distance(tmp_path, ndrql_ex
 def test_no_threshold_says_the_distance_that_was_used(walls_file):
     # on these walls the general preset's region joins start and goal at no threshold of NDR-QL's schedule:
     # the mask is 0 everywhere, nothing is counted through the region, and the JSON does not claim it was
-    with pytest.warns(P.ThresholdWarning):
-        report = ndrql.solve(str(walls_file), (10, 10), (110, 150), priors={"region_distance": 1},
+    with pytest.warns(P.ThresholdWarning):  # without the schedule's tail, which would reach the low threshold
+        report = ndrql.solve(str(walls_file), (10, 10), (110, 150), priors={"region_distance": 1, "thd_tail": 0},
                              settings=PlanSettings(fallback=None))
     assert report.thresholds["NDR-QL"] is None
     assert report.info["qi_distance"] == "model"
@@ -81,9 +81,9 @@ def test_out_of_range_is_one_line_exit_2(walls_file, tmp_path, ndrql_exe, value)
     assert not out.exists()
 
 
-def test_the_general_preset_counts_through_the_region_above_113_cells_only(tmp_path, ndrql_exe):
-    # the shipped general preset: its grid-128 entry (every grid above 113 cells) has region_distance 1,
-    # the entries for grids 50 and 100 keep the learned distance; CLI and API agree, and a flag turns it off
+def test_the_general_preset_counts_through_the_region_at_every_grid(tmp_path, ndrql_exe):
+    # the shipped general preset: its grid-128 entry (every grid above 113 cells) has region_distance 1, and so
+    # (since their own check) do the entries for grids 50 and 100; CLI and API agree, and a flag turns it off
     out = tmp_path / "plan.json"
     r = run_cli(ndrql_exe, "plan", SAMPLE, "--start", "25,179", "--goal", "167,5", "--size", "128", "--json", out)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -96,8 +96,10 @@ def test_the_general_preset_counts_through_the_region_above_113_cells_only(tmp_p
         [cli["runs"][0]["convergence_steps"], cli["runs"][0]["path_length"]]
     off = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=128), priors={"region_distance": 0})
     assert off.info["qi_distance"] == "model" and off.prior_config.region_distance == 0
-    small = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=100))
-    assert small.info["qi_distance"] == "model" and small.prior_config.region_distance == 0
+    for size in (64, 100):  # at 50 cells the start's cell touches a wall (a SnapWarning)
+        small = ndrql.solve(str(SAMPLE), START, GOAL, settings=PlanSettings(size=size))
+        assert small.prior_config.region_distance == 1 and small.thresholds["NDR-QL"] is not None
+        assert small.info["qi_distance"] == "moves through the region (NDR-QL), the model elsewhere"
 
 
 def test_a_fallback_to_iql_names_the_exact_distance_reference(walls_file, tmp_path, ndrql_exe):

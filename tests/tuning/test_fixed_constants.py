@@ -24,8 +24,9 @@ def test_every_preset_prior_is_searched_or_fixed():
 def test_fixed_priors_of_the_general_preset():
     assert S.fixed_priors(PriorConfig()) == ()
     general = load_preset("general")
-    assert S.fixed_priors(general.configs("NDR-QL", grid=50)[1]) == ROUTE
-    assert S.fixed_priors(general.configs("NDR-QL", grid=100)[1]) == (("guideline_ties", 0.3),)
+    beyond = (("region_distance", 1.0), ("thd_tail", 1.0))  # Eq. 6's distance through the region, Eq. 7's tail
+    assert S.fixed_priors(general.configs("NDR-QL", grid=50)[1]) == ROUTE + beyond
+    assert S.fixed_priors(general.configs("NDR-QL", grid=100)[1]) == (("guideline_ties", 0.3),) + beyond
     assert S.fixed_priors(general.configs("IQL", grid=50)[1]) == ()
 
 

@@ -19,13 +19,14 @@ from ndrql.planning.preset import PRESET_FIELDS, load_preset
 SHIPPED = Path(__file__).resolve().parents[2] / "src" / "ndrql" / "planning" / "presets" / "general.json"
 
 
-def variant(grids: list[str], values: dict[str, float]) -> dict:
-    """The shipped preset's JSON with ``values`` in NDR-QL's ``priors`` on ``grids`` (each must have an NDR-QL entry)."""
+def variant(grids: list[str], values: dict[str, float], name: str = "general-variant") -> dict:
+    """The shipped preset's JSON named ``name``, with ``values`` in NDR-QL's ``priors`` on ``grids`` (each must have
+    an NDR-QL entry)."""
     bad = sorted(set(values) - set(PRESET_FIELDS["priors"]))
     if bad:
         raise SystemExit(f"not a prior constant a preset may set: {', '.join(bad)}")
     data = json.loads(SHIPPED.read_text())
-    data["name"] = "general-variant"
+    data["name"] = name
     for g in grids:
         entry = data["grids"].get(g, {}).get("NDR-QL")
         if entry is None:

@@ -1,7 +1,8 @@
 """The candidate preset of docs/large-maps.md#distance-through-the-region: the shipped ``general`` preset with
 ``region_distance`` 1 in NDR-QL's entries for the given grids (default 128: every grid above 113 cells), named
 ``general-rd``; checked by loading it back. Its default is what the development reports judged; since
-2026-11-27 the shipped preset has it at grid 128 too, so today only ``--grids 50,100`` changes anything::
+2026-11-27 the shipped preset has it at every grid, so it changes nothing today: it is kept for the commands
+quoted with it, a thin use of ``preset_variant.py`` beside it::
 
     PYTHONPATH=src python studies/large_view/region_distance_preset.py --out general-rd.json [--grids 128]
     ndrql reproduce transfer --eval-set large-dev2-256 --grids 256 --weights general --preset general-rd.json ...
@@ -11,23 +12,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from ndrql.planning.preset import load_preset
 
-SHIPPED = Path(__file__).resolve().parents[2] / "src" / "ndrql" / "planning" / "presets" / "general.json"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from preset_variant import variant  # noqa: E402  (the script beside this one)
 
 
 def candidate(grids: list[str]) -> dict:
     """The shipped preset's JSON with NDR-QL's ``region_distance`` 1 on ``grids`` (each must have an NDR-QL entry)."""
-    data = json.loads(SHIPPED.read_text())
-    data["name"] = "general-rd"
-    for g in grids:
-        entry = data["grids"].get(g, {}).get("NDR-QL")
-        if entry is None:
-            raise SystemExit(f"the general preset has no NDR-QL entry at grid {g} (it has: {', '.join(data['grids'])})")
-        entry["priors"]["region_distance"] = 1
-    return data
+    return variant(grids, {"region_distance": 1}, name="general-rd")
 
 
 def main(argv: list[str] | None = None) -> None:

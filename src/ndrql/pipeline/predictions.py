@@ -27,7 +27,7 @@ from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fall
                                      prediction_quality, region_verdict)
 from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
-from ndrql.pipeline.relay import relay
+from ndrql.pipeline.relay import relay_note, turned_relay
 from ndrql.pipeline.report import StageClock
 from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
@@ -112,7 +112,7 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
             if why_own is None:
                 out, served = own, predictor
             else:  # both uninformative: the companion asked again from where its region ends
-                out, second["relay"] = relay(predictor, blocked, start_cell, goal_cell, out, cfg)
+                out, second["relay"] = turned_relay(predictor, blocked, start_cell, goal_cell, out, cfg)
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
@@ -135,14 +135,7 @@ def second_opinion_note(info: dict[str, Any]) -> str:
         return ""
     if asked["served"]:
         return f"; the companion's prediction was uninformative ({asked['asked_because']}), the base model's served"
-    note = f"; the base model, asked too, was uninformative as well ({asked['reason']})"
-    relayed = asked.get("relay")
-    if relayed and (relayed["hops"] or "back" in relayed):
-        hops, back = len(relayed["hops"]), " and from the goal's side" if "back" in relayed else ""
-        note += (f"; the companion, asked again from {hops} cell{'s' if hops != 1 else ''} where its region ended{back}, "
-                 + ("joined start and goal (its regions together served)" if relayed["served"]
-                    else f"did not join them ({relayed['reason']})"))
-    return note
+    return f"; the base model, asked too, was uninformative as well ({asked['reason']})" + relay_note(asked.get("relay"))
 
 
 def _on_grid(region: np.ndarray, guide: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],

@@ -13,7 +13,9 @@ for that reason, docs/large-maps.md#a-second-opinion).
 
 :func:`relay` is called by :func:`ndrql.pipeline.predictions.predict_on_grid` only above 128 cells and
 only where the companion and the base model were both uninformative; its verdict uses the same test
-(:func:`~ndrql.pipeline.fallback.region_verdict`).
+(:func:`~ndrql.pipeline.fallback.region_verdict`). Where it fails, :func:`turned_relay` asks the companion again
+averaged over :data:`TURNS` orientations of the grid, and relays that
+(docs/large-maps.md#four-orientations-where-the-relay-fails-rule-written-2026-11-27-before-its-runs).
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ Point = tuple[int, int]
 #: Most hops of a relay. On the development maps where both models were uninformative the relays that
 #: joined start and goal took 1-3 hops (docs/large-maps.md#a-relay); each hop is one more forward pass.
 MAX_HOPS = 4
+#: Orientations of the grid averaged when the relay of one orientation fails (:func:`turned_relay`).
+TURNS = 4
 
 
 def start_part(region: np.ndarray, blocked: np.ndarray, start: Point, cut: float) -> np.ndarray:
@@ -109,3 +113,51 @@ def relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first:
                                                   max_hops)
     info.update(served=why is None, reason=why)
     return replace(first, region=region, guideline=guide), info
+
+
+def turned_relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first: Any, cfg: Any
+                 ) -> tuple[Any, dict[str, Any]]:
+    """:func:`relay` of ``first``; where its union still cannot guide planning and ``predictor`` averages fewer than
+    :data:`TURNS` orientations (:meth:`~ndrql.model.predict.Predictor.with_symmetries`), the model asked again
+    averaged over :data:`TURNS` orientations and, unless that already serves, relayed so. The turned prediction (or
+    its union) is returned where it passes the test; otherwise the first relay's union, as without this step.
+    ``info`` is :func:`relay`'s, with ``"turned"``: ``{"orientations", "hops", "back" (when asked), "served",
+    "reason"}`` when the turn was asked; ``info["served"]`` is true when either served."""
+    out, info = relay(predictor, blocked, start, goal, first, cfg)
+    if info["served"] or getattr(predictor, "symmetries", TURNS) >= TURNS:
+        return out, info
+    turned = predictor.with_symmetries(TURNS)
+    again = turned.predict_view(blocked, start, goal)
+    why = region_verdict(again.region, blocked, start, goal, cfg)[2]
+    if why is None:
+        union, tinfo = again, {"hops": [], "served": True, "reason": None}
+    else:
+        union, tinfo = relay(turned, blocked, start, goal, again, cfg)
+    info["turned"] = {"orientations": TURNS, **tinfo, "first_reason": info["reason"]}
+    if tinfo["served"]:
+        info.update(served=True, reason=None)
+        return union, info
+    return out, info
+
+
+def _asked_again(hops: int, back: bool) -> str:
+    return f"asked again from {hops} cell{'s' if hops != 1 else ''} where its region ended" + (
+        " and from the goal's side" if back else "")
+
+
+def relay_note(relayed: dict[str, Any] | None) -> str:
+    """What the summaries of ``plan`` and ``predict`` say about a :func:`turned_relay` (its ``info``); empty when
+    nothing was asked."""
+    if not relayed:
+        return ""
+    turned, note = relayed.get("turned"), ""
+    if relayed["hops"] or "back" in relayed:
+        first = turned["first_reason"] if turned else relayed["reason"]
+        note = (f"; the companion, {_asked_again(len(relayed['hops']), 'back' in relayed)}, "
+                + ("joined start and goal (its regions together served)" if relayed["served"] and not turned
+                   else f"did not join them ({first})"))
+    if turned:
+        again = f", {_asked_again(len(turned['hops']), 'back' in turned)}," if turned["hops"] or "back" in turned else ""
+        note += (f"; averaged over {turned['orientations']} orientations of the grid{again} it "
+                 + ("served" if turned["served"] else f"did not serve either ({turned['reason']})"))
+    return note

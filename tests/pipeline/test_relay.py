@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ndrql.pipeline.predictions import predict_on_grid, second_opinion_note
-from ndrql.pipeline.relay import MAX_HOPS, next_hop, relay, start_part
+from ndrql.pipeline.relay import MAX_HOPS, TURNS, next_hop, relay, start_part, turned_relay
 from ndrql.planning.config import PriorConfig
 
 N = 160  # above fallback.LARGE_GRID: the cut 0.1 and the cover test apply
@@ -212,3 +212,65 @@ def test_the_report_line_counts_the_way_back():
           "relay": {"hops": [[1, 2]], "back": [[3, 4], [5, 6]], "served": True, "reason": None}}
     line = second_opinion_line([{"skipped": False, "second_opinion": so}])
     assert "relayed (asked again from where its region ended) on 1 maps, 3 hops in all (on 1 also from the goal's side)" in line
+
+
+class _Turnable(_Reach):
+    """A stand-in companion of one orientation whose average over four orientations reaches ``turned_reach``."""
+
+    def __init__(self, reach: int, turned_reach: int, symmetries: int = 1):
+        super().__init__(reach)
+        self.turned_reach, self.symmetries, self.turns = turned_reach, symmetries, []
+
+    def with_symmetries(self, count: int) -> "_Turnable":
+        self.turns.append(count)
+        return _Turnable(self.turned_reach, self.turned_reach, count)
+
+
+@pytest.mark.parametrize("turned_reach,hops", [(N, 0), (60, 2)])
+def test_four_orientations_serve_where_the_relay_of_one_failed(turned_reach, hops):
+    comp = _Turnable(reach=10, turned_reach=turned_reach)
+    first = comp.predict_view(BLOCKED, START, GOAL)
+    out, info = turned_relay(comp, BLOCKED, START, GOAL, first, PriorConfig())
+    assert comp.turns == [TURNS] and len(info["hops"]) == MAX_HOPS  # the relay of one orientation ran first
+    turned = info["turned"]
+    assert turned["orientations"] == TURNS and turned["served"] is True and len(turned["hops"]) == hops
+    assert info["served"] is True and info["reason"] is None and "no region threshold" in turned["first_reason"]
+    assert (out.region[1:4, 2:] == 0.9).all()  # the turned prediction (or its union) is what plan gets
+    note = second_opinion_note({"second_opinion": {"asked_because": "x", "served": False, "reason": "y", "relay": info}})
+    assert f"asked again from {MAX_HOPS} cells where its region ended" in note and "did not join them (no region" in note
+    assert note.endswith(f"averaged over {TURNS} orientations of the grid" + (", asked again from 2 cells where its "
+                         "region ended," if hops else "") + " it served")
+
+
+def test_where_four_orientations_fail_too_nothing_changes():
+    comp = _Turnable(reach=10, turned_reach=10)
+    first = comp.predict_view(BLOCKED, START, GOAL)
+    out, info = turned_relay(comp, BLOCKED, START, GOAL, first, PriorConfig())
+    same, plain = relay(_Reach(reach=10), BLOCKED, START, GOAL, first, PriorConfig())
+    assert np.array_equal(out.region, same.region) and info["served"] is False and info["reason"] == plain["reason"]
+    assert info["turned"]["served"] is False and len(info["turned"]["hops"]) == MAX_HOPS
+    note = second_opinion_note({"second_opinion": {"asked_because": "x", "served": False, "reason": "y", "relay": info}})
+    assert "did not serve either (no region threshold" in note
+
+
+def test_no_turn_where_the_relay_served_or_the_model_already_averages_four():
+    served = _Turnable(reach=60, turned_reach=N)
+    _, info = turned_relay(served, BLOCKED, START, GOAL, served.predict_view(BLOCKED, START, GOAL), PriorConfig())
+    assert info["served"] is True and "turned" not in info and served.turns == []
+    four = _Turnable(reach=10, turned_reach=N, symmetries=TURNS)
+    _, info = turned_relay(four, BLOCKED, START, GOAL, four.predict_view(BLOCKED, START, GOAL), PriorConfig())
+    assert info["served"] is False and "turned" not in info and four.turns == []
+
+
+def test_the_report_line_counts_the_turns():
+    from ndrql.experiments.transfer_floors import second_opinion_line
+
+    relay_info = {"hops": [[1, 2]], "served": True, "reason": None,
+                  "turned": {"orientations": 4, "hops": [], "served": True, "reason": None, "first_reason": "z"}}
+    failed = {"hops": [[1, 2]], "served": False, "reason": "z",
+              "turned": {"orientations": 4, "hops": [[3, 4]], "served": False, "reason": "z", "first_reason": "z"}}
+    records = [{"skipped": False, "second_opinion": {"asked_because": "x", "served": False, "reason": "y", "relay": r}}
+               for r in (relay_info, failed)]
+    line = second_opinion_line(records)
+    assert "relayed (asked again from where its region ended) on 2 maps, 2 hops in all, and its joined regions served on 0" in line
+    assert line.endswith("averaged over 4 orientations was asked on 2 maps (relayed on 1) and served on 1")

@@ -139,8 +139,18 @@ def second_opinion_line(records: list[dict]) -> str | None:
         line += (f"; where both were uninformative the companion was relayed (asked again from where its region "
                  f"ended) on {len(relayed)} maps, {sum(len(r['hops']) + len(r.get('back', [])) for r in relayed)} hops "
                  f"in all" + (f" (on {len(back)} also from the goal's side)" if back else "")
-                 + f", and its joined regions served on {sum(r['served'] for r in relayed)}")
+                 + f", and its joined regions served on {sum(_one(r) for r in relayed)}")
+    turned = [a["relay"]["turned"] for a in asked if "turned" in (a.get("relay") or {})]
+    if turned:
+        line += (f"; where that failed too the companion averaged over {turned[0]['orientations']} orientations was "
+                 f"asked on {len(turned)} maps (relayed on {sum(bool(t['hops']) or 'back' in t for t in turned)}) "
+                 f"and served on {sum(t['served'] for t in turned)}")
     return line
+
+
+def _one(relayed: dict) -> bool:
+    """Whether the relay of one orientation served (not counting the turn that may follow it)."""
+    return bool(relayed["served"]) and not (relayed.get("turned") or {}).get("served")
 
 
 def render_large(records: list[dict], grids: tuple[int, ...], seed: int = 0) -> str:

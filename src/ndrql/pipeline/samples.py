@@ -122,9 +122,10 @@ def _seen(weights: Path) -> tuple[str, Path | None]:
 
 #: How a ``cells`` entry was made: :func:`~ndrql.pipeline.predictions.predict_on_grid`, plan's own call (the
 #: companion on a grid the view merges, the base's second opinion where the companion's region is uninformative,
-#: the relay where both are). A ``cells`` entry with another rule (or none: the companion alone; or
-#: ``predict_on_grid``: before the relay) is predicted again.
-CELLS_RULE = "predict_on_grid+relay"
+#: the relay where both are, four orientations where the relay fails). A ``cells`` entry with another rule (or
+#: none: the companion alone; ``predict_on_grid``: before the relay; ``predict_on_grid+relay``: before the four
+#: orientations) is predicted again.
+CELLS_RULE = "predict_on_grid+relay+turns"
 
 
 class PredictionCache:

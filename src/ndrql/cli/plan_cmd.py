@@ -109,7 +109,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="when the model's prediction is uninformative (its region joins start and goal at no Eq. 7 "
                    "threshold, above 128 cells at none of at least 0.1 or only as a region over most of the free cells, or the guideline "
                    "lies mostly on obstacles; above 128 cells only after the base model's second opinion and a relay of the companion, asked again from where its "
-                   "region ends, were uninformative too), "
+                   "region ends, and the same averaged over four orientations of the grid were uninformative too), "
                    "plan with this method instead of the NDR one "
                    "(default: IQL for a map file with one method, none for --sample and for several methods; with --preset spec the "
                    "general model does better with none: docs/results.md#transfer)")

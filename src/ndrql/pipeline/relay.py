@@ -122,7 +122,8 @@ def turned_relay(predictor: Any, blocked: np.ndarray, start: Point, goal: Point,
     averaged over :data:`TURNS` orientations and, unless that already serves, relayed so. The turned prediction (or
     its union) is returned where it passes the test; otherwise the first relay's union, as without this step.
     ``info`` is :func:`relay`'s, with ``"turned"``: ``{"orientations", "hops", "back" (when asked), "served",
-    "reason"}`` when the turn was asked; ``info["served"]`` is true when either served."""
+    "reason", "first_reason"}`` (the last the one-orientation relay's) when the turn was asked; ``info["served"]``
+    and ``info["reason"]`` are the step's verdict, true and ``None`` when either served."""
     out, info = relay(predictor, blocked, start, goal, first, cfg)
     if info["served"] or getattr(predictor, "symmetries", TURNS) >= TURNS:
         return out, info

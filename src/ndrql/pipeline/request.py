@@ -49,9 +49,7 @@ DEFAULT_FALLBACK = "IQL"
 QL_FIELDS: tuple[str, ...] = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window",
                               "reward_collision", "reward_goal", "reward_revisit")
 #: Prior constants a caller may set (``priors={...}``).
-PRIOR_FIELDS: tuple[str, ...] = ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start",
-                                 "thd_step", "region_dilation", "guideline_ties", "region_distance",
-                                 "thd_tail")
+PRIOR_FIELDS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(PriorConfig))
 
 
 @dataclass(frozen=True, eq=False)

@@ -78,6 +78,11 @@ MAX_DILATION = 10
 MAX_TIES = 0.95
 
 
+#: The prior constants beyond the paper that are a switch: name -> (what 0 means, what 1 means).
+PRIOR_SWITCHES: dict[str, tuple[str, str]] = {"region_distance": ("the paper", "moves through the region"),
+                                              "thd_tail": ("the schedule alone", "on by 0.01 down to 0")}
+
+
 @dataclass(frozen=True)
 class PriorConfig:
     """Parameters of the priors (docs/method.md, paper Eqs. 2-7)."""
@@ -116,8 +121,7 @@ class PriorConfig:
     schedule alone (the paper's, 0.99 by 0.01, already ends at 0)."""
 
     def __post_init__(self) -> None:
-        check_numbers(self, ("r0", "r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start",
-                             "thd_step", "region_dilation", "guideline_ties", "region_distance", "thd_tail"))
+        check_numbers(self, tuple(f.name for f in fields(self)))
         for name in ("omega_crf", "omega_qi", "thd_start"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
@@ -130,13 +134,11 @@ class PriorConfig:
             raise ValueError(f"region_dilation must be a whole number of cells in [0, {MAX_DILATION}], "
                              f"got {self.region_dilation}")
         object.__setattr__(self, "region_dilation", int(self.region_dilation))  # a preset file's 1.0 is 1 cell
-        if self.region_distance not in (0, 1):
-            raise ValueError("region_distance must be 0 (the paper) or 1 (moves through the region), "
-                             f"got {self.region_distance}")
-        object.__setattr__(self, "region_distance", int(self.region_distance))
-        if self.thd_tail not in (0, 1):
-            raise ValueError(f"thd_tail must be 0 (the schedule alone) or 1 (on by 0.01 down to 0), got {self.thd_tail}")
-        object.__setattr__(self, "thd_tail", int(self.thd_tail))
+        for name, (off, on) in PRIOR_SWITCHES.items():
+            v = getattr(self, name)
+            if v not in (0, 1):
+                raise ValueError(f"{name} must be 0 ({off}) or 1 ({on}), got {v}")
+            object.__setattr__(self, name, int(v))  # a preset file's 1.0 is 1
         if not 0.0 <= self.guideline_ties <= MAX_TIES:
             raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
 

@@ -54,7 +54,7 @@ def main() -> None:
     a = ap.parse_args()
     torch.set_num_threads(1)
     ck = torch.load(a.net)
-    net = Propagator(ck["width"])
+    net = Propagator(ck["width"], ck.get("pool", False))
     net.load_state_dict(ck["state"])
     net.eval()
     results = {}

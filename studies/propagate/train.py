@@ -46,16 +46,21 @@ def main() -> None:
     ap.add_argument("--alpha", type=float, default=0.5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--init", default=None)
+    ap.add_argument("--pool", action="store_true", help="the block also sees a 3x3 max of its state (net.py)")
+    ap.add_argument("--lr", type=float, default=2e-3, help="peak learning rate, cosine-decayed over --minutes")
+    ap.add_argument("--threads", type=int, default=0, help="torch threads (0: torch's default)")
     ap.add_argument("--pos-weight", type=float, default=5.0, help="weight of a route cell in the loss")
     a = ap.parse_args()
     torch.manual_seed(a.seed)
+    if a.threads:
+        torch.set_num_threads(a.threads)
     rng = np.random.default_rng(a.seed)
     parts = [np.load(f, allow_pickle=True) for f in a.data.split(":")]
     data = {k: [v for p in parts for v in p[k]] for k in ("blocked", "start", "goal", "route")}
-    net = Propagator(a.width)
+    net = Propagator(a.width, a.pool)
     if a.init:
         net.load_state_dict(torch.load(a.init)["state"])
-    opt = torch.optim.AdamW(net.parameters(), lr=2e-3, weight_decay=2e-4)
+    opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=2e-4)
     t0, step, hist = time.time(), 0, []
     for n, x, y in batches(data, a.batch, rng):
         T = max(8, int(round(a.iters * n / 48)))
@@ -71,16 +76,18 @@ def main() -> None:
         opt.zero_grad()
         loss.backward()
         torch.nn.utils.clip_grad_norm_(net.parameters(), 2.0)
+        for group in opt.param_groups:  # cosine decay over the time budget
+            group["lr"] = a.lr * 0.5 * (1 + np.cos(np.pi * min(1.0, (time.time() - t0) / (a.minutes * 60))))
         opt.step()
         step += 1
         hist.append(float(loss.detach()))
         el = time.time() - t0
         if step % 50 == 0:
             print(f"step {step} {el/60:.1f} min loss {np.mean(hist[-50:]):.4f}", flush=True)
-            torch.save({"state": net.state_dict(), "width": a.width, "iters": a.iters, "step": step}, a.out)
+            torch.save({"state": net.state_dict(), "width": a.width, "pool": a.pool, "iters": a.iters, "step": step}, a.out)
         if el > a.minutes * 60:
             break
-    torch.save({"state": net.state_dict(), "width": a.width, "iters": a.iters, "step": step}, a.out)
+    torch.save({"state": net.state_dict(), "width": a.width, "pool": a.pool, "iters": a.iters, "step": step}, a.out)
     print("done", step, "steps")
 
 

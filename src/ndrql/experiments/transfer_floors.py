@@ -145,6 +145,10 @@ def second_opinion_line(records: list[dict]) -> str | None:
         line += (f"; where that failed too the companion averaged over {turned[0]['orientations']} orientations was "
                  f"asked on {len(turned)} maps (relayed on {sum(bool(t['hops']) or 'back' in t for t in turned)}) "
                  f"and served on {sum(t['served'] for t in turned)}")
+    heads = [a["propagated"] for a in asked if a.get("propagated")]
+    if heads:
+        line += (f"; where everything failed the propagating head was asked on {len(heads)} maps and served on "
+                 f"{sum(h['served'] for h in heads)}")
     return line
 
 

@@ -166,6 +166,11 @@ class Predictor:
         return weights_digest(self.weights_file, self.merged_weights)
 
     @property
+    def threads(self) -> int:
+        """Intra-op threads the model runs on (0: the backend's default)."""
+        return self._threads
+
+    @property
     def backend_name(self) -> str:
         return self._runner.name
 

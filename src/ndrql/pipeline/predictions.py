@@ -27,6 +27,7 @@ from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fall
                                      prediction_quality, region_verdict)
 from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
+from ndrql.pipeline.propagated import propagated, propagated_note
 from ndrql.pipeline.relay import relay_note, turned_relay
 from ndrql.pipeline.report import StageClock
 from ndrql.planning.config import PriorConfig
@@ -97,7 +98,9 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
     region can; ``info["second_opinion"]`` says why it was asked and whether it served
     (docs/large-maps.md#a-second-opinion). Where the base's region cannot either, the companion's prediction is
     relayed (:func:`~ndrql.pipeline.relay.relay`: asked again from where its region ends, the regions joined);
-    ``info["second_opinion"]["relay"]`` gives the hops and whether the union can guide planning."""
+    ``info["second_opinion"]["relay"]`` gives the hops and whether the union can guide planning. Where that fails
+    too, the shipped propagating head is asked (:func:`~ndrql.pipeline.propagated.propagated`;
+    ``info["second_opinion"]["propagated"]``)."""
     out = predictor.predict_view(blocked, start_cell, goal_cell)
     served = predictor.serving(max(np.shape(blocked))) if getattr(predictor, "merged_weights", None) is not None \
         else None
@@ -113,6 +116,8 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
                 out, served = own, predictor
             else:  # both uninformative: the companion asked again from where its region ends
                 out, second["relay"] = turned_relay(predictor, blocked, start_cell, goal_cell, out, cfg)
+                if not second["relay"]["served"]:  # the last resort: the propagating head
+                    out, second["propagated"] = propagated(predictor, blocked, start_cell, goal_cell, out, cfg)
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
@@ -135,7 +140,8 @@ def second_opinion_note(info: dict[str, Any]) -> str:
         return ""
     if asked["served"]:
         return f"; the companion's prediction was uninformative ({asked['asked_because']}), the base model's served"
-    return f"; the base model, asked too, was uninformative as well ({asked['reason']})" + relay_note(asked.get("relay"))
+    return (f"; the base model, asked too, was uninformative as well ({asked['reason']})" + relay_note(asked.get("relay"))
+            + propagated_note(asked.get("propagated")))
 
 
 def _on_grid(region: np.ndarray, guide: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],

@@ -45,6 +45,7 @@ def test_a_head_whose_region_passes_becomes_region_and_guideline(head):
     assert np.array_equal(out.region, BAND) and np.array_equal(out.guideline, BAND)
     assert out.distance is first.distance and out.seen is first.seen
     assert info["iterations"] == propagation.iterations((N, N), int(propagation.read_record()["chunk"]))
+    assert info["graph_sha256"] == propagation.read_record()["onnx_sha256"][:16]  # which head served, in plan's JSON
     assert mod.propagated_note(info) == f"; the propagating head ({info['iterations']} iterations) its region served"
 
 

@@ -26,15 +26,16 @@ Point = tuple[int, int]
 def propagated(predictor: Any, blocked: np.ndarray, start: Point, goal: Point, first: Any, cfg: Any
                ) -> tuple[Any, dict[str, Any] | None]:
     """``first`` (a prediction whose region cannot guide planning) or, where the shipped head's region can,
-    ``first`` with the head's probabilities as region and guideline. ``info``: ``{"iterations", "served",
-    "reason"}`` (``reason`` why the head's region cannot guide planning either, else None), or None when no head
-    is shipped (nothing was asked)."""
+    ``first`` with the head's probabilities as region and guideline. ``info``: ``{"iterations", "graph_sha256" (the
+    head's graph, 16 hex), "served", "reason"}`` (``reason`` why the head's region cannot guide planning either, else
+    None), or None when no head is shipped (nothing was asked)."""
     if not propagation.available():
         return first, None
     prob = propagation.propagate(blocked, start, goal, getattr(predictor, "threads", 0))
     why = region_verdict(prob, blocked, start, goal, cfg)[2]
-    chunk = int((propagation.read_record() or {}).get("chunk", 1))
-    info = {"iterations": propagation.iterations(np.shape(blocked), chunk), "served": why is None, "reason": why}
+    record = propagation.read_record() or {}
+    info = {"iterations": propagation.iterations(np.shape(blocked), int(record.get("chunk", 1))),
+            "graph_sha256": str(record.get("onnx_sha256", ""))[:16], "served": why is None, "reason": why}
     if why is not None:
         return first, info
     guide = None if first.guideline is None else prob

@@ -115,7 +115,10 @@ def test_an_uninformative_companion_asks_the_base_which_serves_when_informative(
     assert "the base model's served" in second_opinion_note(info)
 
 
-def test_when_both_are_uninformative_the_companion_stays_and_both_reasons_are_kept():
+def test_when_both_are_uninformative_the_companion_stays_and_both_reasons_are_kept(monkeypatch):
+    from ndrql.model import propagation
+
+    monkeypatch.setattr(propagation, "available", lambda: False)  # the last resort, tests/pipeline/test_propagated.py
     base = _base(_broken(), _faint())
     region, _, info, _ = predict_on_grid(base, BLOCKED, START, GOAL)
     assert base.calls == ["own"] and np.array_equal(region, _broken())

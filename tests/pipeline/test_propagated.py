@@ -46,7 +46,7 @@ def test_a_head_whose_region_passes_becomes_region_and_guideline(head):
     assert out.distance is first.distance and out.seen is first.seen
     assert info["iterations"] == propagation.iterations((N, N), int(propagation.read_record()["chunk"]))
     assert info["graph_sha256"] == propagation.read_record()["onnx_sha256"][:16]  # which head served, in plan's JSON
-    assert mod.propagated_note(info) == f"; the propagating head ({info['iterations']} iterations) its region served"
+    assert mod.propagated_note(info) == f"; the propagating head ({info['iterations']} iterations) served"
 
 
 def test_a_head_whose_region_fails_changes_nothing_and_says_why(head):
@@ -71,7 +71,8 @@ def test_predict_on_grid_asks_the_head_only_where_the_relay_failed(head):
     region, guide, info, _ = predict_on_grid(_Base(_Reach(10)), BLOCKED, START, GOAL)  # the relay fails
     assert asked == [(START, GOAL)] and info["second_opinion"]["propagated"]["served"] is True
     assert np.array_equal(region, BAND) and np.array_equal(guide, BAND)
-    assert second_opinion_note(info).endswith("its region served")
+    iters = info["second_opinion"]["propagated"]["iterations"]
+    assert second_opinion_note(info).endswith(f"; the propagating head ({iters} iterations) served")
 
 
 def test_the_report_line_counts_the_head():

@@ -47,5 +47,5 @@ def propagated_note(info: dict[str, Any] | None) -> str:
     nothing was asked."""
     if not info:
         return ""
-    told = "its region served" if info["served"] else f"did not serve either ({info['reason']})"
+    told = "served" if info["served"] else f"did not serve either ({info['reason']})"
     return f"; the propagating head ({info['iterations']} iterations) {told}"

@@ -23,6 +23,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from ndrql.model.propagation import head_input
+
 #: Iterations of the block per call of the exported graph (``plan`` runs whole calls).
 CHUNK = 8
 
@@ -90,10 +92,8 @@ def export_propagator(weights: str | Path, out: str | Path) -> float:
     net = load_propagator(weights)
     rng = np.random.default_rng(0)
     blocked = rng.random((40, 52)) < 0.3
-    x = torch.zeros(1, 3, 40, 52)
-    x[0, 0] = torch.as_tensor(~blocked, dtype=torch.float32)
-    x[0, 1, 1, 1] = x[0, 2, 38, 50] = 1.0
-    x[0, 0, 1, 1] = x[0, 0, 38, 50] = 1.0
+    blocked[1, 1] = blocked[38, 50] = False
+    x = torch.as_tensor(head_input(blocked, (1, 1), (38, 50)))  # the input plan feeds the graph
     h0 = net.init_state(x)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # the TorchScript exporter handles this model

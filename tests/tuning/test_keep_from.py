@@ -30,17 +30,18 @@ def test_kept_entries_replace_only_the_searched_methods():
 
 def test_kept_entries_keep_the_grids_not_searched_and_add_a_new_one():
     base = load_preset("general")
-    new = {256: {"NDR-QL": MethodSetting(QLConfig(alpha=0.3)), "IQL": MethodSetting(QLConfig(alpha=0.4))}}
-    metas = {"256": {"studies": {m: {"study": m} for m in new[256]}, "validation_check": {}, "kept_spec": ["IQL"],
+    assert 512 not in base.grids
+    new = {512: {"NDR-QL": MethodSetting(QLConfig(alpha=0.3)), "IQL": MethodSetting(QLConfig(alpha=0.4))}}
+    metas = {"512": {"studies": {m: {"study": m} for m in new[512]}, "validation_check": {}, "kept_spec": ["IQL"],
                      "search": {"weights_sha256_16": "new"}, "check_seeds": [2, 3]}}
     entries, meta = kept_entries(base, new, metas)
-    assert sorted(entries) == sorted([*base.grids, 256]) and list(meta) == [str(n) for n in sorted(entries)]
+    assert sorted(entries) == sorted([*base.grids, 512]) and list(meta) == [str(n) for n in sorted(entries)]
     assert all(entries[n] == dict(base.grids[n]) for n in base.grids)
     assert meta["100"] == base.meta["grids"]["100"]
-    assert entries[256] == new[256] and meta["256"]["kept_spec"] == ["IQL"]
-    assert meta["256"]["search"] == {"weights_sha256_16": "new"} and meta["256"]["check_seeds"] == [2, 3]
-    assert meta["256"]["search_by_method"] == {"NDR-QL": {"weights_sha256_16": "new"}, "IQL": {"weights_sha256_16": "new"}}
+    assert entries[512] == new[512] and meta["512"]["kept_spec"] == ["IQL"]
+    assert meta["512"]["search"] == {"weights_sha256_16": "new"} and meta["512"]["check_seeds"] == [2, 3]
+    assert meta["512"]["search_by_method"] == {"NDR-QL": {"weights_sha256_16": "new"}, "IQL": {"weights_sha256_16": "new"}}
     preset = replace(base, grids=entries)
-    assert preset.setting("NDR-QL", 200).ql.alpha == 0.3  # 200 cells: nearest to 256 on a log scale
-    assert preset.setting("NDR-QL", 150) == base.setting("NDR-QL", 150)  # nearer a kept entry than 256
-    assert preset.setting("QL", 256) == base.setting("QL", 100)  # not searched at 256: the nearest entry listing it
+    assert preset.setting("NDR-QL", 400).ql.alpha == 0.3  # 400 cells: nearest to 512 on a log scale
+    assert preset.setting("NDR-QL", 300) == base.setting("NDR-QL", 300)  # nearer a kept entry than 512
+    assert preset.setting("QL", 512) == base.setting("QL", 100)  # not searched at 512: the nearest entry listing it

@@ -10,6 +10,7 @@ an error. ``training``: the first ``--training-count`` samples of each training 
 
     python tools/seal_sets.py                       # add what is missing
     python tools/seal_sets.py --check               # regenerate every set and compare (no write)
+    python tools/seal_sets.py --only partial-dev,sealed-partial   # just these sets (no training sets)
 """
 
 from __future__ import annotations
@@ -63,11 +64,19 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--training-count", type=int, default=240, help="samples hashed per training set (default: 240)")
     ap.add_argument("--check", action="store_true", help="regenerate every recorded set and compare; write nothing")
+    ap.add_argument("--only", default="", metavar="NAME[,NAME]",
+                    help="record or check only these registered sets, and no training set (drawing every set takes hours)")
     args = ap.parse_args(argv)
+    only = [n.strip() for n in args.only.split(",") if n.strip()]
+    unknown = [n for n in only if n not in registry()]
+    if unknown:
+        return _refuse(f"--only: no registered set {unknown[0]!r}")
     path = digests_path()
     data = json.loads(path.read_text()) if path.exists() else {"sets": {}, "training": {}}
     changed = False
     for name, entry in registry().items():
+        if only and name not in only:
+            continue
         rec = set_record(eval_set(entry.spec, progress=False, release=True))
         old = data["sets"].get(name)
         if old is None:
@@ -78,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
             return _refuse(f"{name}: the maps differ from the recorded digests (a set is drawn once; register a new one)")
         else:
             print(f"{name}: matches its record")
-    for label, (seed, sizes, families) in TRAINING_SETS.items():
+    for label, (seed, sizes, families) in ({} if only else TRAINING_SETS).items():
         old = data["training"].get(label)
         count = len(old["maps"]) if old and args.check else args.training_count
         rec = training_record(seed, sizes, count, families)

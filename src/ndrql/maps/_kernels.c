@@ -9,6 +9,8 @@
  *   astar8      ndrql.maps.astar_kernel.astar8_kernel
  *   first_blocked, shortcut, supercover
  *               ndrql.maps.lines_kernel._first_blocked, _shortcut, _supercover
+ *   bfs4, bottleneck4
+ *               ndrql.maps.fields_kernel.bfs4_kernel, bottleneck4_kernel
  *
  * Results are bit-identical to numba's: the same IEEE double operations in the same order (compile
  * with -ffp-contract=off and without -ffast-math, so no fused multiply-add or reassociation), the same
@@ -721,6 +723,187 @@ static PyObject *py_supercover(PyObject *self, PyObject *args) {
     return out;
 }
 
+/* ---------------------------------------------------------------- grid fields (maps.fields_kernel) */
+
+static const int64_t DR4[4] = {-1, 1, 0, 0};
+static const int64_t DC4[4] = {0, 0, -1, 1};
+
+/* 4-connected move counts from `src` into dist (n int64), -1 where unreachable or blocked; 0, or -1 out of memory. */
+static int bfs4_run(const uint8_t *blocked, int64_t h, int64_t w, int64_t src, int64_t *dist) {
+    int64_t n = h * w;
+    for (int64_t i = 0; i < n; i++) dist[i] = -1;
+    if (blocked[src]) return 0;
+    int64_t *queue = malloc((size_t)(n ? n : 1) * sizeof(int64_t));
+    if (!queue) return -1;
+    int64_t head = 0, tail = 0;
+    dist[src] = 0;
+    queue[tail++] = src;
+    while (head < tail) {
+        int64_t idx = queue[head++];
+        int64_t r = idx / w, c = idx % w, d = dist[idx] + 1;
+        for (int m = 0; m < 4; m++) {
+            int64_t nr = r + DR4[m], nc = c + DC4[m];
+            if (nr < 0 || nr >= h || nc < 0 || nc >= w) continue;
+            int64_t nidx = nr * w + nc;
+            if (dist[nidx] < 0 && !blocked[nidx]) {
+                dist[nidx] = d;
+                queue[tail++] = nidx;
+            }
+        }
+    }
+    free(queue);
+    return 0;
+}
+
+static PyObject *py_bfs4(PyObject *self, PyObject *args) {
+    PyObject *o_blocked;
+    long long h, w, src;
+    if (!PyArg_ParseTuple(args, "OLLL", &o_blocked, &h, &w, &src)) return NULL;
+    if (h < 1 || w < 1 || src < 0 || src >= h * w)
+        return PyErr_Format(PyExc_ValueError, "bad grid %lldx%lld or source cell %lld", h, w, src);
+    Py_buffer b;
+    if (get_buffer(o_blocked, &b, 1, (Py_ssize_t)(h * w), 0, "blocked") != 0) return NULL;
+    PyObject *out = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(h * w * 8));
+    if (!out) {
+        PyBuffer_Release(&b);
+        return NULL;
+    }
+    int64_t *dist = (int64_t *)PyByteArray_AS_STRING(out);
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = bfs4_run((const uint8_t *)b.buf, h, w, src, dist);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&b);
+    if (status < 0) {
+        Py_DECREF(out);
+        return PyErr_NoMemory();
+    }
+    return out;
+}
+
+/* A max-heap of (key, node) for the widest-path search; ties in any order (only the keys are returned). */
+typedef struct {
+    double *key;
+    int64_t *node;
+    int64_t size, cap;
+} MaxHeap;
+
+static int maxheap_push(MaxHeap *hp, double key, int64_t node) {
+    if (hp->size == hp->cap) {
+        int64_t cap = 2 * hp->cap;
+        double *k = realloc(hp->key, (size_t)cap * sizeof(double));
+        if (k) hp->key = k;
+        int64_t *nd = realloc(hp->node, (size_t)cap * sizeof(int64_t));
+        if (nd) hp->node = nd;
+        if (!k || !nd) return -1;
+        hp->cap = cap;
+    }
+    int64_t i = hp->size++;
+    while (i > 0) {
+        int64_t parent = (i - 1) >> 1;
+        if (!(hp->key[parent] < key)) break;
+        hp->key[i] = hp->key[parent];
+        hp->node[i] = hp->node[parent];
+        i = parent;
+    }
+    hp->key[i] = key;
+    hp->node[i] = node;
+    return 0;
+}
+
+static void maxheap_pop(MaxHeap *hp) {
+    double key = hp->key[--hp->size];
+    int64_t node = hp->node[hp->size], size = hp->size, i = 0;
+    for (;;) {
+        int64_t child = 2 * i + 1;
+        if (child >= size) break;
+        if (child + 1 < size && hp->key[child] < hp->key[child + 1]) child += 1;
+        if (!(key < hp->key[child])) break;
+        hp->key[i] = hp->key[child];
+        hp->node[i] = hp->node[child];
+        i = child;
+    }
+    if (size > 0) {
+        hp->key[i] = key;
+        hp->node[i] = node;
+    }
+}
+
+/* The widest path (maxi-min Dijkstra): the largest, over 4-connected paths through free cells from `s` to `g`, of
+ * the smallest value on the path (both ends included); -inf when an end is blocked or NaN or they are not
+ * connected. NaN cells count as blocked. *out gets it; 0, or -1 out of memory. Runs without the GIL. */
+static int bottleneck4_run(const double *values, const uint8_t *blocked, int64_t h, int64_t w, int64_t s, int64_t g,
+                           double *out) {
+    int64_t n = h * w;
+    *out = -INFINITY;
+    if (blocked[s] || blocked[g] || values[s] != values[s] || values[g] != values[g]) return 0;
+    double *best = malloc((size_t)n * sizeof(double));
+    uint8_t *closed = calloc((size_t)n, 1);
+    MaxHeap hp = {malloc(1024 * sizeof(double)), malloc(1024 * sizeof(int64_t)), 0, 1024};
+    int status = -1;
+    if (!best || !closed || !hp.key || !hp.node) goto done;
+    for (int64_t i = 0; i < n; i++) best[i] = -INFINITY;
+    best[s] = values[s];
+    if (maxheap_push(&hp, values[s], s) != 0) goto done;
+    status = 0;
+    while (hp.size > 0) {
+        double key = hp.key[0];
+        int64_t idx = hp.node[0];
+        maxheap_pop(&hp);
+        if (closed[idx]) continue;
+        closed[idx] = 1;
+        if (idx == g) {
+            *out = key;
+            break;
+        }
+        int64_t r = idx / w, c = idx % w;
+        for (int m = 0; m < 4; m++) {
+            int64_t nr = r + DR4[m], nc = c + DC4[m];
+            if (nr < 0 || nr >= h || nc < 0 || nc >= w) continue;
+            int64_t nidx = nr * w + nc;
+            double v = values[nidx];
+            if (closed[nidx] || blocked[nidx] || v != v) continue;
+            double k = v < key ? v : key;
+            if (k > best[nidx]) {
+                best[nidx] = k;
+                if (maxheap_push(&hp, k, nidx) != 0) {
+                    status = -1;
+                    goto done;
+                }
+            }
+        }
+    }
+done:
+    free(best);
+    free(closed);
+    free(hp.key);
+    free(hp.node);
+    return status;
+}
+
+static PyObject *py_bottleneck4(PyObject *self, PyObject *args) {
+    PyObject *o_values, *o_blocked;
+    long long h, w, s, g;
+    if (!PyArg_ParseTuple(args, "OOLLLL", &o_values, &o_blocked, &h, &w, &s, &g)) return NULL;
+    if (h < 1 || w < 1 || s < 0 || s >= h * w || g < 0 || g >= h * w)
+        return PyErr_Format(PyExc_ValueError, "bad grid %lldx%lld or cells %lld, %lld", h, w, s, g);
+    Py_buffer bv, bb;
+    if (get_buffer(o_values, &bv, 8, (Py_ssize_t)(h * w), 0, "values") != 0) return NULL;
+    if (get_buffer(o_blocked, &bb, 1, (Py_ssize_t)(h * w), 0, "blocked") != 0) {
+        PyBuffer_Release(&bv);
+        return NULL;
+    }
+    double out;
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = bottleneck4_run((const double *)bv.buf, (const uint8_t *)bb.buf, h, w, s, g, &out);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&bv);
+    PyBuffer_Release(&bb);
+    if (status < 0) return PyErr_NoMemory();
+    return PyFloat_FromDouble(out);
+}
+
 /* ---------------------------------------------------------------- the module */
 
 static PyMethodDef methods[] = {
@@ -735,12 +918,16 @@ static PyMethodDef methods[] = {
      "first_blocked(obstacles, h, w, r0, c0, r1, c1) -> (found, row, col)."},
     {"shortcut", py_shortcut, METH_VARARGS, "shortcut(obstacles, h, w, pts) -> bytearray of int64 kept indices."},
     {"supercover", py_supercover, METH_VARARGS, "supercover(r0, c0, r1, c1) -> bytearray of int64 (row, col) pairs."},
+    {"bfs4", py_bfs4, METH_VARARGS,
+     "bfs4(blocked, h, w, src) -> bytearray of h*w int64 4-connected move counts from src (-1: unreachable/blocked)."},
+    {"bottleneck4", py_bottleneck4, METH_VARARGS,
+     "bottleneck4(values, blocked, h, w, s, g) -> the widest 4-connected path's smallest value (-inf: none)."},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_kernels",
-    "ndrql's compiled kernels ahead of time (C99): Q-learning, the 8-connected A*, segment tests. "
+    "ndrql's compiled kernels ahead of time (C99): Q-learning, the 8-connected A*, segment tests, grid fields. "
     "Bit-identical ports of the numba kernels, which stay as the reference and the fallback.",
     -1, methods, NULL, NULL, NULL, NULL,
 };

@@ -18,6 +18,7 @@ import numpy as np
 
 from ndrql.errors import NoPathError, PointError
 from ndrql.maps.area import DENSE_AREA_MAX_MACS, _overlap_matrix, _overlap_sums, area_sums  # noqa: F401 (re-exported)
+from ndrql.maps.fields import bfs4
 
 Cell = Tuple[int, int]
 
@@ -157,24 +158,12 @@ def cell_to_point(cell: Sequence[float], source_shape: tuple[int, int], grid_sha
 
 
 def bfs_distances(blocked: np.ndarray, source: Cell) -> np.ndarray:
-    """4-connected move counts from ``source`` to every cell (``-1`` where unreachable or blocked)."""
-    blocked = np.asarray(blocked, dtype=bool)
-    h, w = blocked.shape
-    dist = np.full((h, w), -1, dtype=np.int64)
-    sr, sc = source
-    if blocked[sr, sc]:
-        return dist
-    dist[sr, sc] = 0
-    queue = deque([(sr, sc)])
-    while queue:
-        r, c = queue.popleft()
-        d = dist[r, c] + 1
-        for dr, dc in MOVES4:
-            nr, nc = r + dr, c + dc
-            if 0 <= nr < h and 0 <= nc < w and dist[nr, nc] < 0 and not blocked[nr, nc]:
-                dist[nr, nc] = d
-                queue.append((nr, nc))
-    return dist
+    """4-connected move counts from ``source`` to every cell (``-1`` where unreachable or blocked), ``(h, w)`` int64.
+
+    Compiled (:func:`ndrql.maps.fields.bfs4`: the C extension, else numba); :class:`IndexError` when ``source``
+    is off the grid.
+    """
+    return bfs4(blocked, source)
 
 
 def nearest_free_bfs(blocked: np.ndarray, cell: Cell) -> Cell:

@@ -22,6 +22,7 @@ import warnings
 
 import numpy as np
 
+from ndrql.maps.fields import bottleneck4
 from ndrql.maps.grid import bfs_distances
 from ndrql.maps.sizing import connected4  # the compiled A*: no scipy import (~0.15 s)
 from ndrql.planning import rules
@@ -142,26 +143,16 @@ def adaptive_threshold(
     region connects start and goal (Sec. 3.3).
 
     Returns the highest such threshold (rounded to 1e-9, so 0.99, 0.98, ... exactly), or ``None``
-    when not even ``thd = 0`` connects start and goal. The cells above a threshold shrink as it rises, so
-    whether they connect start and goal flips once along the schedule: a galloping search down it (steps
-    1, 2, 4, ..., then halving) gives the walk's answer with :func:`region_connects` asked about
-    ``2 log2(k)`` times for the answer at step ``k``, instead of ``k`` (up to 100 on the paper's schedule).
+    when not even the schedule's lowest connects start and goal. Found in one pass: the free cells with
+    ``region > t`` join start and goal exactly when ``t`` lies below the widest path's smallest region value
+    ``B`` (:func:`ndrql.maps.fields.bottleneck4`), so the answer is the first entry of
+    :func:`threshold_schedule` below ``B``: the walk down's answer, with one search of the grid instead of one
+    :func:`region_connects` per threshold tried.
     """
     blocked = np.asarray(blocked, dtype=bool)
     region = _check_field("region", region, blocked.shape)
-    schedule = threshold_schedule(cfg)
-    connects = lambda i: region_connects(region, blocked, start, goal, schedule[i])  # noqa: E731
-    lo, probe, step = 0, 0, 1  # no threshold before lo connects
-    while probe < len(schedule) and not connects(probe):
-        lo, probe, step = probe + 1, probe + step, 2 * step
-    hi = min(probe, len(schedule))  # the first that connects is in [lo, hi]; hi == len: maybe none
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if connects(mid):
-            hi = mid
-        else:
-            lo = mid + 1
-    return schedule[lo] if lo < len(schedule) else None
+    widest = bottleneck4(region, blocked, start, goal)
+    return next((t for t in threshold_schedule(cfg) if t < widest), None)
 
 
 def region_mask(region: np.ndarray, thd: float | None, cfg: PriorConfig = PriorConfig()) -> np.ndarray:

@@ -28,9 +28,6 @@ from ndrql.maps.sizing import connected4  # the compiled A*: no scipy import (~0
 from ndrql.planning import rules
 from ndrql.planning.config import PriorConfig
 
-#: The 4-neighbourhood (``scipy.ndimage.generate_binary_structure(2, 1)``), the footprint of :func:`widen_region`.
-_FOUR = np.array([[False, True, False], [True, True, True], [False, True, False]])
-
 
 class ThresholdWarning(UserWarning):
     """NDR-QI found no threshold whose region connects start and goal; its mask is 0 everywhere."""
@@ -68,10 +65,19 @@ def mixed_crf(guideline: np.ndarray, goal: tuple[int, int], cfg: PriorConfig = P
     return cfg.r0 + cfg.omega_crf * ndr_crf(g, cfg) + (1.0 - cfg.omega_crf) * dist
 
 
-def _next_cells(blocked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row and column of ``s'`` for every ``(s, a)`` (``s`` itself when the move is blocked)."""
-    nxt = rules.next_table(blocked)
-    return np.divmod(nxt, blocked.shape[1])
+def _at_next(per_cell: np.ndarray, nxt: np.ndarray) -> np.ndarray:
+    """A per-cell field read at ``s'`` for every ``(s, a)`` (``nxt`` = :func:`rules.next_table`), ``(H * W, 4)``.
+
+    Every term of Eqs. 5-6 depends on ``s'`` alone, so it is computed once per cell and gathered once: the same
+    floating-point operations on the same values as computing it per ``(s, a)``, a quarter of the work."""
+    return per_cell.ravel()[nxt]
+
+
+def _straight(shape: tuple[int, int], goal: tuple[int, int]) -> np.ndarray:
+    """The straight-line distance (cells) from every cell to ``goal``, ``(H, W)`` float64."""
+    rows = np.arange(shape[0], dtype=np.int64)[:, None]
+    cols = np.arange(shape[1], dtype=np.int64)[None, :]
+    return np.hypot(rows - goal[0], cols - goal[1])
 
 
 def d_qi(blocked: np.ndarray, goal: tuple[int, int], distance: np.ndarray | None = None) -> np.ndarray:
@@ -80,10 +86,8 @@ def d_qi(blocked: np.ndarray, goal: tuple[int, int], distance: np.ndarray | None
     ``distance`` (cells, the grid's shape), beyond the paper: ``dist`` read from this field instead of
     the straight line, e.g. the exact BFS distance to the goal (a reference without learning)."""
     blocked = np.asarray(blocked, dtype=bool)
-    r2, c2 = _next_cells(blocked)
-    if distance is not None:
-        return np.exp(-_check_distance(distance, blocked.shape)[r2, c2])
-    return np.exp(-np.hypot(r2 - goal[0], c2 - goal[1]))
+    dist = _straight(blocked.shape, goal) if distance is None else _check_distance(distance, blocked.shape)
+    return _at_next(np.exp(-dist), rules.next_table(blocked))
 
 
 def exact_distance(blocked: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
@@ -170,8 +174,8 @@ def ndr_qi_mask_term(blocked: np.ndarray, region: np.ndarray, thd: float | None,
     ``thd`` is the threshold of Eq. 7 (``None``: MASK is 0 everywhere). :func:`ndr_qi` adds the distance term.
     """
     blocked = np.asarray(blocked, dtype=bool)
-    mask = region_mask(_check_field("region", region, blocked.shape), thd, cfg).ravel()
-    return cfg.omega_qi * mask[rules.next_table(blocked)]
+    mask = region_mask(_check_field("region", region, blocked.shape), thd, cfg)
+    return _at_next(cfg.omega_qi * mask, rules.next_table(blocked))
 
 
 def ndr_qi(
@@ -210,21 +214,20 @@ def ndr_qi(
                 ThresholdWarning,
                 stacklevel=2,
             )
-    masked = ndr_qi_mask_term(blocked, region, thd, cfg)
+    nxt = rules.next_table(blocked)
+    masked = cfg.omega_qi * region_mask(region, thd, cfg)  # per cell, as every term below (_at_next)
     if mask_only:
-        return masked, thd
-    r2, c2 = _next_cells(blocked)
+        return _at_next(masked, nxt), thd
     if cfg.region_distance and thd is not None:
         distance = region_distance(blocked, region, thd, goal, distance)
     if distance is None:
-        dist = np.hypot(r2 - goal[0], c2 - goal[1])
+        dist = _straight(blocked.shape, goal)
     else:
         near = None
         if guideline is not None and cfg.guideline_ties > 0:
             near = route_nearness(_check_field("guideline", guideline, blocked.shape))
-        dist = snapped_distance(_check_distance(distance, blocked.shape), goal, near, cfg.guideline_ties)[r2, c2]
-    q0 = masked + (1.0 - cfg.omega_qi) * np.exp(-dist)
-    return q0, thd
+        dist = snapped_distance(_check_distance(distance, blocked.shape), goal, near, cfg.guideline_ties)
+    return _at_next(masked + (1.0 - cfg.omega_qi) * np.exp(-dist), nxt), thd
 
 
 def region_distance(blocked: np.ndarray, region: np.ndarray, thd: float, goal: tuple[int, int],
@@ -240,11 +243,7 @@ def region_distance(blocked: np.ndarray, region: np.ndarray, thd: float, goal: t
     (docs/large-maps.md#distance-through-the-region)."""
     blocked = np.asarray(blocked, dtype=bool)
     inside = bfs_distances(blocked | ~(_check_field("region", region, blocked.shape) > thd), goal)
-    if distance is None:
-        rows, cols = np.indices(blocked.shape)
-        other = np.hypot(rows - goal[0], cols - goal[1])
-    else:
-        other = _check_distance(distance, blocked.shape)
+    other = _straight(blocked.shape, goal) if distance is None else _check_distance(distance, blocked.shape)
     return np.where(inside >= 0, inside.astype(np.float64), other)
 
 
@@ -263,13 +262,20 @@ def widen_region(region: np.ndarray, cells: int) -> np.ndarray:
 
     Eq. 7's mask then leaves the predicted corridor's thresholded edge a little room, so that a move the
     distance term prefers is not cut off by a cell the threshold just missed. ``cells = 0``: unchanged.
+    ``scipy.ndimage.grey_dilation`` by that diamond (its ``reflect`` border only repeats values the diamond
+    already holds), for finite regions bit for bit, without importing scipy (~0.15 s a plan).
     """
     region = np.asarray(region, dtype=np.float64)
     if not cells:
         return region
-    from scipy import ndimage  # scipy loads when a region is widened, not when the planners are imported
-
-    return ndimage.grey_dilation(region, footprint=ndimage.iterate_structure(_FOUR, int(cells)))
+    out = region
+    for _ in range(int(cells)):  # the diamond of radius k is k crosses in turn; the grid's edge clips them alike
+        prev, out = out, out.copy()
+        np.maximum(out[1:], prev[:-1], out=out[1:])
+        np.maximum(out[:-1], prev[1:], out=out[:-1])
+        np.maximum(out[:, 1:], prev[:, :-1], out=out[:, 1:])
+        np.maximum(out[:, :-1], prev[:, 1:], out=out[:, :-1])
+    return out
 
 
 def gaussian_blur(values: np.ndarray, sigma: float) -> np.ndarray:
@@ -328,9 +334,10 @@ def snapped_distance(distance: np.ndarray, goal: tuple[int, int], nearness: np.n
     unequal distances never changes.
     """
     d = np.asarray(distance, dtype=np.float64)
-    rows, cols = np.indices(d.shape)
+    rows = np.arange(d.shape[0], dtype=np.int64)[:, None]
+    cols = np.arange(d.shape[1], dtype=np.int64)[None, :]
     manhattan = np.abs(rows - goal[0]) + np.abs(cols - goal[1])
-    ties = TIE_BREAK * np.hypot(rows - goal[0], cols - goal[1])
+    ties = TIE_BREAK * _straight(d.shape, goal)
     if nearness is not None and weight > 0:
         ties = ties + weight * (1.0 - np.asarray(nearness, dtype=np.float64))
     return manhattan + snap_detour(d - manhattan) + ties

@@ -35,7 +35,8 @@ from typing import Any, Sequence
 from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
 from ndrql.pipeline.fallback import warn_fallbacks
 from ndrql.pipeline.predictions import GivenPredictions, Predicted, load_predictions, predict_for
-from ndrql.pipeline.problem import build_grid, check_points, read_map, scenario_points
+from ndrql.pipeline.belief import belief_record, plan_grids
+from ndrql.pipeline.problem import check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
 from ndrql.pipeline.request import PlanRequest, build_request
 from ndrql.pipeline.runs import check_workers, learn, method_priors, qi_distance
@@ -71,23 +72,25 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     clock = StageClock()
     clock.wall["map"] = clock.cpu["map"] = request.map_seconds
     with clock.stage("grid"):
-        pg, setup = build_grid(request.grid_map, request.start, request.goal, request.settings)
+        pg, setup = plan_grids(request.grid_map, request.start, request.goal, request.settings, request.belief)
         if pg.start == pg.goal:
             raise PointError(f"start and goal fall in the same planning cell {pg.start}; nothing to plan "
                              f"(use a finer grid with --size or points further apart)")
     side = max(pg.blocked.shape)  # a per-grid-size preset takes the entry nearest to this grid
     consts = lambda name: request.constants(name, side)  # noqa: E731
-    pred = predict_for(request, pg, clock) if request.needs_model else \
+    prior_pg = pg if setup.belief is None else setup.belief  # what the priors see: the belief (the oracle: the truth)
+    seen = pg if request.predictions == "oracle" else prior_pg
+    pred = predict_for(request, seen, clock) if request.needs_model else \
         Predicted(methods=tuple(get_method(m) for m in request.methods))
     ms = list(pred.methods)
     warn_fallbacks(pred.fallbacks, stacklevel=_caller + 1)
     with clock.stage("priors"):
-        priors, thresholds = method_priors(ms, pg, pred.region, pred.guideline, consts, pred.distance)
+        priors, thresholds = method_priors(ms, prior_pg, pred.region, pred.guideline, consts, pred.distance)
     if "qi_distance" in pred.record:
         pred.record["qi_distance"] = qi_distance(ms, consts, thresholds, pred.record["qi_distance"])
     with clock.stage("startup"):
         compiled.warm_up()  # numba's kernels load from its disk cache (compile on the first run); C ones: nothing
-    n_workers = check_workers(workers)
+    n_workers = check_workers(workers) if setup.belief is None else 1  # workers would rebuild priors on the truth
     with clock.stage("learn"):
         results = learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
                         progress, pred.distance)
@@ -98,7 +101,9 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
         grid_map=request.grid_map, start=request.start, goal=request.goal, grid=pg, methods=tuple(m.name for m in ms),
         seeds=request.seeds, results=tuple(runs), region=pred.region_map, guideline=pred.guideline_map,
         thresholds=thresholds, timings=dict(clock.wall), cpu_times=dict(clock.cpu), weights=pred.weights,
-        info={**request.info, **pred.record, "kernels": compiled.backend()}, config=consts(ms[0].name)[0],
+        info={**request.info, **pred.record, "kernels": compiled.backend(),
+              **({"belief": belief_record(request.belief, request.unknown_rule, request.grid_map, pg, setup.belief)}
+                 if request.belief is not None else {})}, config=consts(ms[0].name)[0],
         prior_config=consts(ms[0].name)[1],
         setup=setup, settings=request.settings, request=request,
     )

@@ -72,6 +72,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
                     description=DESCRIPTION, examples=EXAMPLES)
     add_problem_arguments(p)
+    p.add_argument("--hide", metavar="MASK", help="a mask of the map's size (.npy, or an image: non-zero / "
+                    "not black = unknown): the planner's priors see the map with these pixels unknown (counted "
+                    "free) while the agent learns on the true map; the JSON's belief gives the true optimum")
     p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
     p.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "
                    "scenarios A..B-1 in a batch")
@@ -116,6 +119,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
                    "(ROS maps), instead of --start; negative values as typed: --start-world -1.5,2")
     g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
+    g.add_argument("--unknown", choices=("obstacle", "free"), default=None,
+                    help="ROS maps: how unknown space counts: obstacle (map_server's reading; default) or free "
+                    "(Nav2's allow_unknown: unknown to the planner and free for the learning environment, whose "
+                    "truth is not known)")
     g.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
                    "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
     g.add_argument("--path-spacing", type=float, default=None, metavar="M",
@@ -200,7 +207,7 @@ def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> 
                 ql=_set_fields(args, _QL_FLAGS), priors=_set_fields(args, _PRIOR_FLAGS), grid=args.grid, size=args.size,
                 robot_radius=args.robot_radius, smooth=args.smooth, max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads, backend=args.backend,
                 learned_distance=args.learned_distance, symmetries=args.symmetries, invert=args.invert,
-                threshold=args.threshold, crop=args.crop,
+                threshold=args.threshold, crop=args.crop, hide=args.hide, unknown=args.unknown,
                 info={"prior_from": args.prior_from} if predictions is not None and predictions != "oracle" else None,
                 **({} if args.fallback is None else {"fallback": args.fallback}))
 

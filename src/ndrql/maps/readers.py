@@ -161,14 +161,15 @@ def _ros_float(doc: dict, key: str, path: Path) -> float:
     return value
 
 
-def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None = MAX_MAP_PIXELS) -> GridMap:
+def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None = MAX_MAP_PIXELS,
+                  unknown_free: bool = False) -> GridMap:
     """Read a ROS ``map_server`` map (YAML + image), as ``map_server`` interprets it.
 
     ``p = (255 - v) / 255`` (``v / 255`` when ``negate``) with ``v`` the mean of the colour channels;
     ``trinary``: occupied when ``p > occupied_thresh``, free when ``p < free_thresh``, else unknown;
     ``scale``: as trinary, but in-between values are occupancy ``(p - free) / (occ - free)``, or
     unknown when the pixel is not opaque; ``raw``: ``v`` is the occupancy in percent (> 100 = unknown).
-    Unknown cells and cells with occupancy >= 50 % count as obstacles. ``crop`` keeps only the
+    Unknown cells (unless ``unknown_free``) and cells with occupancy >= 50 % are obstacles. ``crop`` keeps only the
     bounding box of the known cells (the origin moves with it). Row 0 is the image's top row; the
     YAML origin is the pose of the lower-left pixel, kept as given.
     """
@@ -208,7 +209,7 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
     gray, alpha = _gray(_decode_image(image_path, max_pixels))
     if mode == "raw":
         unknown = gray > 100
-        obstacles = unknown | (gray >= 50)
+        obstacles = (gray >= 50) if unknown_free else unknown | (gray >= 50)
     else:
         p = gray / 255.0 if negate else (255.0 - gray) / 255.0
         occupied = p > occ
@@ -219,7 +220,7 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
             span = occ - free
             level = (p - free) / span if span > 0 else np.ones_like(p)
             occupied = occupied | (in_between & ~unknown & (level >= 0.5))
-        obstacles = occupied | unknown
+        obstacles = occupied if unknown_free else occupied | unknown
 
     if crop:
         known = ~unknown

@@ -55,6 +55,9 @@ class GridSetup:
     """The :class:`~ndrql.maps.sizing.SizeChoice` of ``size auto``, else ``None``."""
     seconds: float = 0.0
     """Wall time spent on inflation and the size search."""
+    belief: Any = None
+    """The planning grid of the belief map (:mod:`ndrql.pipeline.belief`: what the priors see; the learning grid is
+    the true map's), on the same cells; ``None`` when the planner knows the map."""
 
     def to_dict(self, grid: PlanningGrid, resolution: float | None) -> dict[str, Any]:
         """JSON form: rule, size, cell size in px (and m), robot radius, and the auto search."""

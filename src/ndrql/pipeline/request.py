@@ -34,6 +34,8 @@ from ndrql.limits import check_finite
 from ndrql.maps.grid import GridMap
 from ndrql.maps.readers import IMAGE_SUFFIXES, YAML_SUFFIXES
 from ndrql.model.weights import resolve_weights, weights_label
+from ndrql.maps.belief import Belief
+from ndrql.pipeline.belief import check_points_known, read_belief
 from ndrql.pipeline.problem import Point, check_map_size, place_points, read_map
 from ndrql.pipeline.runs import methods_named, seeds_given
 from ndrql.pipeline.settings import PlanSettings
@@ -92,6 +94,11 @@ class PlanRequest:
     """Where the problem came from (map file, dataset sample, scenario, prediction file)."""
     map_seconds: float = field(default=0.0, repr=False)
     """Wall time spent reading the map and placing the points."""
+    belief: Belief | None = field(default=None, repr=False)
+    """What the planner knows of the map (``hide=``, ``unknown="free"``; :mod:`ndrql.pipeline.belief`): the priors
+    read it, the agent learns on ``grid_map``; ``None``: the planner knows the map."""
+    unknown_rule: str = "obstacle"
+    """How a ROS map's unknown space counts: ``obstacle`` (``map_server``'s reading) or ``free`` (Nav2's ``allow_unknown``)."""
 
     def constants(self, method: str, grid_side: int | None = None) -> tuple[QLConfig, PriorConfig]:
         """``(QLConfig, PriorConfig)`` of ``method`` on a grid of ``grid_side`` cells per side (a per-grid-size
@@ -109,7 +116,9 @@ class PlanRequest:
         return {"kind": self.kind, "start": list(self.start), "goal": list(self.goal), "methods": list(self.methods),
                 "seeds": list(self.seeds) if len(self.seeds) <= 20 else [self.seeds[0], "...", self.seeds[-1]],
                 "settings": s, "preset": self.preset.name, "set": {k: dict(v) for k, v in self.set_fields.items()},
-                "weights": self.weights_file}
+                "weights": self.weights_file,
+                **({"hide": {"kind": self.belief.kind, "unknown_px": int(self.belief.unknown.sum())},
+                    "unknown": self.unknown_rule} if self.belief is not None else {})}
 
 
 def _overrides(values: Mapping[str, Any] | None, names: tuple[str, ...], what: str) -> dict[str, Any]:
@@ -222,6 +231,8 @@ def build_request(
     invert: bool = False,
     threshold: float = 128,
     crop: bool = False,
+    hide: Any = None,
+    unknown: str | None = None,
     info: Mapping[str, Any] | None = None,
     **setting_fields: Any,
 ) -> PlanRequest:
@@ -236,12 +247,15 @@ def build_request(
     preset; ``config``/``prior_config``: whole configs (every field set; not with ``preset``).
     ``setting_fields``: any field of :class:`PlanSettings` (``grid``, ``size``, ``robot_radius``, ...),
     set on top of ``settings``; ``None`` leaves it unset, except ``fallback=None``: no fallback.
+    ``hide``: a mask of the map's size (``.npy``, image or array; non-zero = unknown to the planner, whose
+    priors then count it free while the agent learns on the map) or a :class:`~ndrql.maps.belief.Belief`;
+    ``unknown``: ``obstacle`` (default) or ``free`` for a ROS map's unknown space (:mod:`ndrql.pipeline.belief`).
     """
     t0 = time.perf_counter()
     kind = "sample" if sample is not None else "map"
-    unknown = [k for k in setting_fields if k not in {f.name for f in dataclasses.fields(PlanSettings)}]
-    if unknown:
-        raise NdrqlError(f"unknown plan option {unknown[0]!r}")
+    not_options = [k for k in setting_fields if k not in {f.name for f in dataclasses.fields(PlanSettings)}]
+    if not_options:
+        raise NdrqlError(f"unknown plan option {not_options[0]!r}")
     ms = tuple(m.name for m in methods_named(methods))
     seed_list = tuple(seeds_given(seeds))
     s = _settings(settings, kind, len(ms), setting_fields)
@@ -258,6 +272,8 @@ def build_request(
     if scen_file is not None and not str(grid_map.source).lower().endswith(".map"):
         raise NdrqlError(f"a MovingAI scenario goes with its MovingAI .map; {grid_map.source} is not one")
     check_map_size(grid_map, s)
+    grid_map, belief, unknown_rule = read_belief(map_source, grid_map, hide=hide, unknown=unknown, crop=crop,
+                                                 max_pixels=s.max_map_pixels)
     record: dict[str, Any] = {"source": grid_map.source, **dict(sample or {}), **dict(info or {})}
     if kind == "map" and scen_file is None:
         missing = [n for n, px, w in (("start", start, start_world), ("goal", goal, goal_world)) if px is None and w is None]
@@ -267,6 +283,7 @@ def build_request(
     p_start, p_goal, start_yaw, goal_yaw = place_points(grid_map, start, goal, scen=scen_file,
                                                         scen_index=0 if index is None else int(index),
                                                         start_world=start_world, goal_world=goal_world, info=record)
+    check_points_known(belief, p_start, p_goal)
     if predictions is not None and not any(get_method(m).needs_ndr for m in ms):
         raise NdrqlError(f"predictions are given but none of {', '.join(ms)} uses them (N-C, N-Q, NDR-QL do)")
     uses_model = predictions is None
@@ -278,7 +295,7 @@ def build_request(
                          f"got {predictions[:40]!r}")
     preset_obj, quality, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file)
     record["preset"] = preset_obj.name
-    return PlanRequest(grid_map=grid_map, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
+    return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
                        settings=s, preset=preset_obj, quality_config=quality, weights=None if weights is None else
                        os.fspath(weights), weights_file=weights_file if uses_model else None, predictions=predictions,
                        start_yaw=start_yaw, goal_yaw=goal_yaw, set_fields=set_fields, info=record,

@@ -733,21 +733,26 @@ static int bfs4_run(const uint8_t *blocked, int64_t h, int64_t w, int64_t src, i
     int64_t n = h * w;
     for (int64_t i = 0; i < n; i++) dist[i] = -1;
     if (blocked[src]) return 0;
-    int64_t *queue = malloc((size_t)(n ? n : 1) * sizeof(int64_t));
+    int64_t *queue = malloc((size_t)(n ? n : 1) * 2 * sizeof(int64_t)); /* (row, col) pairs: no division per cell */
     if (!queue) return -1;
     int64_t head = 0, tail = 0;
     dist[src] = 0;
-    queue[tail++] = src;
+    queue[0] = src / w;
+    queue[1] = src % w;
+    tail = 1;
     while (head < tail) {
-        int64_t idx = queue[head++];
-        int64_t r = idx / w, c = idx % w, d = dist[idx] + 1;
+        int64_t r = queue[2 * head], c = queue[2 * head + 1];
+        head++;
+        int64_t d = dist[r * w + c] + 1;
         for (int m = 0; m < 4; m++) {
             int64_t nr = r + DR4[m], nc = c + DC4[m];
             if (nr < 0 || nr >= h || nc < 0 || nc >= w) continue;
             int64_t nidx = nr * w + nc;
             if (dist[nidx] < 0 && !blocked[nidx]) {
                 dist[nidx] = d;
-                queue[tail++] = nidx;
+                queue[2 * tail] = nr;
+                queue[2 * tail + 1] = nc;
+                tail++;
             }
         }
     }

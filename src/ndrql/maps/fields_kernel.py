@@ -28,15 +28,14 @@ def bfs4_kernel(blocked, src):
     dist = np.full(n, -1, dtype=np.int64)
     if flat[src]:
         return dist
-    queue = np.empty(n, dtype=np.int64)
+    queue = np.empty((n, 2), dtype=np.int64)  # (row, col) pairs: no division per cell
     head, tail = 0, 1
     dist[src] = 0
-    queue[0] = src
+    queue[0, 0], queue[0, 1] = src // w, src % w
     while head < tail:
-        idx = queue[head]
+        r, c = queue[head, 0], queue[head, 1]
         head += 1
-        r, c = idx // w, idx % w
-        d = dist[idx] + 1
+        d = dist[r * w + c] + 1
         for m in range(4):
             nr, nc = r + _DR4[m], c + _DC4[m]
             if nr < 0 or nr >= h or nc < 0 or nc >= w:
@@ -44,7 +43,7 @@ def bfs4_kernel(blocked, src):
             nidx = nr * w + nc
             if dist[nidx] < 0 and not flat[nidx]:
                 dist[nidx] = d
-                queue[tail] = nidx
+                queue[tail, 0], queue[tail, 1] = nr, nc
                 tail += 1
     return dist
 

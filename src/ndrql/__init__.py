@@ -15,8 +15,8 @@ from typing import Any
 from ndrql.version import __version__
 
 #: Names served lazily from ``ndrql.api`` (importing them pulls numpy and the planners, not torch).
-_API = ("plan", "solve", "build_request", "PlanRequest", "PlanReport", "PlanSettings", "FallbackWarning",
-        "NdrqlWarning")
+_API = ("plan", "solve", "astar", "AStarRun", "build_request", "PlanRequest", "PlanReport", "PlanSettings",
+        "FallbackWarning", "NdrqlWarning")
 
 __all__ = ["__version__", *_API]
 

@@ -41,6 +41,7 @@ from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, S
 from ndrql.pipeline.request import PlanRequest, build_request
 from ndrql.pipeline.runs import check_workers, learn, method_priors, qi_distance
 from ndrql.pipeline.settings import PlanSettings
+from ndrql.pipeline.shortest import AStarRun, search
 from ndrql.planning import compiled
 from ndrql.planning.methods import get_method
 
@@ -159,12 +160,45 @@ def plan(map_or_request: Any, *positional: Any, workers: int | None = None, **re
     return run_request(request, workers=workers, _caller=2).results[0]
 
 
+def astar(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence[int] | None = None, *,
+          octile: bool = False, start_world: Sequence[float] | None = None, goal_world: Sequence[float] | None = None,
+          scen: str | None = None, scen_index: int | None = None, grid: str | None = None, size: int | str | None = None,
+          robot_radius: float | None = None, smooth: bool | None = None, max_size: int | None = None,
+          max_map_pixels: int | None = None, invert: bool = False, threshold: float = 128,
+          crop: bool = False) -> AStarRun:
+    """The shortest path with A* on the request ``plan`` builds, no learning; returns an :class:`AStarRun`
+    (``method``, ``path``, ``path_length``, ``route``, ``success``, ``path_pixels``, ``poses`` as a :class:`PlannedRun`).
+
+    ``ndrql.astar("map.png", start=(25, 179), goal=(167, 5))``: 4-connected unit moves on plan's planning grid
+    (the safe grid with ``size auto`` on a map file), the path as a route on the full map (checked, shortcut
+    unless ``smooth=False``, world poses on ROS maps). ``octile=True``: 8-connected octile moves without corner
+    cutting on the full-resolution map inflated by ``robot_radius`` (``grid``, ``size``, ``smooth`` do not
+    apply). The other keywords are :func:`build_request`'s; ``map_or_request`` may also be a :class:`PlanRequest`.
+    ``ndrql astar`` runs this search.
+    """
+    if octile and (grid is not None or size is not None or smooth):
+        raise NdrqlError("octile A* searches the full map: drop grid, size and smooth")
+    if isinstance(map_or_request, PlanRequest):
+        given = [n for n, v in (("start", start), ("goal", goal), ("start_world", start_world), ("goal_world", goal_world),
+                                ("scen", scen), ("scen_index", scen_index), ("grid", grid), ("size", size),
+                                ("robot_radius", robot_radius), ("smooth", smooth), ("max_size", max_size),
+                                ("max_map_pixels", max_map_pixels)) if v is not None]
+        if given or invert or crop or threshold != 128:
+            raise NdrqlError("a PlanRequest is the whole plan: change it with build_request, not with more arguments")
+        return search(map_or_request, octile=octile)
+    request = build_request(map_or_request, start, goal, start_world=start_world, goal_world=goal_world, scen=scen,
+                            scen_index=scen_index, methods=("QL",), grid=grid, size=size, robot_radius=robot_radius,
+                            smooth=False if octile else smooth, max_size=max_size, max_map_pixels=max_map_pixels,
+                            invert=invert, threshold=threshold, crop=crop)
+    return search(request, octile=octile)
+
+
 def cell_path_to_pixels(report: PlanReport, path: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
     """A planning-grid path as ``(row, col)`` map-pixel coordinates of the cell centres (pixel ``(r, c)``'s
     centre is ``(r, c)``; fractional values fall between pixels)."""
     return [report.grid.centre(c) for c in path]
 
 
-__all__ = ["FallbackWarning", "GivenPredictions", "NdrqlWarning", "PlanReport", "PlanRequest", "PlanSettings",
-           "PlannedRun", "STAGES", "WORK_STAGES", "build_request", "plan", "run_request", "solve", "read_map",
+__all__ = ["AStarRun", "FallbackWarning", "GivenPredictions", "NdrqlWarning", "PlanReport", "PlanRequest", "PlanSettings",
+           "PlannedRun", "STAGES", "WORK_STAGES", "astar", "build_request", "plan", "run_request", "solve", "read_map",
            "scenario_points", "check_points", "cell_path_to_pixels", "load_predictions"]

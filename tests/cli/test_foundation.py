@@ -71,7 +71,7 @@ def test_astar_on_a_dataset_sample(ndrql_exe, dataset_root, tmp_path):
     from ndrql.maps import PlanningGrid, astar4
 
     r = run_cli(ndrql_exe, "astar", "--sample", f"{dataset_root}:seen:0", "--json", tmp_path / "s.json",
-                "--png", tmp_path / "s.png")
+                "--png", tmp_path / "s.png", "--print-path")
     assert r.returncode == 0, r.stderr
     data = json.loads((tmp_path / "s.json").read_text())
     sample = load_sample(dataset_root, "seen", 0)

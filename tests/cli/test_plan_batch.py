@@ -82,3 +82,75 @@ def test_parse_indices_and_summary():
     lines = summary([{"success": True, "ratio": 1.0, "seconds": 1.0}, {"success": False, "collisions": 2},
                      {"success": False, "error": "x"}])
     assert lines[0] == "scenarios: 3; success 1, path collides 1, not converged or no path 0, errors 1"
+
+
+def test_records_carry_steps_and_what_a_user_analyses(arena, capsys, monkeypatch):
+    """In process: each record has the run's steps and episodes, success, status, ratio, method, scenario."""
+    from ndrql.cli import main
+    from ndrql.cli.plan_batch import RECORD_FIELDS
+
+    monkeypatch.chdir(arena)
+    assert main(["plan", "arena.map", "--scen", "arena.map.scen", "--method", "QL", "--index", "0:3",
+                 "--jsonl", "r.jsonl"]) == 0
+    out = capsys.readouterr().out
+    assert "convergence steps over 3 successes: median " in out
+    recs = [json.loads(x) for x in (arena / "r.jsonl").read_text().splitlines()]
+    for k, rec in enumerate(recs):
+        assert list(rec) == [f for f in RECORD_FIELDS if f in rec]  # the documented fields, in order
+        assert rec["scenario"] == k and rec["method"] == rec["ran"] == "QL" and rec["status"] == "ok"
+        assert rec["convergence_steps"] > 0 and rec["episodes"] >= rec["convergence_episode"] > 0
+        assert rec["total_steps"] >= rec["convergence_steps"] and rec["success"] and rec["loop"] is False
+        assert rec["ratio"] == pytest.approx(rec["octile"] / rec["optimal"], abs=1e-4) and rec["warnings"] == []
+
+
+def test_warnings_name_their_scenario_in_map_pixels(arena, capsys, monkeypatch):
+    """A start whose safe cell touches the wall is planned from the nearest free cell: the warning names the
+    scenario and gives that cell's centre as a map pixel, and the record keeps it."""
+    from ndrql.cli import main
+
+    m = np.zeros((64, 64), dtype=bool)
+    m[20:23, :48] = True
+    m[42:45, 16:] = True
+    opt = astar8(m, (23, 5), (58, 58)).cost
+    (arena / "near.scen").write_text(f"version 1\n0\tarena.map\t64\t64\t5\t23\t58\t58\t{opt:.8f}\n"
+                                     f"0\tarena.map\t64\t64\t5\t23\t58\t58\t{opt:.8f}\n")
+    monkeypatch.chdir(arena)
+    assert main(["plan", "arena.map", "--scen", "near.scen", "--method", "QL", "--all", "--size", "16",
+                 "--jsonl", "n.jsonl"]) == 0
+    err = capsys.readouterr().err
+    said = [x for x in err.splitlines() if "touches an obstacle" in x]
+    assert [x.split(": ")[2] for x in said] == ["scenario 0", "scenario 1"], err
+    assert all("start 23,5:" in x and "centred at pixel " in x for x in said)
+    recs = [json.loads(x) for x in (arena / "n.jsonl").read_text().splitlines()]
+    assert all(len(r["warnings"]) == 1 and r["warnings"][0].startswith(f"scenario {r['scenario']}: start 23,5")
+               for r in recs)
+
+
+def test_a_long_or_looping_path_is_flagged_not_ok():
+    from ndrql.cli.plan_batch import status, summary
+    from ndrql.maps.lines import crosses_itself
+
+    base = {"converged": True, "success": True, "octile": 10.0, "collisions": 0, "loop": False}
+    assert status({**base, "ratio": 1.1}) == "ok"
+    assert status({**base, "ratio": 1.5}) == "long"
+    assert status({**base, "ratio": 1.1, "loop": True}) == "loop"
+    assert status({**base, "ratio": 1.1, "collisions": 2}) == "collides"
+    lines = summary([{**base, "ratio": 1.5, "status": "long"}, {**base, "ratio": 1.0, "status": "ok"}])
+    assert "flagged among the successes: long 1" in lines[0]
+    assert crosses_itself([(0, 0), (0, 5), (5, 5), (5, 2), (-1, 2)])  # a loop
+    assert crosses_itself([(0, 0), (0, 5), (0, 3)])  # back the way it came
+    assert not crosses_itself([(0, 0), (0, 5), (5, 5), (5, 9)]) and not crosses_itself([(0, 0), (1, 1), (2, 2)])
+
+
+def test_octile_doubt_allows_the_files_rounding_and_names_the_scenario(tmp_path):
+    from ndrql.maps.readers import read_movingai_scen
+    from ndrql.maps.scenarios import octile_distance, scenario_doubts
+
+    o = octile_distance((0, 0), (1, 2))  # 2.41421356...
+    rows = [f"{o:.3f}", f"{o - 0.0004:.3f}", f"{o:.8f}", f"{o - 0.001:.8f}"]  # 2.414, 2.414, exact, really short
+    path = tmp_path / "a.map.scen"
+    path.write_text("version 1\n" + "".join(f"0\ta.map\t5\t5\t2\t1\t0\t0\t{v}\n" for v in rows))
+    scen = read_movingai_scen(path)
+    assert scenario_doubts(scen[:3], "a.map", path) == []  # 3 decimals may lie 0.0005 below: no false warning
+    (doubt,) = scenario_doubts(scen[2:], "a.map", path, numbers=[2, 3])
+    assert "scenario 3 has an optimal length shorter" in doubt and "scenario 0" not in doubt

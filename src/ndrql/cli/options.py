@@ -63,17 +63,19 @@ def dataclass_from_args(cls: type, args: argparse.Namespace, **extra: Any):
     return cls(**kwargs)
 
 
-def add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str, ...]) -> None:
-    """Add ``--name`` (dest ``cfg_<name>``, numeric) for the chosen fields of a config dataclass."""
+def add_config_flags(group: argparse._ArgumentGroup, cls: type, names: tuple[str, ...],
+                     shown: dict[str, str] | None = None) -> None:
+    """Add ``--name`` (dest ``cfg_<name>``, numeric) for the chosen fields of a config dataclass; ``shown``:
+    the default text per field when it is not the dataclass's (a preset's values, :mod:`ndrql.cli.plan_help`)."""
     docs = field_docs(cls)
     defaults = cls()
     types = {f.name: f.type for f in dataclasses.fields(cls)}
     for name in names:
         default = getattr(defaults, name)
         kind = int if "int" in str(types[name]) else float
-        shown = "4 x cells" if default is None else default
+        text = (shown or {}).get(name, "4 x cells" if default is None else default)
         group.add_argument(f"--{name.replace('_', '-')}", dest=f"cfg_{name}", type=kind, default=None,
-                           metavar="V", help=f"{docs[name]} (default: {shown})")
+                           metavar="V", help=f"{docs[name]} (default: {text})")
 
 
 def configs_from_flags(args: argparse.Namespace, specs: tuple[tuple[type, tuple[str, ...]], ...]) -> list:

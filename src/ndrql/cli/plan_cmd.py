@@ -11,7 +11,8 @@ from ndrql.api import PlanSettings, build_request, run_request
 from ndrql.cli.common import (add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
                               check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
                               warnings_to_stderr, write_json)
-from ndrql.cli.options import add_command, add_config_flags, add_seed_options, grid_size
+from ndrql.cli.options import add_command, add_seed_options, grid_size
+from ndrql.cli.plan_help import PLAIN_METHOD, add_constant_groups, plain_preset
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
 from ndrql.dataset.views import view_note
@@ -22,9 +23,9 @@ from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions, second_opinion_note
-from ndrql.pipeline.request import PRIOR_FIELDS, QL_FIELDS
+from ndrql.pipeline.request import DEFAULT_FALLBACK, PRIOR_FIELDS, QL_FIELDS
 from ndrql.pipeline.settings import GRID_RULES
-from ndrql.planning.config import PriorConfig, QLConfig, field_docs
+from ndrql.planning.config import field_docs
 from ndrql.planning.methods import get_method
 from ndrql.viz.plan import compare_figure, plan_figure
 
@@ -71,32 +72,42 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = add_command(subparsers, "plan",
                     help="plan a path on your map with NDR-QL (or QL, IQL, O-QL, ...): summary, JSON, figure",
                     description=DESCRIPTION, examples=EXAMPLES)
-    add_problem_arguments(p)
-    p.add_argument("--hide", metavar="MASK", help="a mask of the map's size (.npy, or an image: non-zero / "
-                    "not black = unknown): the planner's priors see the map with these pixels unknown (counted "
-                    "free) while the agent learns on the true map; the JSON's belief gives the true optimum")
-    p.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
-    p.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "
-                   "scenarios A..B-1 in a batch")
-    p.add_argument("--all", action="store_true", help="run every scenario of --scen: one line each and a summary "
-                   "against the .scen optimal lengths")
-    p.add_argument("--jsonl", metavar="FILE", help="batch (--all, --index A:B): append one JSON record per scenario; "
-                   "scenarios already in FILE are skipped (resume)")
-    p.add_argument("--method", default="NDR-QL", metavar="NAME", help="planning method (default: NDR-QL)")
-    p.add_argument("--compare", metavar="A,B,...", help="run these methods on the same seeds and print a table")
-    add_seed_options(p, seeds=1, seeds_help="number of runs (seeds S..S+N-1; default: 1)", workers=None)
-    add_weights_argument(p)
-    p.add_argument("--prior-from", metavar="FILE.npz|oracle",
-                   help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1] "
-                   "(averaged onto the planning grid), as ndrql predict writes them (its grid arrays are used as they are "
-                   "when they were made on the same grid: then the runs equal plan's with the model); "
-                   "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")
-
     settings = PlanSettings()
     docs = field_docs(PlanSettings)
+    inp = p.add_argument_group("input: map, start and goal")
+    add_problem_arguments(inp)
+    inp.add_argument("--hide", metavar="MASK", help="a mask of the map's size (.npy, or an image: non-zero / "
+                    "not black = unknown): the planner's priors see the map with these pixels unknown (counted "
+                    "free) while the agent learns on the true map; the JSON's belief gives the true optimum")
+    inp.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
+    inp.add_argument("--max-pixels", type=int, default=settings.max_map_pixels, metavar="N",
+                     help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
+
+    method = p.add_argument_group("method")
+    method.add_argument("--method", default=PLAIN_METHOD, metavar="NAME", help=f"planning method (default: {PLAIN_METHOD})")
+    method.add_argument("--compare", metavar="A,B,...", help="run these methods on the same seeds and print a table")
+    add_seed_options(method, seeds=1, seeds_help="number of runs (seeds S..S+N-1; default: 1)", workers=None)
+    add_weights_argument(method)
+    method.add_argument("--preset", metavar="NAME", help="constants per method: spec (the paper's), tuned (searched with "
+                        "ndrql tune for the paper weights on the paper's 50x50 grids), general (searched for the general "
+                        "weights on generated maps, per grid size) or a preset FILE; the constant flags override its "
+                        f"values (default: the one searched for --weights: {plain_preset().name} for the default weights, "
+                        "tuned for --weights paper)")
+    method.add_argument("--prior-from", metavar="FILE.npz|oracle",
+                        help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1] "
+                        "(averaged onto the planning grid), as ndrql predict writes them (its grid arrays are used as they are "
+                        "when they were made on the same grid: then the runs equal plan's with the model); "
+                        "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")
+    method.add_argument("--fallback", metavar="NAME|none", default=None,
+                        help="plan with this method instead of the NDR one when the model's prediction is "
+                        "judged uninformative (the summary and the JSON's prediction_quality say why) "
+                        f"(default: {DEFAULT_FALLBACK} for a map file with one method, none for --sample and for several methods; "
+                        "with --preset spec the general model does better with none: docs/results.md#transfer)")
+
     g = p.add_argument_group("planning grid and path on the map")
     g.add_argument("--grid", choices=GRID_RULES, default=None,
-                   help=f"{docs['grid']} (default: safe for a map file, area for --sample)")
+                   help="planning-grid rule: safe (square cells, blocked if any pixel is an obstacle) or area (the "
+                   "paper's >= 0.5 rule) (default: safe for a map file, area for --sample)")
     g.add_argument("--size", type=grid_size, default=None, metavar="N|auto",
                    help=f"cells on the map's longer side, or auto: the coarsest safe grid whose route stays within "
                    f"{settings.tolerance:.0%}% of the map's own shortest route (default: auto for safe, 50 for area; "
@@ -108,46 +119,45 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--smooth", action=argparse.BooleanOptionalAction, default=None,
                    help="shortcut the learned path by line of sight on the full map (default: on for a map file, "
                    "off for --sample)")
-    g.add_argument("--fallback", metavar="NAME|none", default=None,
-                   help="when the model's prediction is uninformative (its region joins start and goal at no Eq. 7 "
-                   "threshold, above 128 cells at none of at least 0.1 or only as a region over most of the free cells, or the guideline "
-                   "lies mostly on obstacles; above 128 cells only after the base model's second opinion and a relay of the companion, asked again from where its "
-                   "region ends, and the same averaged over four orientations of the grid were uninformative too), "
-                   "plan with this method instead of the NDR one "
-                   "(default: IQL for a map file with one method, none for --sample and for several methods; with --preset spec the "
-                   "general model does better with none: docs/results.md#transfer)")
-    g.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
-                   "(ROS maps), instead of --start; negative values as typed: --start-world -1.5,2")
-    g.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
-    g.add_argument("--unknown", choices=("obstacle", "free"), default=None,
+
+    out = p.add_argument_group("output")
+    out.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
+    out.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
+    out.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
+                     "(one panel per method with --compare)")
+    add_dpi_argument(out)
+
+    ros = p.add_argument_group("ROS maps (map_server .yaml: metres in the map frame)")
+    ros.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians) in the map frame "
+                     "(ROS maps), instead of --start; negative values as typed: --start-world -1.5,2")
+    ros.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres in the map frame (ROS maps), instead of --goal")
+    ros.add_argument("--unknown", choices=("obstacle", "free"), default=None,
                     help="ROS maps: how unknown space counts: obstacle (map_server's reading; default) or free "
                     "(Nav2's allow_unknown: unknown to the planner and free for the learning environment, whose "
                     "truth is not known)")
-    g.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
-                   "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
-    g.add_argument("--path-spacing", type=float, default=None, metavar="M",
-                   help="--path-out: at most M metres between poses (default: the map's resolution, a pose per map "
-                        "cell as Nav2's planners publish; 0: only the path's corners)")
-    p.add_argument("--max-pixels", type=int, default=settings.max_map_pixels, metavar="N",
-                   help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")
-    p.add_argument("--threads", type=int, default=settings.threads, metavar="N",
-                   help=f"{docs['threads']} (default: {settings.threads})")
-    p.add_argument("--backend", choices=BACKENDS, default=settings.backend,
-                   help=f"{docs['backend']} (default: {settings.backend})")
-    p.add_argument("--learned-distance", action=argparse.BooleanOptionalAction, default=settings.learned_distance,
-                   help=f"{docs['learned_distance']} (default: on)")
-    add_symmetries_argument(p, docs["symmetries"], settings.symmetries)
-    p.add_argument("--json", metavar="FILE", help="write grid, start, goal, timings and every run as JSON ('-': stdout, the summary then goes to stderr)")
-    p.add_argument("--records", action="store_true", help="include per-episode records in the JSON")
-    p.add_argument("--png", metavar="FILE", help="write a figure: map, NDR region and guideline, learned and A* paths "
-                   "(one panel per method with --compare)")
-    add_dpi_argument(p)
-    p.add_argument("--preset", metavar="NAME", help="constants per method: spec (the paper's), tuned (searched with "
-                   "ndrql tune for the paper weights on the paper's 50x50 grids), general (searched for the general "
-                   "weights on generated maps, per grid size) or a preset FILE; the flags below override its values "
-                   "(default: the one searched for --weights, general unless --weights paper)")
-    add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
-    add_config_flags(p.add_argument_group("priors, paper Eqs. 2-7 (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
+    ros.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
+                     "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
+    ros.add_argument("--path-spacing", type=float, default=None, metavar="M",
+                     help="--path-out: at most M metres between poses (default: the map's resolution, a pose per map "
+                          "cell as Nav2's planners publish; 0: only the path's corners)")
+
+    batch = p.add_argument_group("batch: every scenario of a .scen")
+    batch.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "
+                       "scenarios A..B-1 in a batch")
+    batch.add_argument("--all", action="store_true", help="run every scenario of --scen: one line each and a summary "
+                       "against the .scen optimal lengths")
+    batch.add_argument("--jsonl", metavar="FILE", help="batch (--all, --index A:B): append one JSON record per scenario "
+                       "(fields: docs/cli.md); scenarios already in FILE are skipped (resume)")
+
+    adv = p.add_argument_group("advanced: model and speed")
+    adv.add_argument("--threads", type=int, default=settings.threads, metavar="N",
+                     help=f"{docs['threads']} (default: {settings.threads})")
+    adv.add_argument("--backend", choices=BACKENDS, default=settings.backend,
+                     help=f"{docs['backend']} (default: {settings.backend})")
+    adv.add_argument("--learned-distance", action=argparse.BooleanOptionalAction, default=settings.learned_distance,
+                     help=f"{docs['learned_distance']} (default: on)")
+    add_symmetries_argument(adv, docs["symmetries"], settings.symmetries)
+    add_constant_groups(p, _QL_FLAGS, _PRIOR_FLAGS)
     p.set_defaults(func=run)
 
 
@@ -156,7 +166,7 @@ def _set_fields(args: argparse.Namespace, names: tuple[str, ...]) -> dict[str, A
     return {n: getattr(args, f"cfg_{n}") for n in names if getattr(args, f"cfg_{n}") is not None}
 
 
-def _points(args: argparse.Namespace, sample: GridMapProblem | None) -> dict[str, Any]:
+def request_points(args: argparse.Namespace, sample: GridMapProblem | None) -> dict[str, Any]:
     """Start and goal as the flags give them (a sample's own points unless flags replace them)."""
     start = parse_point(args.start, "--start") if args.start else None
     goal = parse_point(args.goal, "--goal") if args.goal else None
@@ -181,7 +191,7 @@ def _points(args: argparse.Namespace, sample: GridMapProblem | None) -> dict[str
     return {"start": start, "goal": goal, "start_world": _xyyaw(start_world), "goal_world": _xyyaw(goal_world)}
 
 
-def _scenario(args: argparse.Namespace) -> dict[str, Any]:
+def scenario_fields(args: argparse.Namespace) -> dict[str, Any]:
     if not args.scen:
         if args.index is not None:
             raise NdrqlError("--index needs --scen FILE")
@@ -228,9 +238,9 @@ def build_from_args(args: argparse.Namespace, methods: list[str], seeds: Any) ->
         for flag, value in (("--invert", args.invert), ("--crop", args.crop), ("--threshold", args.threshold != 128)):
             if value:
                 raise NdrqlError(f"{flag} reads map files; a dataset sample has none to read")
-        return build_request(sample.grid_map, **_points(args, sample), sample=sample.info, **fields)
-    scenario = _scenario(args)
-    return build_request(args.map, **_points(args, None), **scenario, **fields)
+        return build_request(sample.grid_map, **request_points(args, sample), sample=sample.info, **fields)
+    scenario = scenario_fields(args)
+    return build_request(args.map, **request_points(args, None), **scenario, **fields)
 
 
 def _batch(args: argparse.Namespace, methods: list[str]) -> int:
@@ -279,6 +289,7 @@ def _save(fig: Any, path: str) -> Any:
 def run(args: argparse.Namespace) -> int:
     import functools
     import sys
+    import time
 
     seeds = check_seeds(args.seed, args.seeds)  # a range: --seeds is bounded, every seed below 2**63
 
@@ -328,11 +339,9 @@ def run(args: argparse.Namespace) -> int:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")
         echo(f"predictions: {_short(str(args.prior_from))} ({how})")
-    echo("\n".join(_summary(report)))
-    if args.json:
-        written = write_json(args.json, report.to_dict(include_records=args.records))
-        if args.json != "-":
-            echo(f"wrote {written}")
+    lines = _summary(report)
+    echo("\n".join(lines[:-1]))  # the time line last, with the outputs' time
+    t_out = time.perf_counter()
     if args.png:
         dpi = check_dpi(args)
         fig = plan_figure(report, dpi=dpi) if len(report.requested_methods) == 1 else compare_figure(report, dpi=dpi)
@@ -340,7 +349,21 @@ def run(args: argparse.Namespace) -> int:
     if args.path_out:
         spacing = report.grid_map.resolution if args.path_spacing is None else args.path_spacing
         echo(f"wrote {write_path(args.path_out, report.results[0], spacing)}")
+    if args.json:  # last: its timings hold the figure's and the path's writing as "output"
+        data = report.to_dict(include_records=args.records)
+        wall = data.get("timings", {}).get("wall")
+        if isinstance(wall, dict):
+            wall["output"] = time.perf_counter() - t_out
+        written = write_json(args.json, data)
+        if args.json != "-":
+            echo(f"wrote {written}")
+    echo(with_output_time(lines[-1], time.perf_counter() - t_out))
     return 0
+
+
+def with_output_time(line: str, seconds: float) -> str:
+    """The summary's time line with the seconds spent writing the outputs (--png, --path-out, --json)."""
+    return line[:-1] + f", output {seconds:.3f})" if line.endswith(")") else f"{line}; output {seconds:.3f}"
 
 
 def _xyyaw(point: Any) -> Any:
@@ -351,7 +374,8 @@ def write_path(path: str, run: Any, spacing: float = 0.0) -> Any:
     """Write ``run``'s final path as a nav_msgs/Path (YAML for ``.yaml``/``.yml``, else JSON), poses at most
     ``spacing`` metres apart (0: the path's corners)."""
     if run.route is None or run.route.poses is None:
-        raise NdrqlError(f"{run.method} seed {run.seed} found no path to write to {path}")
+        seed = f" seed {run.seed}" if getattr(run, "seed", None) is not None else ""
+        raise NdrqlError(f"{run.method}{seed} found no path to write to {path}")
     msg = nav_path(run.route.poses, spacing=spacing)
     if path.lower().endswith((".yaml", ".yml")):
         import yaml

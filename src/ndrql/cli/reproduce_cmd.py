@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ndrql.cli.common import add_symmetries_argument, add_weights_argument
 from ndrql.cli.options import add_command, add_config_flags, add_seed_options, configs_from_flags
-from ndrql.errors import NdrqlError
+from ndrql.errors import NdrqlError, require_torch
 from ndrql.experiments.labels_check import labels_check
 from ndrql.experiments.presets import run_presets
 from ndrql.limits import MAX_WORKERS, check_int, check_seeds
@@ -183,9 +183,16 @@ def _release(args: argparse.Namespace, opts, out: Path, log) -> str:
     return ", ".join(str(x) for x in paths)
 
 
+#: Targets that need torch (the model's predictions run on torch for the tables, training, the dataset's mixture):
+#: said before anything else, not as a missing dataset later. ``--prior-from oracle`` needs no model.
+TORCH_TARGETS = ("table1", "table2", "table3", "table4", "scale", "dynamic", "sizing", "transfer", "release", "all")
+
+
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    if args.target in TORCH_TARGETS and args.prior_from != "oracle":
+        require_torch(f"reproduce {args.target}")
     if args.executor == "ray":
         if not ray_available():
             raise NdrqlError("--executor ray needs Ray: pip install 'ndrql[ray]' (or pip install ray)")

@@ -147,3 +147,39 @@ def polyline_length(points: Sequence[Point] | np.ndarray) -> float:
     if len(pts) < 2:
         return 0.0
     return float(np.hypot(*np.diff(pts, axis=0).T).sum())
+
+
+def crosses_itself(points: Sequence[Point] | np.ndarray, eps: float = 1e-9) -> bool:
+    """Whether the polyline through ``points`` meets itself: two segments that are not neighbours along it
+    touch or cross, or two neighbours fold back over each other (a loop, or a path that goes back the way
+    it came). ``O(n^2)`` in the segments, vectorised per segment."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    pts = pts[np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]]  # repeated points are not loops
+    a, b = pts[:-1], pts[1:]
+    n = len(a)
+    if n >= 2:  # a neighbour folding back: the turn between consecutive segments is 180 degrees
+        d0, d1 = b[:-1] - a[:-1], b[1:] - a[1:]
+        cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
+        if np.any((np.abs(cross) <= eps) & ((d0 * d1).sum(1) < 0)):
+            return True
+
+    def orient(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+        v = (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0])
+        return np.where(np.abs(v) <= eps, 0.0, np.sign(v))
+
+    def on(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:  # r on segment pq, given collinear
+        return ((np.minimum(p[..., 0], q[..., 0]) - eps <= r[..., 0]) & (r[..., 0] <= np.maximum(p[..., 0], q[..., 0]) + eps)
+                & (np.minimum(p[..., 1], q[..., 1]) - eps <= r[..., 1]) & (r[..., 1] <= np.maximum(p[..., 1], q[..., 1]) + eps))
+
+    for i in range(n - 2):
+        p, q = a[i], b[i]
+        r, s = a[i + 2:], b[i + 2:]
+        o1, o2, o3, o4 = orient(p, q, r), orient(p, q, s), orient(r, s, p), orient(r, s, q)
+        hit = (o1 * o2 < 0) & (o3 * o4 < 0)
+        hit |= (o1 == 0) & on(p, q, r)
+        hit |= (o2 == 0) & on(p, q, s)
+        hit |= (o3 == 0) & on(r, s, np.broadcast_to(p, r.shape))
+        hit |= (o4 == 0) & on(r, s, np.broadcast_to(q, r.shape))
+        if np.any(hit):
+            return True
+    return False

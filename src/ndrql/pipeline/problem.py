@@ -26,7 +26,7 @@ from ndrql.limits import check_cell
 from ndrql.maps.grid import GridMap, PlanningGrid, SnapWarning, planning_grid
 from ndrql.maps.world import world_to_pixel
 from ndrql.maps.readers import MAX_MAP_PIXELS, load_map, read_movingai_scen
-from ndrql.maps.scenarios import scenario_doubts
+from ndrql.maps.scenarios import ScenarioWarning, scenario_doubts
 from ndrql.maps.safe import cell_size_px, conservative_grid, inflate, radius_to_px
 from ndrql.maps import sizing  # sizing.safe_grid, read at each call: the one builder (tests count its calls)
 from ndrql.maps.sizing import choose_size, connected4, full_route, ladder, try_size
@@ -107,8 +107,8 @@ def scenario_points(scen: str | os.PathLike, index: int, grid_map: GridMap) -> t
     if grid_map.shape != (s.height, s.width):
         raise MapFormatError(f"scenario {index} of {scen} is for a {s.width}x{s.height} map (width x height), "
                              f"the map is {grid_map.width}x{grid_map.height}")
-    for doubt in scenario_doubts([s], str(grid_map.source), scen):
-        warnings.warn(doubt, stacklevel=2)
+    for doubt in scenario_doubts([s], str(grid_map.source), scen, numbers=[index]):
+        warnings.warn(doubt, ScenarioWarning, stacklevel=2)
     info = {"scenario": {"file": str(scen), "index": index, "optimal_length": s.optimal_length}}
     return (int(s.start[0]), int(s.start[1])), (int(s.goal[0]), int(s.goal[1])), info
 
@@ -186,7 +186,8 @@ def _units(px: float, resolution: float | None) -> str:
     return f"{px:.1f} px" + (f" = {px * resolution:.3g} m" if resolution is not None else "")
 
 
-def _check_clearance(check_map: np.ndarray, grid_map: GridMap, points: Sequence[Point], radius_px: float) -> None:
+def check_clearance(check_map: np.ndarray, grid_map: GridMap, points: Sequence[Point], radius_px: float) -> None:
+    """Refuse a start or goal within the robot radius of an obstacle (:class:`PointError`)."""
     for name, (r, c) in zip(("start", "goal"), points):
         if check_map[r, c]:
             raise PointError(f"{name} {r},{c} is within the robot radius ({_units(radius_px, grid_map.resolution)}) "
@@ -213,9 +214,11 @@ def _safe_grid(check_map: np.ndarray, grid_map: GridMap, start: Point, goal: Poi
     pg = sizing.safe_grid(check_map, size, start, goal)
     blocked, cells = pg.blocked, (pg.start, pg.goal)
     for name, p, cell, moved in zip(("start", "goal"), (start, goal), cells, pg.snapped):
-        if moved:
+        if moved:  # in map pixels, as the point was given: the free cell by the pixel at its centre
+            cr, cc = pg.centre(cell)
             warnings.warn(f"{name} {p[0]},{p[1]}: its cell of the safe grid touches an obstacle; planning from the "
-                          f"nearest free cell {cell} (joined to the point on the full map)", SnapWarning, stacklevel=3)
+                          f"nearest free cell, centred at pixel {cr:.0f},{cc:.0f} (joined to the point on the full map)",
+                          SnapWarning, stacklevel=3)
     s = cell_size_px(check_map.shape, size)
     if cells[0] != cells[1] and not connected4(blocked, cells[0], cells[1]):
         better = _suggest_size(check_map, start, goal, size, max_size)
@@ -262,7 +265,7 @@ def build_grid(grid_map: GridMap, start: Point, goal: Point, settings: PlanSetti
 
     t0 = time.perf_counter()
     check_map, radius_px = inflated(grid_map, settings)
-    _check_clearance(check_map, grid_map, (start, goal), radius_px)
+    check_clearance(check_map, grid_map, (start, goal), radius_px)
     size = settings.grid_size
     auto = None
     if settings.grid == "area":

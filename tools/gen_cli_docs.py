@@ -56,7 +56,23 @@ def render() -> str:
     names = [name for name, _ in _subparsers(parser)]
     lines = [HEADER, "Commands: " + ", ".join(f"[`{n}`](#ndrql-{n})" for n in names) + ".", ""]
     lines += _sections(parser, "ndrql", 2)
+    lines += _batch_records()
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _batch_records() -> list[str]:
+    """The fields of a scenario batch's ``--jsonl`` records (``plan`` and ``astar``), from the code that writes them."""
+    from ndrql.cli.plan_batch import FIELD_DOCS, RECORD_FIELDS
+
+    out = ["## Batch records (`--jsonl`)", "",
+           "`ndrql plan MAP --scen FILE --all --jsonl OUT` and `ndrql astar MAP --scen FILE --all --jsonl OUT` (or "
+           "`--index A:B`) append one JSON object per line and scenario, as it finishes; running the same command "
+           "again skips the scenarios already in OUT. Every record has these fields in this order (a field that does "
+           "not apply is `null`; `path_world`, `requested`, `fallback_reason` and `error` appear only when they "
+           "apply). Read them with `pandas.read_json(OUT, lines=True)`.", "",
+           "| field | meaning |", "|---|---|"]
+    out += [f"| `{name}` | {FIELD_DOCS[name]} |" for name in RECORD_FIELDS]
+    return out + [""]
 
 
 def main(argv: list[str] | None = None) -> int:

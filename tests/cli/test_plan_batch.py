@@ -87,7 +87,7 @@ def test_parse_indices_and_summary():
 def test_records_carry_steps_and_what_a_user_analyses(arena, capsys, monkeypatch):
     """In process: each record has the run's steps and episodes, success, status, ratio, method, scenario."""
     from ndrql.cli import main
-    from ndrql.cli.plan_batch import RECORD_FIELDS
+    from ndrql.cli.plan_batch import FIELD_DOCS, OPTIONAL_FIELDS, RECORD_FIELDS
 
     monkeypatch.chdir(arena)
     assert main(["plan", "arena.map", "--scen", "arena.map.scen", "--method", "QL", "--index", "0:3",
@@ -97,6 +97,7 @@ def test_records_carry_steps_and_what_a_user_analyses(arena, capsys, monkeypatch
     recs = [json.loads(x) for x in (arena / "r.jsonl").read_text().splitlines()]
     for k, rec in enumerate(recs):
         assert list(rec) == [f for f in RECORD_FIELDS if f in rec]  # the documented fields, in order
+        assert set(RECORD_FIELDS) - set(rec) <= set(OPTIONAL_FIELDS) and set(FIELD_DOCS) == set(RECORD_FIELDS)
         assert rec["scenario"] == k and rec["method"] == rec["ran"] == "QL" and rec["status"] == "ok"
         assert rec["convergence_steps"] > 0 and rec["episodes"] >= rec["convergence_episode"] > 0
         assert rec["total_steps"] >= rec["convergence_steps"] and rec["success"] and rec["loop"] is False

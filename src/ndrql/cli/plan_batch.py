@@ -42,8 +42,45 @@ RECORD_FIELDS: tuple[str, ...] = (
     "optimal", "ran", "status", "success", "converged", "convergence_steps", "convergence_episode", "episodes",
     "total_steps", "expanded", "grid", "path_moves", "octile", "length", "ratio", "loop", "collisions", "warnings",
     "seconds", "path", "path_world", "requested", "fallback_reason", "error")
+#: Fields a record has only when they apply (``format`` is :class:`BatchLog`'s, written first); the others are
+#: always there, ``None`` where they do not apply.
+OPTIONAL_FIELDS: tuple[str, ...] = ("format", "path_world", "requested", "fallback_reason", "error")
 #: What a record's ``status`` says, in the order the checks run.
 STATUSES: tuple[str, ...] = ("error", "no path", "collides", "not converged", "loop", "long", "ok")
+#: What each field of a record means (docs/cli.md renders this table: tools/gen_cli_docs.py).
+FIELD_DOCS: dict[str, str] = {
+    "format": f"`{LOG_FORMAT}`: the record's signature",
+    "map": "the map file as given", "scen": "the `.scen` file as given",
+    "method": "the method asked for (`ndrql astar`: `A*` on the planning grid, `A*-octile` on the full map)",
+    "seed": "the seed (`null` for A*)",
+    "grid_rule": "`safe` or `area` (`null` for `A*-octile`)", "size": "the grid size setting, `auto` or N",
+    "robot_radius": "as given (metres on maps with a resolution, else pixels)",
+    "scenario": "the scenario's index in the `.scen` (0-based); the record's key when a batch resumes",
+    "start": "start `[row, col]` in map pixels (the `.scen`'s y, x)", "goal": "goal `[row, col]` in map pixels",
+    "optimal": "the `.scen`'s optimal octile length",
+    "ran": "the method that ran (another than `method` when the fallback replaced it)",
+    "status": f"`ok`, or the first that holds of: {', '.join(f'`{x}`' for x in STATUSES[:-1])} (`long`: a "
+              f"successful path over {LONG_RATIO}x the optimum; `loop`: one that crosses itself)",
+    "success": "converged, and the final path crosses no obstacle of the map inflated by the robot radius",
+    "converged": "the greedy path was stable for W episodes (always `true` for A*)",
+    "convergence_steps": "environment steps summed over the episodes up to convergence, the paper's measure "
+                         "(`null` when not converged, and for A*)",
+    "convergence_episode": "training episodes up to and including convergence (`null` as above)",
+    "episodes": "training episodes run (`null` for A*)", "total_steps": "environment steps over all episodes run",
+    "expanded": "nodes A* expanded (`null` for plan)",
+    "grid": "the planning grid's `[rows, cols]` (`null` for `A*-octile`)",
+    "path_moves": "moves of the path on its grid (planning-grid cells, or map pixels for `A*-octile`)",
+    "octile": "the final path's octile cost in map pixels (each segment max(|dr|,|dc|) + (sqrt 2 - 1) min(|dr|,|dc|))",
+    "length": "the final path's Euclidean length in map pixels",
+    "ratio": "`octile` / `optimal`, the MovingAI measure (1 = optimal)",
+    "loop": "whether the final path crosses itself", "collisions": "segments of the final path that cross an obstacle",
+    "warnings": "warnings given while planning this scenario, each beginning `scenario K:` (points in map pixels)",
+    "seconds": "wall time of this scenario",
+    "path": "the final path `[[row, col], ...]` in map pixels", "path_world": "the final path as `[x, y, yaw]` poses "
+    "in metres and radians (ROS maps only)",
+    "requested": "the method asked for, when the fallback ran another", "fallback_reason": "why it did",
+    "error": "why the scenario could not be planned (the record is kept; the batch goes on)",
+}
 
 
 def parse_indices(text: str | None, count: int, all_: bool) -> list[int]:
@@ -227,7 +264,7 @@ def _one(grid_map: Any, scen: Any, i: int, key: dict[str, Any], scen_path: str, 
     for text in said:
         warnings.warn(text, UserWarning, stacklevel=1)
     rec.update(status=status(rec), warnings=said, seconds=round(time.perf_counter() - t, 3))
-    return {k: rec[k] for k in RECORD_FIELDS if k in rec}
+    return {k: rec.get(k) for k in RECORD_FIELDS if k in rec or k not in OPTIONAL_FIELDS}
 
 
 def _run(grid_map: Any, scenarios: Any, indices: list[int], log: Any, key: dict[str, Any], scen_path: str, echo: Any,

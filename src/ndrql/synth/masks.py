@@ -112,7 +112,7 @@ def blobs(obstacles: np.ndarray, start: Point, goal: Point, fraction: float, rng
 # ------------------------------------------------------------------------------------------------ sensed
 
 
-def _ray_offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
+def ray_offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Offsets of the pixels within ``radius`` and, per offset, the pixels its ray from 0 passes before it
     (samples every half pixel, rounded; ``(N, K, 2)``, the end pixel repeated where the ray is shorter)."""
     r = int(math.floor(radius))
@@ -131,7 +131,7 @@ def visible_from(obstacles: np.ndarray, point: Sequence[int], radius: float,
     (the ray sampled every half pixel), the end pixel excluded (an obstacle is seen, what is behind it not)."""
     truth = np.asarray(obstacles, dtype=bool)
     h, w = truth.shape
-    off, samples = rays if rays is not None else _ray_offsets(radius)
+    off, samples = rays if rays is not None else ray_offsets(radius)
     pr, pc = int(point[0]), int(point[1])
     sr, sc = samples[..., 0] + pr, samples[..., 1] + pc
     outside = (sr < 0) | (sr >= h) | (sc < 0) | (sc >= w)
@@ -170,7 +170,7 @@ def sensed(obstacles: np.ndarray, start: Point, goal: Point, routes: Sequence[np
     by line of sight (:func:`visible_from`), and the discs around start and goal; the rest unknown."""
     truth = np.asarray(obstacles, dtype=bool)
     seen = kept(truth.shape, (start, goal), keep)
-    rays = _ray_offsets(radius)
+    rays = ray_offsets(radius)
     step = max(1.0, radius / 4 if every is None else float(every))
     for route in routes:
         pts = np.asarray(route, dtype=np.int64).reshape(-1, 2)
@@ -278,5 +278,5 @@ def draw_belief(kind: str, obstacles: np.ndarray, start: Point, goal: Point, rng
     raise ValueError(f"unknown kind of belief {kind!r}; valid: {', '.join(KINDS)}")
 
 
-__all__ = ["KINDS", "blobs", "disc", "draw_belief", "keep_radius", "kept", "outdated", "sensed", "sensing_routes",
-           "visible_from"]
+__all__ = ["KINDS", "blobs", "disc", "draw_belief", "keep_radius", "kept", "outdated", "ray_offsets", "sensed",
+           "sensing_routes", "visible_from"]

@@ -1,0 +1,131 @@
+"""Revealed as it moves: Q-learning whose priors are recomputed as the robot's sensors reveal the map.
+
+The agent learns on the true planning grid; the planner starts from a belief grid (known cells as the
+truth, unknown cells counted free). Learning runs in chunks of episodes with the Q-table carried over
+(:func:`~ndrql.planning.runner.run_plan` with ``keep_q``; the compiled kernel is unchanged). After each
+chunk the cells the agent stood on (the rows of the Q-table that the chunk updated) sense every cell
+within ``radius`` cells by line of sight on the true grid (:func:`ndrql.synth.masks.visible_from`);
+what they reveal enters the belief, the priors are rebuilt on it and the Q-table keeps what was learned:
+``Q <- Q + (Q0_new - Q0_old)`` (each entry moves by the change of its prior).
+
+When to recompute is :attr:`SenseConfig.every` episodes, as long as the map keeps changing. The kernel's
+convergence test (the same greedy path ``window`` episodes running) restarts with each call, so once a
+chunk reveals nothing new the rest of the run is one call (what the agent would sense after that is not
+used): it then converges as a plain run would, at the cost of one restart of the test. A chunk's seed is
+derived from the run's seed and the chunk's number, so a run depends only on its inputs and seed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ndrql.planning.config import QLConfig
+from ndrql.planning.methods import Priors
+from ndrql.planning.runner import astar_length, run_plan
+from ndrql.synth.masks import ray_offsets, visible_from
+
+Cell = tuple[int, int]
+#: Priors of a method on a belief grid (``True`` = blocked).
+PriorsOn = Callable[[np.ndarray], Priors]
+
+
+@dataclass(frozen=True)
+class SenseConfig:
+    """How the robot senses and how often the planner recomputes its priors."""
+
+    radius: float
+    """Sensing radius in planning cells (line of sight on the true grid)."""
+    every: int = 20
+    """Episodes between recomputations while the map keeps changing (module docstring)."""
+    max_chunks: int = 10_000
+    """Most chunks of a run (the episode cap of the run's :class:`QLConfig` holds too)."""
+
+    def __post_init__(self) -> None:
+        if not self.radius > 0:
+            raise ValueError(f"the sensing radius must be positive, got {self.radius}")
+        if self.every < 1 or self.max_chunks < 1:
+            raise ValueError("every and max_chunks must be at least 1")
+
+
+@dataclass
+class SensedRun:
+    """One run revealed as it moves: steps as a plain run counts them, and what happened per chunk."""
+
+    converged: bool
+    steps: int
+    """Steps to convergence (all steps when it did not converge)."""
+    episodes: int
+    path_length: int | None
+    astar_length: int
+    recomputes: int = 0
+    """How many times the priors were rebuilt."""
+    known_share: list[float] = field(default_factory=list)
+    """Share of the grid's cells known after each chunk."""
+
+
+def chunk_seed(seed: int, chunk: int) -> int:
+    """The kernel's seed for chunk ``chunk`` of a run with ``seed`` (63 bits)."""
+    return int(np.random.SeedSequence([int(seed), int(chunk)]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+def sense(truth: np.ndarray, cells: np.ndarray, radius: float) -> np.ndarray:
+    """Every cell within ``radius`` of one of ``cells`` (``(N, 2)``) with a line of sight on ``truth``."""
+    seen = np.zeros(truth.shape, dtype=bool)
+    rays = ray_offsets(radius)
+    for r, c in np.asarray(cells, dtype=np.int64).reshape(-1, 2):
+        seen |= visible_from(truth, (r, c), radius, rays)
+    return seen
+
+
+def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: Cell, goal: Cell, method: str,
+               seed: int, config: QLConfig, priors_on: PriorsOn, sensing: SenseConfig) -> SensedRun:
+    """Q-learning of ``method`` on ``truth`` (blocked cells) with priors rebuilt by ``priors_on`` on the belief
+    as it grows (module docstring). ``belief``: the blocked cells believed at the start (unknown cells free);
+    ``known``: the cells known at the start (start and goal at least)."""
+    truth = np.asarray(truth, dtype=bool)
+    known = np.asarray(known, dtype=bool) | sense(truth, np.array([start]), sensing.radius)
+    belief = np.where(known, truth, np.asarray(belief, dtype=bool))
+    pri = priors_on(belief)
+    q = np.array(pri.q0, dtype=np.float64, copy=True)
+    opt = astar_length(truth, start, goal)
+    out = SensedRun(converged=False, steps=0, episodes=0, path_length=None, astar_length=opt)
+    w = truth.shape[1]
+    viewed = np.zeros(truth.shape, dtype=bool)  # cells already sensed from: they reveal nothing new
+    viewed[start] = True
+    length, left = sensing.every, int(config.max_episodes)
+    for k in range(sensing.max_chunks):
+        if left <= 0:
+            break
+        cfg = dataclasses.replace(config, max_episodes=min(length, left))
+        res = run_plan(truth, start, goal, method, chunk_seed(seed, k), cfg, priors=Priors(pri.r_c, q, pri.threshold),
+                       keep_q=True, astar=opt)
+        left -= res.episodes
+        out.episodes += res.episodes
+        if res.converged:
+            out.converged, out.path_length = True, res.path_length
+            out.steps += int(res.convergence_steps)
+            break
+        out.steps += int(res.total_steps)
+        stood = np.flatnonzero(np.any(res.q_table != q, axis=1) & ~viewed.ravel())
+        viewed.flat[stood] = True
+        q = res.q_table
+        new = sense(truth, np.stack([stood // w, stood % w], axis=1), sensing.radius) & ~known
+        out.known_share.append(float((known | new).mean()))
+        if not new.any():  # the map stopped changing: the rest of the run in one call (one streak restart)
+            length = left
+            continue
+        known |= new
+        belief[new] = truth[new]
+        fresh = priors_on(belief)
+        q = np.ascontiguousarray(q + (fresh.q0 - pri.q0))
+        pri = fresh
+        out.recomputes += 1
+        length = sensing.every
+    return out
+
+
+__all__ = ["PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "run_sensed", "sense"]

@@ -54,20 +54,58 @@ def test_write_json_converts_numpy_paths_and_non_finite(tmp_path):
     assert (tmp_path / "c.json").read_text() == '{"k":[1,2]}\n'
 
 
-def test_symlink_is_followed_and_stays_a_link(tmp_path):
+@pytest.mark.parametrize("write", [lambda p: nio.write_text(p, "new"), lambda p: nio.save_npz(p, a=np.arange(3)),
+                                   lambda p: nio.atomic_path(p).__enter__(), lambda p: nio.open_log(p)])
+def test_symlink_at_the_name_is_refused_and_nothing_changes(tmp_path, write):
     real = tmp_path / "real.txt"
     real.write_text("old")
     link = tmp_path / "link.txt"
     link.symlink_to(real)
-    nio.write_text(link, "new")
-    assert link.is_symlink() and os.readlink(link) == str(real)
-    assert real.read_text() == "new"
-    # a dangling link names the file to create
+    with pytest.raises(OutputError, match="symbolic link"):
+        write(link)
     dangling = tmp_path / "dangling.txt"
     dangling.symlink_to(tmp_path / "made.txt")
-    nio.write_text(dangling, "made")
-    assert dangling.is_symlink() and (tmp_path / "made.txt").read_text() == "made"
-    assert _listing(tmp_path) == ["dangling.txt", "link.txt", "made.txt", "real.txt"]
+    with pytest.raises(OutputError, match="symbolic link"):
+        write(dangling)
+    assert real.read_text() == "old" and link.is_symlink() and dangling.is_symlink()
+    assert _listing(tmp_path) == ["dangling.txt", "link.txt", "real.txt"]
+
+
+def test_symlink_planted_during_the_write_is_refused_not_followed(tmp_path):
+    victim = tmp_path / "victim.png"
+    victim.write_bytes(b"precious")
+    out = tmp_path / "out.png"
+
+    def plant(fh):  # the output name becomes a link while the contents are written
+        fh.write(b"figure")
+        out.symlink_to(victim)
+
+    with pytest.raises(OutputError, match="became a symbolic link"):
+        nio.atomic_write(out, plant)
+    assert victim.read_bytes() == b"precious" and out.is_symlink() and _listing(tmp_path) == ["out.png", "victim.png"]
+
+
+def test_the_runs_inputs_and_the_package_are_never_written(tmp_path):
+    from ndrql.io import readset
+
+    src = tmp_path / "map.png"
+    nio.write_text(src, "outside a run: a plain file")  # the API outside a CLI run records nothing
+    src.write_bytes(b"map")
+    twin = tmp_path / "twin.png"
+    os.link(src, twin)
+    with nio.run_inputs():
+        nio.note_input(src, "the map")
+        for target in (src, twin):
+            with pytest.raises(OutputError, match="this run reads"):
+                nio.write_bytes(target, b"x")
+        nio.write_bytes(tmp_path / "other.png", b"ok")
+    assert src.read_bytes() == b"map" and twin.read_bytes() == b"map"
+    shipped = readset.PACKAGE_ROOT / "data" / "sample_map.png"
+    before = shipped.read_bytes()
+    for target in (shipped, readset.PACKAGE_ROOT / "data" / "new.json"):
+        with pytest.raises(OutputError, match="installed ndrql package"):
+            nio.write_json(target, {})
+    assert shipped.read_bytes() == before and not (readset.PACKAGE_ROOT / "data" / "new.json").exists()
 
 
 def test_fifo_is_written_directly_not_replaced(tmp_path):

@@ -10,6 +10,7 @@ grid). Needs torch and onnx (``pip install -e '.[train]'``). Run from the reposi
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -23,6 +24,7 @@ TOLERANCE = 1e-4
 
 
 def main(argv: list[str]) -> int:
+    os.environ["NDRQL_WRITE_PACKAGE"] = "1"  # this tool refreshes files the package ships (ndrql.io.readset)
     if len(argv) != 1 or not Path(argv[0]).is_file():
         print("usage: tools/export_propagator.py CHECKPOINT.pt (a file written by studies/propagate/train.py)",
               file=sys.stderr)

@@ -16,6 +16,7 @@ on the path (``PYTHONPATH=src``) so the files land in ``src/ndrql/data``.
 
 from __future__ import annotations
 
+import os
 import sys
 
 from ndrql.errors import NdrqlError
@@ -25,6 +26,7 @@ from ndrql.model.weights import SHIPPED_WEIGHTS
 
 
 def main(argv: list[str]) -> int:
+    os.environ["NDRQL_WRITE_PACKAGE"] = "1"  # this tool refreshes files the package ships (ndrql.io.readset)
     names = argv or list(SHIPPED_WEIGHTS)
     unknown = [n for n in names if n not in SHIPPED_WEIGHTS and not _companion_file(n)]
     if unknown:

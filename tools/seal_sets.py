@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from ndrql.dataset.generated import GeneratedSet, build_shard, check_purpose
@@ -61,6 +62,7 @@ def _refuse(message: str) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    os.environ["NDRQL_WRITE_PACKAGE"] = "1"  # this tool refreshes files the package ships (ndrql.io.readset)
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--training-count", type=int, default=240, help="samples hashed per training set (default: 240)")
     ap.add_argument("--check", action="store_true", help="regenerate every recorded set and compare; write nothing")

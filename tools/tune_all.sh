@@ -23,4 +23,4 @@ for m in $METHODS; do
   nice -n 5 "$NDRQL" tune --method "$m" "${budget[@]}" --no-progress
 done
 list=$(echo "${EXPORT_METHODS:-$METHODS}" | tr ' ' ',')
-nice -n 5 "$NDRQL" tune --export-preset "$PRESET" --methods "$list" "${budget[@]}" --no-progress
+NDRQL_WRITE_PACKAGE=1 nice -n 5 "$NDRQL" tune --export-preset "$PRESET" --methods "$list" "${budget[@]}" --no-progress

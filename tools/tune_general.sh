@@ -33,4 +33,4 @@ done
 [ -n "${SKIP_EXPORT:-}" ] && exit 0
 list=$(echo "${EXPORT_METHODS:-$METHODS}" | tr ' ' ',')
 grids=$(echo "$GRIDS" | tr ' ' ',')
-nice -n 5 "$NDRQL" tune --export-preset "$PRESET" --methods "$list" --grids "$grids" "${budget[@]}" --no-progress
+NDRQL_WRITE_PACKAGE=1 nice -n 5 "$NDRQL" tune --export-preset "$PRESET" --methods "$list" --grids "$grids" "${budget[@]}" --no-progress

@@ -19,6 +19,7 @@ import sys
 from typing import NoReturn
 
 from ndrql.cli.outputs import guard
+from ndrql.io.readset import run_inputs
 from ndrql.cli.text import plain, short_usage
 from ndrql.version import __version__
 from ndrql.errors import MissingDependency, NdrqlError, require_torch
@@ -139,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
 
     warnings.showwarning = show
     try:
-        code = _run(parser, args)
+        with run_inputs():  # the files this command reads, which no output may replace
+            code = _run(parser, args)
     finally:
         warnings.showwarning = shown_before
     if code == 0:

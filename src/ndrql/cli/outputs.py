@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ndrql.io.guard import Input, Output, check_outputs
+from ndrql.io.readset import note_input
 from ndrql.maps.readers import map_files
 
 #: Output files by flag name (``dest``): the flag as the user writes it, and whether ``-`` is stdout.
@@ -36,6 +37,8 @@ OUT_IS_FILE = ("export-weights", "average-weights", "export-onnx")
 #: Files a command writes in its ``--out`` folder, when known (else no input may lie in the folder).
 FOLDER_NAMES: dict[str, tuple[str, ...]] = {
     "predict": ("prediction.npz", "region.png", "guideline.png", "distance.png"),
+    "demo": ("compare.png", "ndr-ql.png", "results.json", "table.md"),
+    "train": ("last.pt", "best.pt", "metrics.csv"),
 }
 
 #: Input files by flag name: the flag as the user writes it.
@@ -110,11 +113,19 @@ def outputs(args: argparse.Namespace) -> list[Output]:
                 found.append(Output("--out's record", str(Path(out).with_suffix(".json"))))
         else:
             found.append(Output("--out", out, folder=True, names=FOLDER_NAMES.get(command)))
+    run_dir = getattr(args, "run_dir", None)
+    if isinstance(run_dir, (str, os.PathLike)):
+        found.append(Output("--run-dir", os.fspath(run_dir), folder=True, names=FOLDER_NAMES.get(command)))
     return found
 
 
 def guard(args: argparse.Namespace) -> None:
-    """Refuse, before the command runs, any output that would replace one of its inputs or another output."""
+    """Refuse, before the command runs, any output that would replace one of its inputs or another output;
+    record the inputs in the run's input set (:mod:`ndrql.io.readset`), which the writer checks again."""
+    ins = inputs(args)
+    for inp in ins:
+        if not inp.folder:
+            note_input(inp.path, inp.flag)
     outs = outputs(args)
     if outs:
-        check_outputs(outs, inputs(args))
+        check_outputs(outs, ins)

@@ -35,7 +35,7 @@ def run_status(run_dir: Path) -> dict[str, Any] | None:
     last = run_dir / "last.pt"
     if not last.is_file():
         return None
-    ck = load_checkpoint(last)
+    ck = load_checkpoint(last, note=False)
     st, tc = ck.get("state", {}), ck.get("train_config", {})
     out = {"epochs": int(tc.get("epochs", 0)), "epoch": int(st.get("epoch", 0)), "step": int(st.get("step", 0)),
            "global_step": int(st.get("global_step", 0)), "train_hours": float(st.get("train_seconds", 0.0)) / 3600,

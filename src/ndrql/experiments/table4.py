@@ -18,6 +18,7 @@ from typing import Any, Callable
 from tqdm import tqdm
 
 from ndrql.errors import NdrqlError
+from ndrql.io import open_log
 from ndrql.experiments.model_runs import evaluate_weights, run_status, runs_root
 from ndrql.experiments.paper import paper_table
 from ndrql.dataset.layout import resolve_root
@@ -63,8 +64,7 @@ def _train_one(cfg: TrainConfig, run_dir: str, queue=None) -> str:
     Every log line also goes to ``queue`` (when given) as ``(run_dir, line)`` for the parent's progress bar.
     """
     run = Path(run_dir)
-    run.mkdir(parents=True, exist_ok=True)
-    with open(run / "train.log", "a") as fh:
+    with open_log(run / "train.log") as fh:
         def log(msg: str) -> None:
             print(msg, file=fh, flush=True)
             if queue is not None:

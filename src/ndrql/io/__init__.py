@@ -9,7 +9,11 @@ goes through :func:`atomic_write`, which behaves like a careful Unix tool:
   is complete, so not even ``kill -9`` leaves a half-written file behind; elsewhere a named
   temporary file is removed on any error, and ones left by killed processes are swept up by the
   next write of the same file;
-- a symlink is followed: the file it points to is written and the link stays a link;
+- a symlink at the name is refused (a rename would replace the link, and writing through it could
+  reach any file), except the kernel's own links (``/dev/stdout``); a symlink planted while the run
+  worked is refused at the final rename, never followed;
+- a file the run reads (its input set, :mod:`ndrql.io.readset`: the map, the weights, presets,
+  ONNX graphs, caches read) and any file of the installed package are refused;
 - an existing FIFO, character device (``/dev/null``, a terminal) or other non-regular file is
   written directly, never replaced; a directory or socket in the way is an error;
 - a new file gets ``0666 & ~umask`` permissions (like ``>`` in a shell), a replaced file keeps its
@@ -25,7 +29,8 @@ only (numpy and matplotlib objects are only handled when passed in), so any laye
 """
 
 from ndrql.errors import OutputError
-from ndrql.io.atomic import atomic_path, atomic_write, check_writable, make_folder, write_bytes, write_text
+from ndrql.io.atomic import atomic_path, atomic_write, check_writable, make_folder, open_log, write_bytes, write_text
+from ndrql.io.readset import note_input, run_inputs
 from ndrql.io.formats import cache_dir, data_digest, file_digest, json_text, save_figure, save_npz, to_jsonable, write_json
 
 __all__ = [
@@ -38,6 +43,9 @@ __all__ = [
     "file_digest",
     "json_text",
     "make_folder",
+    "note_input",
+    "open_log",
+    "run_inputs",
     "save_figure",
     "save_npz",
     "to_jsonable",

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import IO, Any, Callable, Iterator
 
 from ndrql.errors import OutputError
+from ndrql.io import readset
 
 _TMP_SUFFIX = ".ndrql-tmp"
 """Suffix of named temporary files (used where anonymous ones are not available)."""
@@ -88,8 +89,8 @@ def check_writable(path: str | os.PathLike) -> Path:
     write permission; a command calls it for its output flags before the long work starts.
     """
     given = Path(path)
-    target, st = _inspect(given)
-    if st is not None and not stat.S_ISREG(st.st_mode):
+    target, st, direct = _inspect(given)
+    if direct:
         return given  # a FIFO or device: written directly
     folder = _nearest_existing(target.parent)
     if not folder.is_dir():
@@ -205,6 +206,7 @@ def _replace(given: Path, target: Path, write_fn: Callable[[IO], Any], mode: str
             tmp = _link_anonymous(fd, folder, name)
         else:
             _sweep_stale(folder, name)
+        _recheck(target)
         os.replace(tmp, target)
         tmp = None
     except BaseException as exc:
@@ -226,16 +228,17 @@ def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode
     """Write a file by calling ``write_fn(fh)`` on an open file object; return ``path`` as given.
 
     ``mode`` is ``"wb"`` (bytes) or ``"w"`` (UTF-8 text). Regular files are replaced atomically,
-    symlinks followed, FIFOs and devices written directly, new files created with the umask's
-    permissions, parent folders created (module docstring). An ``OSError`` becomes one
+    FIFOs and devices written directly, new files created with the umask's
+    permissions, parent folders created (module docstring); a symlink at the name, one of the run's
+    inputs and the package's own files are refused (:func:`_inspect`). An ``OSError`` becomes one
     :class:`OutputError` line; any other exception from ``write_fn`` propagates unchanged. Either
     way no temporary file is left behind and the old contents stay in place.
     """
     if mode not in _MODES:
         raise ValueError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
     given = Path(path)
-    target, st = _inspect(given)
-    if st is not None and not stat.S_ISREG(st.st_mode):
+    target, st, direct = _inspect(given)
+    if direct:
         _write_direct(given, target, write_fn, mode)
         return given
     _parent_folder(given, target)
@@ -243,26 +246,69 @@ def atomic_write(path: str | os.PathLike, write_fn: Callable[[IO], Any], *, mode
     return given
 
 
-def _inspect(given: Path) -> tuple[Path, os.stat_result | None]:
-    """The file ``given`` names (symlinks followed) and its status (``None`` if it does not exist yet).
+_MAGIC_FOLDERS = ("/dev/", "/proc/")
+"""Links here are the kernel's (``/dev/stdout``, ``/proc/self/fd/N``): followed and written in place."""
 
-    An existing non-regular file is returned as given (the kernel follows ``/dev/fd/N`` and other
-    magic links that :func:`os.path.realpath` cannot). A folder or socket in the way is an
-    :class:`OutputError`.
+
+def _inspect(given: Path) -> tuple[Path, os.stat_result | None, bool]:
+    """The name to write, its status (``None`` if it does not exist yet) and whether to write in place.
+
+    In place: an existing FIFO, device or other non-regular file, and a kernel link (``/dev/stdout``
+    redirected to a file). Refused, each as one :class:`OutputError` line: a folder or socket in the
+    way, any other symbolic link at the name (a rename would replace it, so ndrql never writes through
+    one), one of the run's inputs or a file the package ships (:mod:`ndrql.io.readset`).
     """
     try:
-        st: os.stat_result | None = os.stat(given)
+        st: os.stat_result | None = os.lstat(given)
     except (FileNotFoundError, NotADirectoryError):  # a missing folder or a file in the way: make_folder says
         st = None
     except OSError as exc:
         raise _error(given, exc) from None
+    link = st is not None and stat.S_ISLNK(st.st_mode)
+    if link:
+        try:
+            st = os.stat(given)
+        except (FileNotFoundError, NotADirectoryError):
+            st = None
+        except OSError as exc:
+            raise _error(given, exc) from None
     if st is not None and stat.S_ISDIR(st.st_mode):
         raise OutputError(f"cannot write {_shown(given)}: it is a folder")
     if st is not None and stat.S_ISSOCK(st.st_mode):
         raise OutputError(f"cannot write {_shown(given)}: it is a socket")
     if st is not None and not stat.S_ISREG(st.st_mode):
-        return given, st
-    return Path(os.path.realpath(given)), st
+        return given, st, True
+    if link and not os.path.abspath(given).startswith(_MAGIC_FOLDERS):
+        raise OutputError(f"cannot write {_shown(given)}: it is a symbolic link (to {_shown(_readlink(given))}); "
+                          f"ndrql never writes through one: nothing was written, remove the link or give the file itself")
+    _claim(given, st)
+    return given, st, link
+
+
+def _readlink(path: Path) -> str:
+    try:
+        return os.readlink(path)
+    except OSError:
+        return "?"
+
+
+def _claim(given: Path, st: os.stat_result | None) -> None:
+    """:class:`OutputError` when ``given`` is one of the run's inputs or a file the package ships."""
+    reason = readset.refusal(given, st)
+    if reason:
+        raise OutputError(f"cannot write {_shown(given)}: {reason}; nothing was written, give another name")
+
+
+def _recheck(given: Path) -> None:
+    """Just before the rename: a symlink planted at the name while the run worked is refused, never followed."""
+    try:
+        st = os.lstat(given)
+    except OSError:
+        return
+    if stat.S_ISLNK(st.st_mode):
+        raise OutputError(f"cannot write {_shown(given)}: it became a symbolic link (to {_shown(_readlink(given))}) "
+                          f"while ndrql worked; nothing was written")
+    _claim(given, st)
 
 
 @contextmanager
@@ -277,8 +323,8 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     import tempfile
 
     given = Path(path)
-    target, st = _inspect(given)
-    if st is not None and not stat.S_ISREG(st.st_mode):
+    target, st, direct = _inspect(given)
+    if direct:
         with tempfile.TemporaryDirectory(prefix="ndrql-") as scratch:
             tmp = Path(scratch) / f"out{target.suffix[:16]}"
             yield tmp
@@ -308,6 +354,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             os.fsync(fd)
         finally:
             os.close(fd)
+        _recheck(target)
         os.replace(tmp, target)
         tmp = None
     except OSError as exc:
@@ -329,3 +376,18 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> Path:
 def write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` to ``path`` as UTF-8 (:func:`atomic_write`)."""
     return atomic_write(path, lambda fh: fh.write(text), mode="w")
+
+
+def open_log(path: str | os.PathLike) -> IO[str]:
+    """``path`` opened to append UTF-8 lines (a training log), under the writer's rules: never through a
+    symlink (``O_NOFOLLOW``), never one of the run's inputs or the package's files; parent folders created."""
+    given = Path(path)
+    _, st, direct = _inspect(given)
+    if not direct:
+        _parent_folder(given, given)
+    try:
+        fd = os.open(given, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_CLOEXEC", 0)
+                     | (0 if direct else getattr(os, "O_NOFOLLOW", 0)), 0o666)
+    except OSError as exc:
+        raise _error(given, exc) from None
+    return os.fdopen(fd, "a", encoding="utf-8")

@@ -31,6 +31,7 @@ from typing import Iterable, Sequence
 
 from ndrql.errors import OutputError
 from ndrql.io.atomic import check_writable
+from ndrql.io.readset import in_package
 
 __all__ = ["Input", "Output", "check_outputs", "shown"]
 
@@ -110,6 +111,8 @@ def _check_one(out: Output) -> None:
         check_writable(out.path)
         return
     target = Path(out.path)
+    if in_package(target):
+        raise _clash(out, "is inside the installed ndrql package; writing there would break every later run")
     if target.exists() and not target.is_dir():
         raise OutputError(f"{out.flag} {shown(out.path)}: cannot create folder {shown(out.path)}: a file is in the way")
     existing = next((p for p in (target, *target.parents) if p.exists()), Path("."))
@@ -117,6 +120,9 @@ def _check_one(out: Output) -> None:
         raise OutputError(f"{out.flag} {shown(out.path)}: a file is in the way ({shown(existing)})")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise OutputError(f"{out.flag} {shown(out.path)}: cannot write there (Permission denied)")
+    for name in out.names or ():  # a name the folder receives, planted as a link: refused now, not after the work
+        if (target / name).is_symlink():
+            raise _clash(out, f"holds {name} as a symbolic link; ndrql never writes through one")
 
 
 def _folder_receives(folder: Output, where: _Where, target: _Where) -> bool:

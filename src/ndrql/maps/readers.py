@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ndrql.errors import MapFormatError, brief
+from ndrql.io.readset import note_input
 from ndrql.limits import MAX_GRID_SIZE
 from ndrql.maps.grid import GridMap
 from ndrql.maps.ros_yaml import YAML_SUFFIXES, map_files, ros_doc, ros_image  # noqa: F401 (map_files: re-exported)
@@ -49,10 +50,9 @@ def check_pixels(height: int, width: int, max_pixels: int | None, path: Path) ->
 
 
 def _require_file(path: Path) -> None:
-    if not path.exists():
-        raise MapFormatError(f"map file not found: {path}")
     if not path.is_file():
-        raise MapFormatError(f"not a file: {path}")
+        raise MapFormatError(f"not a file: {path}" if path.exists() else f"map file not found: {path}")
+    note_input(path, "the map file")
 
 
 def _decode_image(path: Path, max_pixels: int | None = MAX_MAP_PIXELS) -> np.ndarray:

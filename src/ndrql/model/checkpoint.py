@@ -16,7 +16,7 @@ import torch
 
 from ndrql.version import __version__
 from ndrql.errors import CheckpointError
-from ndrql.io import atomic_write, file_digest
+from ndrql.io import atomic_write, file_digest, note_input
 from ndrql.model.companion import CONFIG_KEY as COMPANION_KEY, check_stem
 from ndrql.model.registry import build_model, check_config
 
@@ -31,11 +31,14 @@ def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> Path:
     return atomic_write(path, lambda fh: torch.save(data, fh))
 
 
-def load_checkpoint(path: str | Path) -> dict[str, Any]:
-    """Read and validate a checkpoint; every failure is a CheckpointError with the reason."""
+def load_checkpoint(path: str | Path, *, note: bool = True) -> dict[str, Any]:
+    """Read and validate a checkpoint; every failure is a CheckpointError with the reason. ``note=False``: a
+    run's own state (``last.pt`` resumed and rewritten), not one of its inputs (:mod:`ndrql.io.readset`)."""
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint not found: {path}")
+    if note:
+        note_input(path, "the checkpoint")
     try:
         with warnings.catch_warnings():  # torch's note on a file's pickle protocol precedes our own refusal
             warnings.filterwarnings("ignore", message="Detected pickle protocol", category=UserWarning)

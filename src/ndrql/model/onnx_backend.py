@@ -33,7 +33,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ndrql.errors import NdrqlError
-from ndrql.io import atomic_path, cache_dir, file_digest
+from ndrql.io import atomic_path, cache_dir, file_digest, note_input
 from ndrql.model.shipped import graph_path as shipped_graph_path
 from ndrql.model.shipped import record_path, shipped_graph
 from ndrql.model.weights import SHIPPED_WEIGHTS
@@ -78,6 +78,7 @@ def _options(threads: int) -> Any:
 def _session(path: Path, opts: Any) -> Any:
     import onnxruntime as ort
 
+    note_input(path, "the ONNX graph")
     return ort.InferenceSession(str(path), sess_options=opts, providers=["CPUExecutionProvider"])
 
 

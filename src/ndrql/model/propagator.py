@@ -23,6 +23,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from ndrql.io import atomic_path
 from ndrql.model.propagation import head_input
 
 #: Iterations of the block per call of the exported graph (``plan`` runs whole calls).
@@ -95,9 +96,9 @@ def export_propagator(weights: str | Path, out: str | Path) -> float:
     blocked[1, 1] = blocked[38, 50] = False
     x = torch.as_tensor(head_input(blocked, (1, 1), (38, 50)))  # the input plan feeds the graph
     h0 = net.init_state(x)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), atomic_path(out) as tmp:  # the one writer (ndrql.io)
         warnings.simplefilter("ignore", DeprecationWarning)  # the TorchScript exporter handles this model
-        torch.onnx.export(_Chunk(net), (x, h0), str(out), input_names=["x", "h"], output_names=["logit", "h_out"],
+        torch.onnx.export(_Chunk(net), (x, h0), str(tmp), input_names=["x", "h"], output_names=["logit", "h_out"],
                           dynamic_axes={"x": {2: "rows", 3: "cols"}, "h": {2: "rows", 3: "cols"},
                                         "logit": {2: "rows", 3: "cols"}, "h_out": {2: "rows", 3: "cols"}},
                           opset_version=17, dynamo=False)

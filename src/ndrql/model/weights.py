@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from importlib import resources
 from pathlib import Path
+from ndrql.io.readset import note_input
 
 #: Name -> file inside ``ndrql/data``.
 SHIPPED_WEIGHTS: dict[str, str] = {"paper": "ndr_default.pt", "general": "ndr_general.pt"}
@@ -31,9 +32,9 @@ def resolve_weights(spec: str | os.PathLike | None = None, default: str = DEFAUL
     if spec is None:
         spec = os.environ.get("NDRQL_WEIGHTS") or default
     text = os.fspath(spec)
-    if text in SHIPPED_WEIGHTS:
-        return shipped_weights(text)
-    return Path(text)
+    path = shipped_weights(text) if text in SHIPPED_WEIGHTS else Path(text)
+    note_input(path, "the weights")
+    return path
 
 
 def weights_label(path: str | os.PathLike) -> str:

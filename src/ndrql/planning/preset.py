@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ndrql.errors import NdrqlError, brief
-from ndrql.io import write_json
+from ndrql.io import note_input, write_json
 from ndrql.io.text import MAX_TEXT_BYTES, load_json, read_capped
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import get_method
@@ -281,6 +281,7 @@ def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Prese
         path = Path(key)
         if not path.is_file():
             raise PresetError(f"unknown preset {brief(key)}: give {', '.join(BUILTIN)} or a preset JSON file")
+    note_input(path, "the preset")
     data = load_json(read_capped(path, "preset", MAX_TEXT_BYTES, PresetError), f"preset {brief(str(path))}", PresetError)
     return preset_from_dict(data, source=str(path) if key not in BUILTIN else key)
 

@@ -244,7 +244,7 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
 
     def read_last():
         if resume and last_path.exists():
-            return load_checkpoint(last_path)
+            return load_checkpoint(last_path, note=False)
         if last_path.exists():
             raise CheckpointError(f"{last_path} exists: pass --resume to continue it, or choose another --run-dir")
         return None

@@ -119,7 +119,8 @@ def _problem(gen: np.random.Generator, h: int, w: int):
     rows, cols = np.indices((h, w))
     band = np.exp(-np.abs((rows - start[0]) * (goal[1] - start[1]) - (cols - start[1]) * (goal[0] - start[0]))
                   / max(1.0, float(np.hypot(goal[0] - start[0], goal[1] - start[1]))) / gen.uniform(0.5, 3))
-    region = np.clip(band + gen.normal(0, 0.15, (h, w)), 0, 1) if gen.random() < 0.7 else np.round(gen.random((h, w)), 2)
+    noisy = np.clip(band + gen.normal(0, 0.15, (h, w)), 0, 1)
+    region = noisy if gen.random() < 0.7 else np.round(gen.random((h, w)), 2)
     guideline = np.clip(band ** 4 + gen.normal(0, 0.05, (h, w)), 0, 1)
     exact = P.exact_distance(blocked, goal)
     distance = np.maximum(exact + gen.normal(0, 3, (h, w)), 0) if gen.random() < 0.8 else exact
@@ -207,7 +208,8 @@ def test_build_priors_of_every_method_is_unchanged_on_a_large_grid():
             ref_q, ref_thd = old_ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only,
                                         distance=distance, guideline=guideline)
         elif m.d_qi:
-            ref_q, ref_thd = old_d_qi(blocked, goal, P.exact_distance(blocked, goal) if m.exact_distance else None), None
+            exact = P.exact_distance(blocked, goal) if m.exact_distance else None
+            ref_q, ref_thd = old_d_qi(blocked, goal, exact), None
         else:
             ref_q, ref_thd = np.zeros((blocked.size, 4)), None
         assert same_bits(got.q0, ref_q) and got.threshold == ref_thd, name

@@ -36,6 +36,7 @@ from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  
 from ndrql.pipeline.fallback import warn_fallbacks
 from ndrql.pipeline.predictions import GivenPredictions, Predicted, load_predictions, predict_for
 from ndrql.pipeline.belief import belief_record, plan_grids
+from ndrql.pipeline.sensing import learn_sensed
 from ndrql.pipeline.problem import check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
 from ndrql.pipeline.request import PlanRequest, build_request
@@ -93,7 +94,10 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
         compiled.warm_up()  # numba's kernels load from its disk cache (compile on the first run); C ones: nothing
     n_workers = check_workers(workers) if setup.belief is None else 1  # workers would rebuild priors on the truth
     with clock.stage("learn"):
-        results = learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
+        sensed = None if request.sensing is None else learn_sensed(  # revealed as it moves
+            pg, prior_pg, request.belief.unknown, ms, list(request.seeds), consts, pred.region, pred.guideline,
+            pred.distance, request.sensing, pred.record)
+        results = sensed if sensed is not None else learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
                         progress, pred.distance)
     with clock.stage("route"):
         runs = planned_runs(results, setup.check_map, pg, request.grid_map, request.settings.smoothing,

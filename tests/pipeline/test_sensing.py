@@ -59,3 +59,56 @@ def test_sense_config_refuses_nonsense():
         SenseConfig(radius=0)
     with pytest.raises(ValueError):
         SenseConfig(radius=2, every=0)
+
+
+def _wall_map() -> tuple[np.ndarray, np.ndarray]:
+    o = np.zeros((40, 40), dtype=np.uint8)
+    o[0:34, 20] = 1
+    m = np.zeros((40, 40), dtype=np.uint8)
+    m[0:30, 14:27] = 1  # the planner does not know most of the wall
+    return o, m
+
+
+def test_sense_through_the_api_reveals_and_records(tmp_path):
+    import ndrql
+
+    o, m = _wall_map()
+    rep = ndrql.solve(o, start=(5, 5), goal=(5, 34), methods=["IQL-BFS", "IQL"], seeds=[0, 1], size=40, hide=m,
+                      sense=3, sense_every=2)
+    runs = rep.info["sensing"]["runs"]
+    assert rep.info["sensing"]["radius_cells"] == 3.0 and rep.info["sensing"]["every"] == 2 and len(runs) == 4
+    assert all(r["known_end"] > r["known_start"] for r in runs) and any(r["recomputes"] >= 1 for r in runs)
+    assert all(r.converged and r.astar_length == 87 for r in rep.results)
+    assert rep.request.to_dict()["sense"] == {"radius": 3.0, "every": 2, "max_chunks": 10_000}
+
+
+def test_sense_errors_are_one_clear_line():
+    import ndrql
+    from ndrql.errors import NdrqlError
+
+    o, m = _wall_map()
+    for kw, needle in (({"sense": 3}, "give --hide MASK"), ({"sense": 0, "hide": m}, "positive number"),
+                       ({"sense_every": 2, "hide": m}, "needs --sense"), ({"sense": 2, "sense_every": 0, "hide": m}, ">= 1")):
+        with pytest.raises(NdrqlError, match=needle):
+            ndrql.build_request(o, (5, 5), (5, 34), methods=["IQL"], **kw)
+
+
+def test_sense_cli_equals_api(ndrql_exe, tmp_path):
+    import json
+
+    import ndrql
+    from tests.helpers.cli import assert_one_line_error, run_cli
+
+    o, m = _wall_map()
+    np.save(tmp_path / "map.npy", o)
+    np.save(tmp_path / "mask.npy", m)
+    r = run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34", "--hide", tmp_path / "mask.npy",
+                "--sense", "3", "--method", "IQL-BFS", "--seeds", "2", "--size", "40", "--json", tmp_path / "out.json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "out.json").read_text())
+    api = ndrql.solve(str(tmp_path / "map.npy"), start=(5, 5), goal=(5, 34), methods=["IQL-BFS"], seeds=2, size=40,
+                      hide=str(tmp_path / "mask.npy"), sense=3)
+    assert [x["total_steps"] for x in doc["runs"]] == [x.total_steps for x in api.results]
+    assert doc["sensing"]["runs"] == api.info["sensing"]["runs"]
+    assert_one_line_error(run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34",
+                                  "--sense", "3", "--method", "IQL"), "give --hide MASK")

@@ -76,6 +76,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     docs = field_docs(PlanSettings)
     inp = p.add_argument_group("input: map, start and goal")
     add_problem_arguments(inp)
+    inp.add_argument("--sense", type=float, default=None, metavar="R",
+                    help="with --hide (or --unknown free): revealed as it moves, the cells within R planning cells "
+                    "of the agent (line of sight) become known and the priors are rebuilt, the Q-table kept")
+    inp.add_argument("--sense-every", type=int, default=None, metavar="E",
+                    help="with --sense: episodes between rebuilds while the map keeps changing (default: 1)")
     inp.add_argument("--hide", metavar="MASK", help="a mask of the map's size (.npy, or an image: non-zero / "
                     "not black = unknown): the planner's priors see the map with these pixels unknown (counted "
                     "free) while the agent learns on the true map; the JSON's belief gives the true optimum")
@@ -218,6 +223,7 @@ def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> 
                 robot_radius=args.robot_radius, smooth=args.smooth, max_map_pixels=args.max_pixels, max_size=args.max_size, threads=args.threads, backend=args.backend,
                 learned_distance=args.learned_distance, symmetries=args.symmetries, invert=args.invert,
                 threshold=args.threshold, crop=args.crop, hide=args.hide, unknown=args.unknown,
+                sense=args.sense, sense_every=args.sense_every,
                 info={"prior_from": args.prior_from} if predictions is not None and predictions != "oracle" else None,
                 **({} if args.fallback is None else {"fallback": args.fallback}))
 

@@ -36,6 +36,7 @@ from ndrql.maps.readers import IMAGE_SUFFIXES, YAML_SUFFIXES
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.maps.belief import Belief
 from ndrql.pipeline.belief import check_points_known, read_belief
+from ndrql.pipeline.sensing import SenseConfig, sense_config
 from ndrql.pipeline.problem import Point, check_map_size, place_points, read_map
 from ndrql.pipeline.runs import methods_named, seeds_given
 from ndrql.pipeline.settings import PlanSettings
@@ -99,6 +100,8 @@ class PlanRequest:
     read it, the agent learns on ``grid_map``; ``None``: the planner knows the map."""
     unknown_rule: str = "obstacle"
     """How a ROS map's unknown space counts: ``obstacle`` (``map_server``'s reading) or ``free`` (Nav2's ``allow_unknown``)."""
+    sensing: SenseConfig | None = None
+    """Revealed as it moves (``sense=R``; :mod:`ndrql.pipeline.sensing`): radius in planning cells, recomputation interval."""
 
     def constants(self, method: str, grid_side: int | None = None) -> tuple[QLConfig, PriorConfig]:
         """``(QLConfig, PriorConfig)`` of ``method`` on a grid of ``grid_side`` cells per side (a per-grid-size
@@ -118,7 +121,8 @@ class PlanRequest:
                 "settings": s, "preset": self.preset.name, "set": {k: dict(v) for k, v in self.set_fields.items()},
                 "weights": self.weights_file,
                 **({"hide": {"kind": self.belief.kind, "unknown_px": int(self.belief.unknown.sum())},
-                    "unknown": self.unknown_rule} if self.belief is not None else {})}
+                    "unknown": self.unknown_rule} if self.belief is not None else {}),
+                **({"sense": dataclasses.asdict(self.sensing)} if self.sensing is not None else {})}
 
 
 def _overrides(values: Mapping[str, Any] | None, names: tuple[str, ...], what: str) -> dict[str, Any]:
@@ -233,6 +237,8 @@ def build_request(
     crop: bool = False,
     hide: Any = None,
     unknown: str | None = None,
+    sense: float | None = None,
+    sense_every: int | None = None,
     info: Mapping[str, Any] | None = None,
     **setting_fields: Any,
 ) -> PlanRequest:
@@ -250,6 +256,8 @@ def build_request(
     ``hide``: a mask of the map's size (``.npy``, image or array; non-zero = unknown to the planner, whose
     priors then count it free while the agent learns on the map) or a :class:`~ndrql.maps.belief.Belief`;
     ``unknown``: ``obstacle`` (default) or ``free`` for a ROS map's unknown space (:mod:`ndrql.pipeline.belief`).
+    ``sense``: revealed as it moves, cells within ``sense`` planning cells of the agent become known and the
+    priors are rebuilt every ``sense_every`` episodes (:mod:`ndrql.pipeline.sensing`; needs a belief).
     """
     t0 = time.perf_counter()
     kind = "sample" if sample is not None else "map"
@@ -284,6 +292,7 @@ def build_request(
                                                         scen_index=0 if index is None else int(index),
                                                         start_world=start_world, goal_world=goal_world, info=record)
     check_points_known(belief, p_start, p_goal)
+    sensing = sense_config(sense, sense_every, belief is not None)
     if predictions is not None and not any(get_method(m).needs_ndr for m in ms):
         raise NdrqlError(f"predictions are given but none of {', '.join(ms)} uses them (N-C, N-Q, NDR-QL do)")
     uses_model = predictions is None
@@ -295,7 +304,7 @@ def build_request(
                          f"got {predictions[:40]!r}")
     preset_obj, quality, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file)
     record["preset"] = preset_obj.name
-    return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
+    return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, sensing=sensing, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
                        settings=s, preset=preset_obj, quality_config=quality, weights=None if weights is None else
                        os.fspath(weights), weights_file=weights_file if uses_model else None, predictions=predictions,
                        start_yaw=start_yaw, goal_yaw=goal_yaw, set_fields=set_fields, info=record,

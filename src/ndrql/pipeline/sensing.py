@@ -24,11 +24,17 @@ from typing import Callable
 import numpy as np
 
 from ndrql.planning.config import QLConfig
-from ndrql.planning.methods import Priors
+from ndrql.errors import NdrqlError
+from ndrql.maps.grid import PlanningGrid
+from ndrql.planning.methods import Method, Priors, build_priors
+from ndrql.planning.results import PlanResult
 from ndrql.planning.runner import astar_length, run_plan
 from ndrql.synth.masks import ray_offsets, visible_from
 
 Cell = tuple[int, int]
+#: Episodes between recomputations by default: after every episode, the best of 1, 2, 5, 20 and 100 on the
+#: development set partial-dev (studies/partial/README.md, "Revealed as it moves").
+DEFAULT_EVERY = 1
 #: Priors of a method on a belief grid (``True`` = blocked).
 PriorsOn = Callable[[np.ndarray], Priors]
 
@@ -65,6 +71,25 @@ class SensedRun:
     """How many times the priors were rebuilt."""
     known_share: list[float] = field(default_factory=list)
     """Share of the grid's cells known after each chunk."""
+    result: PlanResult | None = field(default=None, repr=False)
+    """The run as a :class:`PlanResult`: the last chunk's path, the steps and episodes of all chunks."""
+
+
+def sense_config(radius: float | None, every: int | None, has_belief: bool) -> SenseConfig | None:
+    """The request's sensing (``None`` without ``radius``); :class:`NdrqlError` for a radius that is not a positive
+    number, an interval below 1, an interval without a radius, or sensing on a map the planner knows."""
+    if radius is None:
+        if every is not None:
+            raise NdrqlError("--sense-every needs --sense R (the sensing radius in planning cells)")
+        return None
+    if isinstance(radius, bool) or not isinstance(radius, (int, float)) or not 0 < float(radius) < float("inf"):
+        raise NdrqlError(f"--sense must be a positive number of planning cells, got {str(radius)[:40]!r}")
+    if every is not None and (isinstance(every, bool) or not isinstance(every, int) or every < 1):
+        raise NdrqlError(f"--sense-every must be a whole number of episodes >= 1, got {str(every)[:40]!r}")
+    if not has_belief:
+        raise NdrqlError("--sense reveals what the planner does not know: give --hide MASK (or --unknown free on a "
+                         "ROS map)")
+    return SenseConfig(radius=float(radius), every=DEFAULT_EVERY if every is None else int(every))
 
 
 def chunk_seed(seed: int, chunk: int) -> int:
@@ -97,6 +122,8 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
     viewed = np.zeros(truth.shape, dtype=bool)  # cells already sensed from: they reveal nothing new
     viewed[start] = True
     length, left = sensing.every, int(config.max_episodes)
+    total = 0
+    res = None
     for k in range(sensing.max_chunks):
         if left <= 0:
             break
@@ -105,6 +132,7 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
                        keep_q=True, astar=opt)
         left -= res.episodes
         out.episodes += res.episodes
+        total += int(res.total_steps)
         if res.converged:
             out.converged, out.path_length = True, res.path_length
             out.steps += int(res.convergence_steps)
@@ -125,7 +153,47 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
         pri = fresh
         out.recomputes += 1
         length = sensing.every
+    if res is not None:
+        out.result = dataclasses.replace(
+            res, seed=int(seed), episodes=out.episodes, total_steps=total, q_table=None,
+            convergence_episode=out.episodes if out.converged else None,
+            convergence_steps=out.steps if out.converged else None)
     return out
 
 
-__all__ = ["PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "run_sensed", "sense"]
+def unknown_cells(unknown_px: np.ndarray, grid: PlanningGrid) -> np.ndarray:
+    """The planning cells holding at least one unknown pixel (a pixel belongs to the cell its centre falls in)."""
+    h, w = grid.shape
+    sr, sc = grid.cell_size
+    rr, cc = np.nonzero(np.asarray(unknown_px, dtype=bool))
+    out = np.zeros((h, w), dtype=bool)
+    out[np.minimum(h - 1, (rr / sr).astype(np.int64)), np.minimum(w - 1, (cc / sc).astype(np.int64))] = True
+    return out
+
+
+def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarray, methods: list[Method],
+                 seeds: list[int], consts: Callable, region: np.ndarray | None, guideline: np.ndarray | None,
+                 distance: np.ndarray | None, sensing: SenseConfig, record: dict | None = None) -> list[PlanResult]:
+    """Every method with every seed (methods outer) revealed as it moves: the learning ``grid`` is the truth, the
+    priors start on ``belief`` (a :class:`PlanningGrid` on the same cells) and are rebuilt, the prediction
+    (``region``, ``guideline``, ``distance``) kept, as the robot senses the cells it stands on. ``record``
+    receives ``sensing``: radius, recomputation interval and, per run, the recomputations and the known share."""
+    known = ~unknown_cells(unknown_px, grid)
+    known[grid.start] = known[grid.goal] = True
+    out, runs = [], []
+    for m in methods:
+        ql, pc = consts(m.name)
+        priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc, distance)  # noqa: E731
+        for seed in seeds:
+            r = run_sensed(grid.blocked, belief.blocked, known, grid.start, grid.goal, m.name, seed, ql, priors_on, sensing)
+            out.append(r.result)
+            runs.append({"method": m.name, "seed": int(seed), "recomputes": r.recomputes,
+                         "known_start": round(float(known.mean()), 4),
+                         "known_end": round(r.known_share[-1], 4) if r.known_share else round(float(known.mean()), 4)})
+    if record is not None:
+        record["sensing"] = {"radius_cells": sensing.radius, "every": sensing.every, "runs": runs}
+    return out
+
+
+__all__ = ["DEFAULT_EVERY", "PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "learn_sensed", "run_sensed", "sense",
+           "sense_config", "unknown_cells"]

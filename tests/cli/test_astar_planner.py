@@ -141,3 +141,10 @@ def test_octile_batch_records_the_optimum(tmp_path, capsys, monkeypatch):
         assert r["convergence_steps"] is None and r["episodes"] is None and r["expanded"] > 0
         assert r["ratio"] == pytest.approx(1.0, abs=1e-3)
     assert "scenarios: 3; success 3" in out
+
+
+def test_json_to_stdout_keeps_stdout_pure(room, capsys):
+    code, out, err = cli(capsys, "astar", "room.yaml", "--start", "59,20", "--goal", "39,190", "--json", "-")
+    assert code == 0
+    data = json.loads(out)  # nothing else on stdout: the summary went to stderr
+    assert data["method"] == "A*" and "A* (4-connected)" in err and set(data["timings"]) >= {"map", "search", "output"}

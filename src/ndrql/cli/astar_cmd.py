@@ -5,6 +5,8 @@ nav_msgs/Path, scenario batches; the search is :func:`ndrql.pipeline.shortest.se
 from __future__ import annotations
 
 import argparse
+import functools
+import sys
 import time
 import warnings
 from typing import Any
@@ -181,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
                          "(a ROS map_server .yaml); use --json for the path in pixels")
     with warnings_to_stderr():
         result = search(request, octile=args.octile)
-    echo = (lambda *a: None) if args.json == "-" else print  # --json -: the JSON owns stdout
+    echo = functools.partial(print, file=sys.stderr) if args.json == "-" else print  # --json -: the JSON owns stdout
     for line in summary_lines(result):
         echo(line)
     if args.print_path:

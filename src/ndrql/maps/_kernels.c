@@ -733,12 +733,12 @@ static int bfs4_run(const uint8_t *blocked, int64_t h, int64_t w, int64_t src, i
     int64_t n = h * w;
     for (int64_t i = 0; i < n; i++) dist[i] = -1;
     if (blocked[src]) return 0;
-    int64_t *queue = malloc((size_t)(n ? n : 1) * 2 * sizeof(int64_t)); /* (row, col) pairs: no division per cell */
+    int32_t *queue = malloc((size_t)(n ? n : 1) * 2 * sizeof(int32_t)); /* (row, col) pairs: no division per cell */
     if (!queue) return -1;
     int64_t head = 0, tail = 0;
     dist[src] = 0;
-    queue[0] = src / w;
-    queue[1] = src % w;
+    queue[0] = (int32_t)(src / w);
+    queue[1] = (int32_t)(src % w);
     tail = 1;
     while (head < tail) {
         int64_t r = queue[2 * head], c = queue[2 * head + 1];
@@ -750,8 +750,8 @@ static int bfs4_run(const uint8_t *blocked, int64_t h, int64_t w, int64_t src, i
             int64_t nidx = nr * w + nc;
             if (dist[nidx] < 0 && !blocked[nidx]) {
                 dist[nidx] = d;
-                queue[2 * tail] = nr;
-                queue[2 * tail + 1] = nc;
+                queue[2 * tail] = (int32_t)nr;
+                queue[2 * tail + 1] = (int32_t)nc;
                 tail++;
             }
         }
@@ -764,7 +764,7 @@ static PyObject *py_bfs4(PyObject *self, PyObject *args) {
     PyObject *o_blocked;
     long long h, w, src;
     if (!PyArg_ParseTuple(args, "OLLL", &o_blocked, &h, &w, &src)) return NULL;
-    if (h < 1 || w < 1 || src < 0 || src >= h * w)
+    if (h < 1 || w < 1 || h > INT32_MAX || w > INT32_MAX || src < 0 || src >= h * w) /* rows, cols fit the queue's int32 */
         return PyErr_Format(PyExc_ValueError, "bad grid %lldx%lld or source cell %lld", h, w, src);
     Py_buffer b;
     if (get_buffer(o_blocked, &b, 1, (Py_ssize_t)(h * w), 0, "blocked") != 0) return NULL;

@@ -148,3 +148,16 @@ def test_json_to_stdout_keeps_stdout_pure(room, capsys):
     assert code == 0
     data = json.loads(out)  # nothing else on stdout: the summary went to stderr
     assert data["method"] == "A*" and "A* (4-connected)" in err and set(data["timings"]) >= {"map", "search", "output"}
+
+
+def test_a_star_run_and_a_planned_run_are_one_family(room):
+    """Both carry what a path's users read (PathRun): plan's writer takes either."""
+    from ndrql.cli.plan_cmd import write_path
+    from ndrql.pipeline.shortest import PathRun
+
+    a = ndrql.astar("room.yaml", start=(59, 20), goal=(39, 190))
+    p = ndrql.plan("room.yaml", start=(59, 20), goal=(39, 190), method="QL")
+    assert isinstance(a, PathRun) and isinstance(p, PathRun)
+    for run, name in ((a, "a.yaml"), (p, "p.yaml")):
+        write_path(name, run, 0.0)
+        assert len(yaml.safe_load((room / name).read_text())["poses"]) == len(run.poses)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
@@ -37,6 +37,32 @@ from ndrql.pipeline.route import Route, make_route
 ASTAR_METHODS: tuple[str, ...] = ("A*", "A*-octile")
 #: Stages an A* plan spends time in, in order (``map``: reading the map and placing the points).
 ASTAR_STAGES: tuple[str, ...] = ("map", "grid", "search", "route")
+
+
+@runtime_checkable
+class PathRun(Protocol):
+    """What a plan's run and an A* run share, so either serves where a path is used (``--path-out``'s writer,
+    a scenario batch's record): :class:`AStarRun` and :class:`~ndrql.pipeline.report.PlannedRun` both are one."""
+
+    method: str
+    path: Any
+    path_length: Any
+    route: Any
+
+    @property
+    def converged(self) -> bool: ...
+
+    @property
+    def success(self) -> bool: ...
+
+    @property
+    def path_pixels(self) -> Any: ...
+
+    @property
+    def poses(self) -> Any: ...
+
+    @property
+    def collisions(self) -> list: ...
 
 
 @dataclass(frozen=True)
@@ -151,4 +177,4 @@ def search(request: PlanRequest, octile: bool = False) -> AStarRun:
                     setup=setup, radius_px=setup.radius_px, timings=t)
 
 
-__all__ = ["ASTAR_METHODS", "ASTAR_STAGES", "AStarRun", "corners", "search"]
+__all__ = ["ASTAR_METHODS", "ASTAR_STAGES", "AStarRun", "PathRun", "corners", "search"]

@@ -346,7 +346,8 @@ def run(args: argparse.Namespace) -> int:
                else "averaged from the map's pixels onto this grid")
         echo(f"predictions: {_short(str(args.prior_from))} ({how})")
     lines = _summary(report)
-    echo("\n".join(lines[:-1]))  # the time line last, with the outputs' time
+    timed = [x for x in lines if x.startswith("time (s): ")][-1:]  # printed last, with the outputs' time
+    echo("\n".join(x for x in lines if x not in timed))
     t_out = time.perf_counter()
     if args.png:
         dpi = check_dpi(args)
@@ -363,7 +364,8 @@ def run(args: argparse.Namespace) -> int:
         written = write_json(args.json, data)
         if args.json != "-":
             echo(f"wrote {written}")
-    echo(with_output_time(lines[-1], time.perf_counter() - t_out))
+    for line in timed:
+        echo(with_output_time(line, time.perf_counter() - t_out))
     return 0
 
 

@@ -105,6 +105,7 @@ def test_sense_cli_equals_api(ndrql_exe, tmp_path):
     r = run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34", "--hide", tmp_path / "mask.npy",
                 "--sense", "3", "--method", "IQL-BFS", "--seeds", "2", "--size", "40", "--json", tmp_path / "out.json")
     assert r.returncode == 0, r.stderr
+    assert "belief (given): 23% of the free space unknown" in r.stdout and "sensing: radius 3 cells" in r.stdout
     doc = json.loads((tmp_path / "out.json").read_text())
     api = ndrql.solve(str(tmp_path / "map.npy"), start=(5, 5), goal=(5, 34), methods=["IQL-BFS"], seeds=2, size=40,
                       hide=str(tmp_path / "mask.npy"), sense=3)

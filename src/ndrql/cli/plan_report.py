@@ -6,6 +6,7 @@ from typing import Any
 
 from ndrql.api import WORK_STAGES
 from ndrql.cli.text import text_table
+from ndrql.pipeline.belief import belief_lines
 from ndrql.pipeline.route import octile_cost
 from ndrql.planning.results import geometric_ci, summarize
 
@@ -160,6 +161,7 @@ def summary_lines(report: Any) -> list[str]:
                              f"({r.total_steps:,} steps){tail}")
     lines.append(f"A* optimum: {opt} moves; seeds {report.seeds[0]}..{report.seeds[-1]}; "
                  f"max {report.config.max_episodes} episodes")
+    lines += belief_lines(report.info)
     if not single:
         lines += table(list(report.methods), list(report.results))
     through = str(report.info.get("qi_distance", "")).startswith("moves through the region")

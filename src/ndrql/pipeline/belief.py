@@ -140,4 +140,24 @@ def belief_record(belief: Belief | None, rule: str, truth: GridMap, grid: Planni
     return out
 
 
-__all__ = ["ROS_FREE_NOTE", "belief_record", "check_points_known", "plan_grids", "read_belief"]
+def belief_lines(info: dict[str, Any]) -> list[str]:
+    """What ``plan``'s summary says of a belief and of sensing (nothing when the planner knows the map)."""
+    b = info.get("belief")
+    if not b:
+        return []
+    seen = b.get("belief_optimum")
+    lines = [f"belief ({b['kind']}): {b['unknown_share']:.0%} of the free space unknown to the planner (counted free); "
+             f"priors from the belief, learning on the map; optimum {b['true_optimum']} moves on the map, "
+             + (f"{seen} on the belief" if seen is not None else "none on the belief")]
+    if b.get("note"):
+        lines.append(f"note: {b['note']}")
+    s = info.get("sensing")
+    if s:
+        rec = [r["recomputes"] for r in s["runs"]]
+        lines.append(f"sensing: radius {s['radius_cells']:g} cells, priors rebuilt every {s['every']} episode(s) while the "
+                     f"map changes: {min(rec)}-{max(rec)} rebuilds per run, known cells "
+                     f"{s['runs'][0]['known_start']:.0%} -> {max(r['known_end'] for r in s['runs']):.0%}")
+    return lines
+
+
+__all__ = ["ROS_FREE_NOTE", "belief_lines", "belief_record", "check_points_known", "plan_grids", "read_belief"]

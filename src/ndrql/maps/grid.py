@@ -293,8 +293,10 @@ class PlanningGrid:
             cell = point_to_cell((r, c), obstacles.shape, blocked.shape)
             free = nearest_free_bfs(blocked, cell)
             if free != cell:
+                cr, cc = cell_to_point(free, obstacles.shape, blocked.shape)  # in map pixels, as the point was given
                 warnings.warn(
-                    f"{name} ({r}, {c}) falls in blocked planning cell {cell}; moved to nearest free cell {free}",
+                    f"{name} ({r}, {c}) falls in blocked planning cell {cell}; moved to nearest free cell {free}, "
+                    f"centred at pixel ({cr:.0f}, {cc:.0f})",
                     SnapWarning,
                     stacklevel=2,
                 )

@@ -140,6 +140,7 @@ def test_a_long_or_looping_path_is_flagged_not_ok():
     assert "flagged among the successes: long 1" in lines[0]
     assert crosses_itself([(0, 0), (0, 5), (5, 5), (5, 2), (-1, 2)])  # a loop
     assert crosses_itself([(0, 0), (0, 5), (0, 3)])  # back the way it came
+    assert not crosses_itself([(77, 43), (77, 42), (77, 47), (82, 47)])  # a start pixel's step back to its cell centre
     assert not crosses_itself([(0, 0), (0, 5), (5, 5), (5, 9)]) and not crosses_itself([(0, 0), (1, 1), (2, 2)])
 
 

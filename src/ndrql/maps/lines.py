@@ -149,10 +149,11 @@ def polyline_length(points: Sequence[Point] | np.ndarray) -> float:
     return float(np.hypot(*np.diff(pts, axis=0).T).sum())
 
 
-def crosses_itself(points: Sequence[Point] | np.ndarray, eps: float = 1e-9) -> bool:
+def crosses_itself(points: Sequence[Point] | np.ndarray, fold: float = 1.5, eps: float = 1e-9) -> bool:
     """Whether the polyline through ``points`` meets itself: two segments that are not neighbours along it
-    touch or cross, or two neighbours fold back over each other (a loop, or a path that goes back the way
-    it came). ``O(n^2)`` in the segments, vectorised per segment."""
+    touch or cross, or two neighbours fold back over each other by more than ``fold`` pixels (a path that
+    goes back the way it came; a shorter fold, such as an unsmoothed path's step from its start pixel back to
+    its cell's centre, is not a loop). ``O(n^2)`` in the segments, vectorised per segment."""
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     pts = pts[np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]]  # repeated points are not loops
     a, b = pts[:-1], pts[1:]
@@ -160,7 +161,8 @@ def crosses_itself(points: Sequence[Point] | np.ndarray, eps: float = 1e-9) -> b
     if n >= 2:  # a neighbour folding back: the turn between consecutive segments is 180 degrees
         d0, d1 = b[:-1] - a[:-1], b[1:] - a[1:]
         cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
-        if np.any((np.abs(cross) <= eps) & ((d0 * d1).sum(1) < 0)):
+        overlap = np.minimum(np.hypot(*d0.T), np.hypot(*d1.T))
+        if np.any((np.abs(cross) <= eps) & ((d0 * d1).sum(1) < 0) & (overlap > fold)):
             return True
 
     def orient(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ndrql.pipeline.sensing import SenseConfig, chunk_seed, run_sensed, sense
+from ndrql.pipeline.sensing import SenseConfig, run_sensed, sense
 from ndrql.planning.config import QLConfig
 from ndrql.planning.methods import build_priors
 from ndrql.planning.runner import run_plan
@@ -31,13 +31,16 @@ def test_sense_sees_within_the_radius_and_not_through_walls():
     assert seen[5, 3] and not seen[5, 2]  # the radius
 
 
-def test_a_known_map_is_a_plain_run_with_the_chunk_seed():
+def test_a_known_map_converges_as_a_plain_run_does():
     t = _truth()
     cfg = QLConfig()
-    r = run_sensed(t, t, np.ones_like(t), S, G, "IQL-BFS", 7, cfg, _priors_on, SenseConfig(radius=3, every=10**6))
-    plain = run_plan(t, S, G, "IQL-BFS", chunk_seed(7, 0), cfg, priors=_priors_on(t))
-    assert r.converged and r.recomputes == 0
-    assert (r.steps, r.episodes, r.path_length) == (plain.convergence_steps, plain.episodes, plain.path_length)
+    r = run_sensed(t, t, np.ones_like(t), S, G, "IQL-BFS", 7, cfg, _priors_on, SenseConfig(radius=3, every=1))
+    plain = run_plan(t, S, G, "IQL-BFS", 7, cfg, priors=_priors_on(t))
+    assert r.converged and r.recomputes == 0 and set(r.known_share) == {1.0}
+    assert r.result.converged and plain.converged and r.result.path_length == r.path_length >= 43
+    assert r.result.convergence_episode == r.episodes >= cfg.window and r.result.convergence_steps == r.steps
+    # the window is kept across the one-episode calls: the last `window` rollouts gave the same path
+    assert r.episodes >= cfg.window
 
 
 def test_the_hidden_wall_is_revealed_and_the_priors_rebuilt():

@@ -1,18 +1,17 @@
 """Revealed as it moves: Q-learning whose priors are recomputed as the robot's sensors reveal the map.
 
 The agent learns on the true planning grid; the planner starts from a belief grid (known cells as the
-truth, unknown cells counted free). Learning runs in chunks of episodes with the Q-table carried over
-(:func:`~ndrql.planning.runner.run_plan` with ``keep_q``; the compiled kernel is unchanged). After each
-chunk the cells the agent stood on (the rows of the Q-table that the chunk updated) sense every cell
-within ``radius`` cells by line of sight on the true grid (:func:`ndrql.synth.masks.visible_from`);
-what they reveal enters the belief, the priors are rebuilt on it and the Q-table keeps what was learned:
-``Q <- Q + (Q0_new - Q0_old)`` (each entry moves by the change of its prior).
-
-When to recompute is :attr:`SenseConfig.every` episodes, as long as the map keeps changing. The kernel's
-convergence test (the same greedy path ``window`` episodes running) restarts with each call, so once a
-chunk reveals nothing new the rest of the run is one call (what the agent would sense after that is not
-used): it then converges as a plain run would, at the cost of one restart of the test. A chunk's seed is
-derived from the run's seed and the chunk's number, so a run depends only on its inputs and seed.
+truth, unknown cells counted free). Learning runs one episode per call of the compiled kernel (unchanged)
+with the Q-table carried over (:func:`~ndrql.planning.runner.run_plan` with ``keep_q``), and the
+convergence test of a plain run (the same greedy path ``window`` episodes running,
+:func:`ndrql.planning.rules.greedy_streak`) is kept across the calls. After each episode the cells the
+agent stood on (the rows of the Q-table it updated) sense every cell within ``radius`` cells by line of
+sight on the true grid (:func:`ndrql.synth.masks.visible_from`); what they reveal enters the belief.
+Every :attr:`SenseConfig.every` episodes, when something new was revealed, the priors are rebuilt on the
+belief and the Q-table keeps what was learned: ``Q <- Q + (Q0_new - Q0_old)`` (each entry moves by the
+change of its prior). Episode ``k``'s seed is derived from the run's seed and ``k``, so a run depends
+only on its inputs and seed. The priors cannot change within an episode (that needs a kernel that senses
+per step).
 """
 
 from __future__ import annotations
@@ -46,9 +45,9 @@ class SenseConfig:
     radius: float
     """Sensing radius in planning cells (line of sight on the true grid)."""
     every: int = 20
-    """Episodes between recomputations while the map keeps changing (module docstring)."""
+    """Episodes between rebuilds of the priors (when something new was revealed since the last)."""
     max_chunks: int = 10_000
-    """Most chunks of a run (the episode cap of the run's :class:`QLConfig` holds too)."""
+    """Most rebuild intervals of a run (``max_chunks x every`` episodes; the cap of the :class:`QLConfig` holds too)."""
 
     def __post_init__(self) -> None:
         if not self.radius > 0:
@@ -70,9 +69,9 @@ class SensedRun:
     recomputes: int = 0
     """How many times the priors were rebuilt."""
     known_share: list[float] = field(default_factory=list)
-    """Share of the grid's cells known after each chunk."""
+    """Share of the grid's cells known after each episode."""
     result: PlanResult | None = field(default=None, repr=False)
-    """The run as a :class:`PlanResult`: the last chunk's path, the steps and episodes of all chunks."""
+    """The run as a :class:`PlanResult`: the converged path, the steps and episodes of all calls."""
 
 
 def sense_config(radius: float | None, every: int | None, has_belief: bool) -> SenseConfig | None:
@@ -93,7 +92,7 @@ def sense_config(radius: float | None, every: int | None, has_belief: bool) -> S
 
 
 def chunk_seed(seed: int, chunk: int) -> int:
-    """The kernel's seed for chunk ``chunk`` of a run with ``seed`` (63 bits)."""
+    """The kernel's seed for episode (call) ``chunk`` of a run with ``seed`` (63 bits)."""
     return int(np.random.SeedSequence([int(seed), int(chunk)]).generate_state(1, np.uint64)[0] >> np.uint64(1))
 
 
@@ -121,43 +120,44 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
     w = truth.shape[1]
     viewed = np.zeros(truth.shape, dtype=bool)  # cells already sensed from: they reveal nothing new
     viewed[start] = True
-    length, left = sensing.every, int(config.max_episodes)
-    total = 0
+    one = dataclasses.replace(config, max_episodes=1, window=1)  # one episode a call; converged = rollout reached
+    streak, best, pending, since = 0, None, False, 0
     res = None
-    for k in range(sensing.max_chunks):
-        if left <= 0:
-            break
-        cfg = dataclasses.replace(config, max_episodes=min(length, left))
-        res = run_plan(truth, start, goal, method, chunk_seed(seed, k), cfg, priors=Priors(pri.r_c, q, pri.threshold),
+    for k in range(min(int(config.max_episodes), sensing.max_chunks * sensing.every)):
+        res = run_plan(truth, start, goal, method, chunk_seed(seed, k), one, priors=Priors(pri.r_c, q, pri.threshold),
                        keep_q=True, astar=opt)
-        left -= res.episodes
-        out.episodes += res.episodes
-        total += int(res.total_steps)
-        if res.converged:
-            out.converged, out.path_length = True, res.path_length
-            out.steps += int(res.convergence_steps)
-            break
+        out.episodes += 1
         out.steps += int(res.total_steps)
+        if res.converged:  # rules.greedy_streak across calls: the same greedy path `window` episodes running
+            streak = streak + 1 if res.path == best else 1
+            best = res.path
+        else:
+            streak = 0
+        if streak >= config.window:
+            out.converged, out.path_length = True, res.path_length
+            break
         stood = np.flatnonzero(np.any(res.q_table != q, axis=1) & ~viewed.ravel())
         viewed.flat[stood] = True
         q = res.q_table
         new = sense(truth, np.stack([stood // w, stood % w], axis=1), sensing.radius) & ~known
-        out.known_share.append(float((known | new).mean()))
-        if not new.any():  # the map stopped changing: the rest of the run in one call (one streak restart)
-            length = left
-            continue
-        known |= new
-        belief[new] = truth[new]
-        fresh = priors_on(belief)
-        q = np.ascontiguousarray(q + (fresh.q0 - pri.q0))
-        pri = fresh
-        out.recomputes += 1
-        length = sensing.every
+        if new.any():
+            known |= new
+            belief[new] = truth[new]
+            pending = True
+        out.known_share.append(float(known.mean()))
+        since += 1
+        if pending and since >= sensing.every:
+            fresh = priors_on(belief)
+            q = np.ascontiguousarray(q + (fresh.q0 - pri.q0))
+            pri, pending, since = fresh, False, 0
+            out.recomputes += 1
     if res is not None:
         out.result = dataclasses.replace(
-            res, seed=int(seed), episodes=out.episodes, total_steps=total, q_table=None,
-            convergence_episode=out.episodes if out.converged else None,
-            convergence_steps=out.steps if out.converged else None)
+            res, seed=int(seed), episodes=out.episodes, total_steps=out.steps, q_table=None,
+            converged=out.converged, convergence_episode=out.episodes if out.converged else None,
+            convergence_steps=out.steps if out.converged else None, path=res.path if res.converged else None,
+            path_length=res.path_length if res.converged else None,
+            length_ratio=res.length_ratio if res.converged else None)
     return out
 
 

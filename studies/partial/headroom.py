@@ -119,7 +119,7 @@ def measure(args: argparse.Namespace) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     done = set()
     if out.exists():
-        done = {(r["index"], r["grid"]) for r in map(json.loads, out.read_text().splitlines()) if r.strip() if True}
+        done = {(r["index"], r["grid"]) for r in map(json.loads, filter(str.strip, out.read_text().splitlines()))}
     preset = load_preset(args.preset)
     seeds = list(range(args.seeds))
     with out.open("a") as f:

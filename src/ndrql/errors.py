@@ -36,6 +36,10 @@ class FallbackWarning(NdrqlWarning):
     """The method asked for did not run: the model's prediction was uninformative and the fallback ran instead."""
 
 
+class BoundError(NdrqlError, ValueError):
+    """A number outside its declared range (:data:`ndrql.limits.BOUNDS`); also a ``ValueError``."""
+
+
 class MapFormatError(NdrqlError):
     """A map file is missing, unreadable, corrupt, or of an unsupported format."""
 

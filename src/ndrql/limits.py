@@ -1,6 +1,11 @@
-"""Bounds on numbers a user gives (flags, API arguments), checked once at the boundary.
+"""Bounds on numbers a user gives (flags, API arguments, environment variables), checked once at the boundary.
 
-Each check raises ``ValueError`` with one line naming the flag and the allowed range; the CLI prints
+:data:`BOUNDS` is the one table: the range of every numeric flag and config field, and why (what a value
+beyond it costs); :data:`ENV_VARS` lists the environment variables. The CLI checks every parsed flag against
+it before the command runs (:func:`ndrql.cli.options.check_flags`), the config classes their fields
+(:func:`check_fields`), and a test fails for a numeric flag, field or variable the table lacks.
+
+Each check raises :class:`~ndrql.errors.BoundError` (an ``NdrqlError`` and a ``ValueError``) with one line naming the flag and the allowed range; the CLI prints
 it as ``ndrql: error: ...`` with exit code 2. The bounds keep memory and time in proportion to what
 was asked for: no billion-element seed list, no 20,000 x 20,000 planning grid, no 10^5 processes.
 
@@ -11,10 +16,12 @@ from __future__ import annotations
 
 import math
 import numbers
+from dataclasses import dataclass
 
-from ndrql.errors import brief
+from ndrql.errors import BoundError, brief
 
-__all__ = ["DEVELOPMENT_SEEDS", "MIN_GRID_SIZE", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEALED_SEEDS",
+__all__ = ["BOUNDS", "ENV_VARS", "Bound", "bound_for", "check_bound", "check_fields", "env_number", "field_key",
+           "DEVELOPMENT_SEEDS", "MIN_GRID_SIZE", "MAX_GRID_SIZE", "MAX_RUNS", "MAX_THREADS", "MAX_WORKERS", "SEALED_SEEDS",
            "SEED_LIMIT", "TRAINING_SEEDS", "available_cores", "check_cell", "check_finite", "check_int", "check_seeds",
            "check_threads", "check_training_seed", "seed_role"]
 
@@ -70,7 +77,7 @@ def check_training_seed(seed: object, name: str = "--seed") -> int:
     if seed not in TRAINING_SEEDS:
         role = seed_role(seed)  # type: ignore[arg-type]
         why = f"{role} evaluation sets use it" if role != "unassigned" else "seeds from 1,000,000 up are unassigned"
-        raise ValueError(f"{name} {seed} is not a training seed (0..{TRAINING_SEEDS.stop - 1:,}): {why}")
+        raise BoundError(f"{name} {seed} is not a training seed (0..{TRAINING_SEEDS.stop - 1:,}): {why}")
     return seed  # type: ignore[return-value]
 
 
@@ -80,7 +87,7 @@ def check_int(value: object, name: str, lo: int, hi: int | None = None) -> int:
     if ok and value >= lo and (hi is None or value <= hi):
         return value  # type: ignore[return-value]
     rule = f">= {lo}" if hi is None else f"in {lo}..{hi:,}"
-    raise ValueError(f"{name} must be an integer {rule}, got {brief(value)}")
+    raise BoundError(f"{name} must be an integer {rule}, got {brief(value)}")
 
 
 def check_finite(value: object, name: str, lo: float = -math.inf, hi: float = math.inf) -> float:
@@ -89,7 +96,7 @@ def check_finite(value: object, name: str, lo: float = -math.inf, hi: float = ma
     if ok and math.isfinite(value) and lo <= value <= hi:  # type: ignore[operator]
         return float(value)  # type: ignore[arg-type]
     where = "" if (lo, hi) == (-math.inf, math.inf) else f" in [{lo:g}, {hi:g}]"
-    raise ValueError(f"{name} must be a finite number{where}, got {brief(value)}")
+    raise BoundError(f"{name} must be a finite number{where}, got {brief(value)}")
 
 
 def check_threads(value: object, name: str = "threads", lo: int = 1) -> int:
@@ -97,7 +104,7 @@ def check_threads(value: object, name: str = "threads", lo: int = 1) -> int:
     ok = isinstance(value, int) and not isinstance(value, bool)
     if ok and lo <= value <= MAX_THREADS:  # type: ignore[operator]
         return value  # type: ignore[return-value]
-    raise ValueError(f"{name} must be an integer in {lo}..{MAX_THREADS} (the CPU cores this process may use), "
+    raise BoundError(f"{name} must be an integer in {lo}..{MAX_THREADS} (the CPU cores this process may use), "
                      f"got {brief(value)}")
 
 
@@ -119,7 +126,7 @@ def check_cell(point: object, name: str) -> tuple[int, int]:
         else:
             break
     if len(parts) != 2 or len(out) != 2:
-        raise ValueError(f"{name} must be (row, col), two integers, got {brief(point) if len(parts) != 2 else parts}")
+        raise BoundError(f"{name} must be (row, col), two integers, got {brief(point) if len(parts) != 2 else parts}")
     return out[0], out[1]
 
 
@@ -129,5 +136,154 @@ def check_seeds(first: object, count: object, first_name: str = "--seed", count_
     count = check_int(count, count_name, 1, MAX_RUNS)
     if not (isinstance(first, int) and not isinstance(first, bool) and 0 <= first <= SEED_LIMIT - count):
         last = f"2**63 - {count}" if count > 1 else "2**63 - 1"
-        raise ValueError(f"{first_name} must be an integer in 0..{last} (every seed below 2**63), got {brief(first)}")
+        raise BoundError(f"{first_name} must be an integer in 0..{last} (every seed below 2**63), got {brief(first)}")
     return range(first, first + count)
+
+
+# --- the one table of bounds: every numeric flag, config field and environment variable -------------------
+
+@dataclass(frozen=True)
+class Bound:
+    """The range a number may take and why (what a value beyond it would cost)."""
+
+    lo: float
+    hi: float
+    why: str
+    integer: bool = True
+    off: float | None = None
+    """A value outside ``lo..hi`` that means "off" or "default" (``0`` threads: all cores)."""
+
+    def rule(self) -> str:
+        span = f"an integer in {self.lo:.0f}..{self.hi:,.0f}" if self.integer else f"a finite number in [{self.lo:g}, {self.hi:g}]"
+        return span + ("" if self.off is None else f" (or {self.off:g})")
+
+
+def _workers_cap() -> int:
+    return max(4, available_cores())
+
+
+_SEED = Bound(0, SEED_LIMIT - 1, "numpy, torch and the kernel take 64-bit seeds")
+_CELLS = Bound(MIN_GRID_SIZE, MAX_GRID_SIZE, "cells on a side: memory and Q-learning's episode cap grow with the cells")
+_UNIT = Bound(0, 1, "a weight or a probability", integer=False)
+_REWARD = Bound(-1000, 1000, "rewards beyond this only rescale the Q-table", integer=False)
+_SWITCH = Bound(0, 1, "a switch: 0 off, 1 on")
+_CORES = Bound(1, MAX_THREADS, "more threads than cores only slow a run down")
+
+#: Every numeric command-line flag (key ``--flag``, or ``COMMAND --flag`` where a command differs) and config field
+#: (key ``Class.field``). :func:`check_flags` checks the flags where the arguments are parsed, the config classes
+#: check their fields in ``__post_init__`` (the API's requests), :data:`ENV_VARS` lists the environment.
+BOUNDS: dict[str, Bound] = {
+    "--seed": _SEED, "--order-seed": _SEED,
+    "--seeds": Bound(1, MAX_RUNS, "runs per method; each is a Q-learning run"),
+    "--workers": Bound(1, _workers_cap(), "processes beyond the cores only cost memory (each loads the planners)"),
+    "--threads": _CORES, "train --threads": Bound(1, MAX_THREADS, "more threads than cores only slow a run down", off=0),
+    "eval --threads": Bound(1, MAX_THREADS, "more threads than cores only slow a run down", off=0),
+    "--dpi": Bound(30, 600, "figure pixels grow with the square of the resolution"),
+    "--threshold": Bound(0, 256, "a gray value of an 8-bit image", integer=False),
+    "--max-pixels": Bound(1, 2**25, "a map's arrays take about 40 bytes a pixel: 2**25 pixels is 1.3 GB"),
+    "--robot-radius": Bound(0, 10_000, "metres or pixels; larger inflates every map to one obstacle", integer=False),
+    "--path-spacing": Bound(0.001, 10_000, "poses per path grow as its inverse", integer=False, off=0),
+    "--size": _CELLS, "export-onnx --size": Bound(32, 4096, "the traced input side in pixels"),
+    "data generate --size": Bound(16, 4096, "a generated map's side in pixels"),
+    "--max-size": _CELLS, "--grid": _CELLS,
+    "--sense": Bound(0, MAX_GRID_SIZE, "cells seen around the agent", integer=False),
+    "--sense-every": Bound(1, 10_000, "episodes between rebuilds of the priors"),
+    "--alpha": Bound(1e-6, 1, "a smaller rate never converges within the episode cap", integer=False),
+    "--epsilon": _UNIT, "--gamma": Bound(0, 0.9999, "values grow as 1 / (1 - gamma)", integer=False),
+    "--max-steps": Bound(1, 4 * MAX_GRID_SIZE**2, "moves per episode: 4 x the cells of the largest grid"),
+    "train --max-steps": Bound(1, 10**9, "optimisation steps", off=0),
+    "--max-episodes": Bound(1, 10**7, "episodes of one run; time grows with them"),
+    "tune --max-episodes": Bound(1, 1_000_000, "episodes of one run during a search"),
+    "--window": Bound(1, 10_000, "episodes the greedy path must repeat; each keeps a path"),
+    "--reward-collision": _REWARD, "--reward-goal": _REWARD, "--reward-revisit": _REWARD,
+    "--r0": Bound(-100, 100, "the base reward of a move", integer=False),
+    "--r-max": Bound(0, 100, "the largest continuous reward", integer=False),
+    "--g-row": Bound(0.01, 10_000, "a decay length in cells", integer=False),
+    "--g-col": Bound(0.01, 10_000, "a decay length in cells", integer=False),
+    "--omega-crf": _UNIT, "--omega-qi": _UNIT, "--thd-start": _UNIT,
+    "--mask-low": Bound(-1000, 0, "the mask's value outside the region", integer=False),
+    "--thd-step": Bound(0.001, 1, "the schedule holds start / step thresholds, each a connectivity test",
+                        integer=False),
+    "--region-dilation": Bound(0, 10, "more turns the region into the whole map"),
+    "--guideline-ties": Bound(0, 0.95, "it only breaks ties", integer=False),
+    "--region-distance": _SWITCH, "--thd-tail": _SWITCH,
+    "--count": Bound(1, 1_000_000, "samples written, each a few kilobytes"),
+    "data show --count": Bound(1, 256, "samples drawn on one sheet"),
+    "--epochs": Bound(1, 10_000, "passes over the data"),
+    "--batch-size": Bound(1, 4096, "samples in memory at once"), "train --batch-size": Bound(1, 1024, "samples per step"),
+    "--lr": Bound(1e-8, 10, "a larger rate diverges", integer=False),
+    "--weight-decay": Bound(0, 10, "a larger decay erases the weights", integer=False),
+    "--warmup-steps": Bound(0, 10**7, "optimisation steps"),
+    "--val-fraction": Bound(0.001, 0.5, "more leaves too little to train on", integer=False),
+    "--loader-workers": Bound(0, 64, "processes building batches"),
+    "--checkpoint-minutes": Bound(0.1, 10_000, "minutes between checkpoints", integer=False),
+    "--steps-per-epoch": Bound(1, 10**7, "optimisation steps per epoch", off=0),
+    "--val-per-source": Bound(1, 100_000, "validation samples per source"),
+    "--limit": Bound(1, 1_000_000, "samples evaluated"), "eval --limit": Bound(1, 1_000_000, "samples evaluated", off=0),
+    "--per-category": Bound(1, 10_000, "samples per category and split"),
+    "--per-family": Bound(1, 1_000_000, "maps per family"),
+    "--trials": Bound(1, 100_000, "trials of the search"), "--samples": Bound(1, 12_000, "validation maps"),
+    "--chunk": Bound(1, 12_000, "maps between pruning checks"), "--candidates": Bound(1, 1000, "trials checked"),
+    "--symmetries": Bound(1, 8, "orientations: one forward pass each"),
+    "QLConfig.max_steps": Bound(1, 4 * MAX_GRID_SIZE**2, "moves per episode: 4 x the cells of the largest grid"),
+    "PlanSettings.max_map_pixels": Bound(1, 2**25, "a map's arrays take about 40 bytes a pixel: 2**25 pixels is 1.3 GB"),
+    "PlanSettings.tolerance": Bound(0, 10, "a route that much longer is no route", integer=False),
+    "PlanSettings.predict_budget": Bound(0.001, 3600, "seconds the model may take", integer=False),
+}
+
+#: Environment variables ndrql reads: name -> what it takes (a :class:`Bound` for numbers).
+ENV_VARS: dict[str, Bound | str] = {
+    "NDRQL_CACHE": "a folder for ndrql's caches", "NDRQL_DATASET": "the dataset folder",
+    "NDRQL_WEIGHTS": "paper, general or a weights file", "NDRQL_RGP_WEIGHTS": "an RGP weights file",
+    "NDRQL_KERNELS": "auto, c or numba", "NDRQL_DEBUG": "any value: show tracebacks",
+    "NDRQL_WRITE_PACKAGE": "1: the maintainers' tools may write the package's files",
+    "NDRQL_EVAL_THREADS": Bound(1, MAX_THREADS, "more threads than cores only slow a run down"),
+}
+
+
+def bound_for(key: str, command: str = "") -> Bound | None:
+    """The bound of ``key`` (``--flag`` or ``Class.field``), the command's own first (``train --threads``)."""
+    return BOUNDS.get(f"{command} {key}".strip()) or BOUNDS.get(key)
+
+
+def field_key(cls_name: str, field: str) -> str:
+    """The table's key for a config field: ``Class.field`` when it has its own row, else the flag ``--field``."""
+    own = f"{cls_name}.{field}"
+    return own if own in BOUNDS else "--" + field.replace("_", "-")
+
+
+def check_bound(value: object, bound: Bound, name: str) -> float:
+    """``value`` if it lies in ``bound`` (or is its ``off`` value), else ``ValueError`` naming ``name`` and the range."""
+    number = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if number and bound.off is not None and value == bound.off:
+        return value  # type: ignore[return-value]
+    if number and (not bound.integer or float(value).is_integer()) and bound.lo <= value <= bound.hi:  # type: ignore[operator]
+        return value  # type: ignore[return-value]
+    raise BoundError(f"{name} must be {bound.rule()}, got {brief(value)}")
+
+
+def check_fields(obj: object, names: tuple[str, ...]) -> None:
+    """Check the numeric fields ``names`` of a config dataclass against :data:`BOUNDS` (``None`` = unset)."""
+    cls = type(obj).__name__
+    for name in names:
+        value = getattr(obj, name)
+        bound = BOUNDS.get(field_key(cls, name))
+        if value is not None and bound is not None and not isinstance(value, str):
+            check_bound(value, bound, name)
+
+
+def env_number(name: str, default: int) -> int:
+    """The integer environment variable ``name`` (:data:`ENV_VARS`), ``default`` when unset; a bad value is a
+    ``ValueError`` that names the variable."""
+    import os
+
+    text = os.environ.get(name, "").strip()
+    if not text:
+        return default
+    bound = ENV_VARS[name]
+    assert isinstance(bound, Bound)
+    try:
+        value: object = int(text)
+    except ValueError:
+        value = text
+    return int(check_bound(value, bound, f"the environment variable {name}"))

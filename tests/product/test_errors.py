@@ -107,4 +107,4 @@ def test_missing_points(ndrql_exe, walls):
 
 def test_bad_threads(ndrql_exe, walls):
     assert_one_line_error(run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--threads", "0"),
-                          "threads (--threads) must be an integer in 1..")
+                          "--threads must be an integer in 1..")

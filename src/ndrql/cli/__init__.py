@@ -18,6 +18,7 @@ import re
 import sys
 from typing import NoReturn
 
+from ndrql.cli.options import check_flags
 from ndrql.cli.outputs import guard
 from ndrql.io.readset import run_inputs
 from ndrql.cli.text import plain, short_usage
@@ -175,6 +176,7 @@ def _error(message: object, code: int = 2) -> int:
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     """Guard the outputs, run the subcommand and turn every failure into one line and an exit code."""
     try:
+        check_flags(_chosen_parser(parser, args), args)  # every number against ndrql.limits.BOUNDS
         guard(args)  # every output checked against every input and each other, before any work
         code = int(args.func(args) or 0)
         if sys.stdout is not None:

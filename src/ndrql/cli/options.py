@@ -9,6 +9,7 @@ import json
 from typing import Any
 
 from ndrql.errors import NdrqlError
+from ndrql.limits import bound_for, check_bound
 from ndrql.planning.config import field_docs
 
 
@@ -88,3 +89,22 @@ def configs_from_flags(args: argparse.Namespace, specs: tuple[tuple[type, tuple[
         except ValueError as exc:
             raise NdrqlError(f"bad option: {exc}") from None
     return out
+
+
+def numeric_values(value: Any) -> list[float]:
+    """The numbers in a parsed flag's value (one, or a list of them); none for text, flags and ``None``."""
+    values = value if isinstance(value, (list, tuple)) else [value]
+    return [v for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+
+
+def check_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Every numeric flag of ``parser``'s command against :data:`ndrql.limits.BOUNDS` (``ValueError`` naming the
+    flag, its range and why), before the command does any work; flags with ``choices`` are bounded by them."""
+    command = parser.prog.split(" ", 1)[1] if " " in parser.prog else ""
+    for action in parser._actions:
+        if not action.option_strings or action.choices is not None:
+            continue
+        numbers = numeric_values(getattr(args, action.dest, None))
+        bound = bound_for(action.option_strings[-1], command) if numbers else None
+        for v in numbers if bound is not None else ():
+            check_bound(v, bound, action.option_strings[-1])

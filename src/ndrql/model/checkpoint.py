@@ -48,6 +48,7 @@ def load_checkpoint(path: str | Path, *, note: bool = True) -> dict[str, Any]:
         if "weights only" in first.lower() or "weights_only" in str(exc) or type(exc).__name__ == "UnpicklingError":
             first = "it holds Python objects besides tensors and plain values, which ndrql refuses to load (loading them could run code)"
         raise CheckpointError(f"cannot read checkpoint {path}: {first or type(exc).__name__}") from None
+    check_tensors(data, path)
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not an ndrql checkpoint (no '{FORMAT}' header)")
     if data.get("format_version") != FORMAT_VERSION:
@@ -69,6 +70,32 @@ def load_checkpoint(path: str | Path, *, note: bool = True) -> dict[str, Any]:
         if not isinstance(data.get(key, {}), dict):
             raise CheckpointError(f"{path}: {key!r} is not a mapping")
     return data
+
+
+#: Most elements of one tensor, and of all tensors, in a checkpoint (the shipped models hold under 2**23).
+MAX_TENSOR_ELEMENTS, MAX_TOTAL_ELEMENTS = 2**26, 2**27
+
+
+def check_tensors(data: Any, path: str | Path) -> None:
+    """Every tensor in ``data`` (as loaded: views of the file's storage, nothing allocated yet) must fit its
+    storage and :data:`MAX_TENSOR_ELEMENTS`; a zero-stride 60000 x 60000 view of a few megabytes would
+    become 14 GB at the first copy. :class:`CheckpointError` otherwise."""
+    total, stack, seen = 0, [data], 0
+    while stack and seen < 100_000:
+        item, seen = stack.pop(), seen + 1
+        if isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, (list, tuple)):
+            stack.extend(item)
+        elif isinstance(item, torch.Tensor):
+            n = item.numel()
+            held = item.untyped_storage().nbytes() // max(1, item.element_size())
+            if n > MAX_TENSOR_ELEMENTS or n > held - item.storage_offset() or min(item.stride(), default=1) < 0:
+                raise CheckpointError(f"{path}: a tensor of shape {tuple(item.shape)[:8]} does not fit the data the file "
+                                      f"holds ({held:,} values) or exceeds {MAX_TENSOR_ELEMENTS:,} values; not a model")
+            total += n
+    if total > MAX_TOTAL_ELEMENTS or stack:
+        raise CheckpointError(f"{path}: more than {MAX_TOTAL_ELEMENTS:,} values or 100,000 entries; not a model")
 
 
 def model_from_checkpoint(data: dict[str, Any]) -> torch.nn.Module:

@@ -24,6 +24,7 @@ import torch
 from torch import nn
 
 from ndrql.io import atomic_path
+from ndrql.model.checkpoint import check_tensors
 from ndrql.model.propagation import head_input
 
 #: Iterations of the block per call of the exported graph (``plan`` runs whole calls).
@@ -79,6 +80,7 @@ class _Chunk(nn.Module):
 def load_propagator(path: str | Path) -> Propagator:
     """A head from a checkpoint written by ``studies/propagate/train.py`` (``state``, ``width``, ``pool``)."""
     ck = torch.load(path, map_location="cpu", weights_only=True)
+    check_tensors(ck, path)  # shape, stride and size before anything is copied
     net = Propagator(int(ck["width"]), bool(ck.get("pool", False)))
     net.load_state_dict(ck["state"])
     return net.eval()

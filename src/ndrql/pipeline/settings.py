@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ndrql.errors import NdrqlError, brief
-from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, check_threads
+from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, check_fields, check_threads
 from ndrql.maps.grid import PLANNING_SIZE
 from ndrql.maps.readers import MAX_MAP_PIXELS
 from ndrql.maps.safe import DEFAULT_MAX_SIZE
@@ -18,6 +18,10 @@ from ndrql.planning.methods import get_method
 GRID_RULES: tuple[str, ...] = ("safe", "area")
 #: Above this many cells on the longer side ``plan`` warns that Q-learning may take minutes.
 SLOW_SIZE = 256
+
+
+#: The numeric fields of :class:`PlanSettings`, each bounded in :data:`ndrql.limits.BOUNDS`.
+NUMERIC_SETTINGS = ("size", "robot_radius", "tolerance", "max_map_pixels", "max_size", "threads", "symmetries")
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,10 @@ class PlanSettings:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
         check_symmetries(self.symmetries, NdrqlError)
         check_threads(self.threads, "threads (--threads)")
+        try:  # the one table (ndrql.limits.BOUNDS); the API's errors are NdrqlError
+            check_fields(self, NUMERIC_SETTINGS)
+        except ValueError as exc:
+            raise NdrqlError(str(exc)) from None
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":

@@ -6,6 +6,8 @@ import functools
 import math
 from dataclasses import dataclass, fields
 
+from ndrql.errors import BoundError
+from ndrql.limits import check_fields
 from ndrql.planning import rules
 
 #: Largest :attr:`QLConfig.max_episodes`: a run's records grow as it goes (25 bytes an episode), so a
@@ -22,12 +24,12 @@ def check_numbers(obj: object, names: tuple[str, ...], bound: float = MAX_MAGNIT
     for name in names:
         v = getattr(obj, name)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > bound:
-            raise ValueError(f"{name} must be a finite number in [-{bound:g}, {bound:g}], got {str(v)[:40]}")
+            raise BoundError(f"{name} must be a finite number in [-{bound:g}, {bound:g}], got {str(v)[:40]}")
 
 
 def _check_count(value: object, name: str, lo: int = 1, hi: int = MAX_STEPS) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an integer in {lo}..{hi:,}, got {str(value)[:40]}")
+        raise BoundError(f"{name} must be an integer in {lo}..{hi:,}, got {str(value)[:40]}")
 
 
 @dataclass(frozen=True)
@@ -56,15 +58,16 @@ class QLConfig:
     def __post_init__(self) -> None:
         check_numbers(self, ("alpha", "epsilon", "gamma", "reward_collision", "reward_goal", "reward_revisit"))
         if not 0.0 < self.alpha <= 1.0:
-            raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
+            raise BoundError(f"alpha must be in (0, 1], got {self.alpha}")
         if not 0.0 <= self.epsilon <= 1.0:
-            raise ValueError(f"epsilon must be in [0, 1], got {self.epsilon}")
+            raise BoundError(f"epsilon must be in [0, 1], got {self.epsilon}")
         if not 0.0 <= self.gamma < 1.0:
-            raise ValueError(f"gamma must be in [0, 1), got {self.gamma}")
+            raise BoundError(f"gamma must be in [0, 1), got {self.gamma}")
         if self.max_steps is not None:
             _check_count(self.max_steps, "max_steps")
         _check_count(self.max_episodes, "max_episodes", hi=MAX_EPISODES)
         _check_count(self.window, "window")
+        check_fields(self, tuple(f.name for f in fields(self)))  # the one table: ndrql.limits.BOUNDS
 
     def steps_cap(self, cells: int) -> int:
         """``max_steps`` resolved for a grid of ``cells`` cells (default ``4 * cells``)."""
@@ -125,22 +128,23 @@ class PriorConfig:
         for name in ("omega_crf", "omega_qi", "thd_start"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
-                raise ValueError(f"{name} must be in [0, 1], got {v}")
+                raise BoundError(f"{name} must be in [0, 1], got {v}")
         if self.thd_step <= 0:
-            raise ValueError(f"thd_step must be > 0, got {self.thd_step}")
+            raise BoundError(f"thd_step must be > 0, got {self.thd_step}")
         if self.g_row <= 0 or self.g_col <= 0:
-            raise ValueError("g_row and g_col must be > 0")
+            raise BoundError("g_row and g_col must be > 0")
         if not 0 <= self.region_dilation <= MAX_DILATION or int(self.region_dilation) != self.region_dilation:
-            raise ValueError(f"region_dilation must be a whole number of cells in [0, {MAX_DILATION}], "
+            raise BoundError(f"region_dilation must be a whole number of cells in [0, {MAX_DILATION}], "
                              f"got {self.region_dilation}")
         object.__setattr__(self, "region_dilation", int(self.region_dilation))  # a preset file's 1.0 is 1 cell
         for name, (off, on) in PRIOR_SWITCHES.items():
             v = getattr(self, name)
             if v not in (0, 1):
-                raise ValueError(f"{name} must be 0 ({off}) or 1 ({on}), got {v}")
+                raise BoundError(f"{name} must be 0 ({off}) or 1 ({on}), got {v}")
             object.__setattr__(self, name, int(v))  # a preset file's 1.0 is 1
         if not 0.0 <= self.guideline_ties <= MAX_TIES:
-            raise ValueError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
+            raise BoundError(f"guideline_ties must be in [0, {MAX_TIES}] (it only breaks ties), got {self.guideline_ties}")
+        check_fields(self, tuple(f.name for f in fields(self)))  # the one table: ndrql.limits.BOUNDS
 
 
 def field_docs(cls) -> dict[str, str]:

@@ -18,7 +18,8 @@ not on an obstacle pixel; ROS maps also take them in metres) -> inflate obstacle
 radius -> planning grid (on a user's map the safe grid: square cells, a cell blocked when any pixel is
 an obstacle, at the coarsest size that keeps the route; :meth:`PlanSettings.paper` gives the paper's
 50x50 area-averaged grid) -> the NDR model predicts region and guideline
-(:func:`ndrql.pipeline.predictions.predict_for`), on the planning grid -> priors of each method
+(:func:`ndrql.pipeline.prior_stage.predict_for`: its sources under a time budget, one judge, IQL-BFS where
+every source is rejected), on the planning grid -> priors of each method
 (Eqs. 2-7) -> Q-learning to convergence (Eq. 1) -> each learned path as a polyline on the full map,
 checked for collisions, shortcut by line of sight, and as world poses (:mod:`ndrql.pipeline.route`).
 The model is loaded once per process and reused (:func:`ndrql.model.predict.load_predictor`); torch
@@ -34,7 +35,8 @@ from typing import Any, Sequence
 
 from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
 from ndrql.pipeline.fallback import warn_fallbacks
-from ndrql.pipeline.predictions import GivenPredictions, Predicted, load_predictions, predict_for
+from ndrql.pipeline.predictions import GivenPredictions, load_predictions
+from ndrql.pipeline.prior_stage import Predicted, predict_for
 from ndrql.pipeline.belief import belief_record, plan_grids
 from ndrql.pipeline.sensing import learn_sensed
 from ndrql.pipeline.problem import check_points, read_map, scenario_points
@@ -82,12 +84,12 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     consts = lambda name: request.constants(name, side)  # noqa: E731
     prior_pg = pg if setup.belief is None else setup.belief  # what the priors see: the belief (the oracle: the truth)
     seen = pg if request.predictions == "oracle" else prior_pg
-    pred = predict_for(request, seen, clock) if request.needs_model else \
+    pred = predict_for(request, seen, clock, consts) if request.needs_priors else \
         Predicted(methods=tuple(get_method(m) for m in request.methods))
     ms = list(pred.methods)
     warn_fallbacks(pred.fallbacks, stacklevel=_caller + 1)
     with clock.stage("priors"):
-        priors, thresholds = method_priors(ms, prior_pg, pred.region, pred.guideline, consts, pred.distance)
+        priors, thresholds = method_priors(ms, prior_pg, pred.region, pred.guideline, consts, pred.distance, pred.threshold)
     if "qi_distance" in pred.record:
         pred.record["qi_distance"] = qi_distance(ms, consts, thresholds, pred.record["qi_distance"])
     with clock.stage("startup"):
@@ -98,7 +100,7 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
             pg, prior_pg, request.belief.unknown, ms, list(request.seeds), consts, pred.region, pred.guideline,
             pred.distance, request.sensing, pred.record)
         results = sensed if sensed is not None else learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
-                        progress, pred.distance)
+                        progress, pred.distance, pred.threshold)
     with clock.stage("route"):
         runs = planned_runs(results, setup.check_map, pg, request.grid_map, request.settings.smoothing,
                             request.start_yaw, request.goal_yaw, pred.fallbacks)

@@ -22,7 +22,7 @@ from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
 from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
-from ndrql.pipeline.predictions import load_predictions, second_opinion_note
+from ndrql.pipeline.predictions import load_predictions
 from ndrql.pipeline.request import DEFAULT_FALLBACK, PRIOR_FIELDS, QL_FIELDS
 from ndrql.pipeline.settings import GRID_RULES
 from ndrql.planning.config import field_docs
@@ -329,6 +329,8 @@ def run(args: argparse.Namespace) -> int:
          f"{pg.shape[0]}x{pg.shape[1]}, start {pg.start}, goal {pg.goal}")
     if report.info.get("prior_from") == "oracle":
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
+    elif report.info.get("prior_from") == "exact":
+        echo("model: none; exact BFS priors (the planning grid's own shortest path and distance, no model)")
     elif report.weights:
         turns = report.info.get("symmetries", 1)
         seen = report.info.get("model_input", {})  # the model's view, named only where it changes what it sees
@@ -337,7 +339,6 @@ def run(args: argparse.Namespace) -> int:
         graph = f"; runs {_short(runs)}" if runs and runs != report.weights else ""  # the file that actually runs
         companion = f"; the companion of {Path(request.weights_file or '').name} for the grids its view merges" \
             if seen.get("companion") else ""
-        companion += second_opinion_note(seen)
         echo(f"model: {_short(report.weights)} ({report.info.get('backend', 'torch')}"
              f"{f', averaged over {turns} orientations of the grid' if turns > 1 else ''}"
              f"{note}{companion}){graph}; constants: preset {request.preset.name}")

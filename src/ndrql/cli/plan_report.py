@@ -100,27 +100,39 @@ def route_lines(report: Any) -> list[str]:
 
 
 def prediction_lines(report: Any) -> list[str]:
-    """Whether the model's prediction could guide planning, and which method ran when it could not.
+    """The sources asked and the judge's verdicts, and which method ran when every source was rejected.
 
-    Shown when the prediction is uninformative or a fallback ran, and on the safe grid; the paper's
-    setting keeps its output (the JSON always has ``prediction_quality``)."""
+    Shown when a source was rejected or a fallback ran, and on the safe grid; the paper's setting keeps its
+    output (the JSON always has ``sources`` and ``prediction_quality``)."""
     q = report.info.get("prediction_quality")
     if q is None:
         return []
     fb = report.info.get("fallback")
+    trials = report.info.get("sources") or []
     if q["informative"]:
         if report.setup is None or report.setup.rule != "safe":
             return []
-        thd = q["threshold"]
-        share = q.get("guideline_on_obstacles")
-        on = f", {share:.0%} of the guideline on obstacles" if share is not None else ""
-        return [f"prediction: informative (region threshold {thd:.2f}{on})"]
-    why = "; ".join(q["reasons"])
+        return [sources_text(trials)]
     if fb:
-        exact = "--fallback IQL-BFS plans on the exact distance instead, " if fb["ran"] == "IQL" else ""
-        return [f"prediction: uninformative ({why}); {', '.join(fb['requested'])} fell back to {fb['ran']} "
-                f"(distance priors; {exact}--fallback none keeps the model's priors)"]
-    return [f"prediction: uninformative ({why}); the model's priors were used anyway"]
+        exact = " (the exact BFS distance)" if fb["ran"] == "IQL-BFS" else ""
+        return [f"{sources_text(trials)}; {', '.join(fb['requested'])} fell back to {fb['ran']}{exact}; "
+                f"--fallback none keeps the model's priors"]
+    return [f"{sources_text(trials)}; the rejected priors were used anyway (--fallback none)"]
+
+
+def sources_text(trials: list[dict[str, Any]]) -> str:
+    """The JSON's ``sources`` as one line: each source asked, accepted or rejected and why."""
+    parts = []
+    for t in trials:
+        if t["accepted"]:
+            ratio = t.get("route_ratio")
+            on = t.get("guideline_on_obstacles")
+            parts.append(f"{t['source']} accepted (Eq. 7 threshold {t['threshold']:.2f}"
+                         + (f", its route {ratio:.2f}x the shortest" if ratio is not None else "")
+                         + (f", {on:.0%} of the guideline on obstacles" if on is not None else "") + ")")
+        else:
+            parts.append(f"{t['source']} rejected ({t['reason']})")
+    return "prediction: " + ("; ".join(parts) if parts else "no source asked")
 
 
 def _vs_full(report: Any, route: Any) -> str:

@@ -15,7 +15,7 @@ from ndrql.errors import NdrqlError
 from ndrql.io import make_folder, save_npz
 from ndrql.model.predict import BACKENDS, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT
-from ndrql.pipeline.predictions import prediction_arrays, predict_region, second_opinion_note, view_prediction
+from ndrql.pipeline.predictions import prediction_arrays, predict_region, view_prediction
 from ndrql.pipeline.problem import build_grid, grid_text
 from ndrql.viz.prediction import plot_distance_field, plot_probability_overlay
 
@@ -100,7 +100,6 @@ def run(args: argparse.Namespace) -> int:
     if pred.grid is not None:
         seen = view_note(view.info.get("view", "native"), int(view.info.get("merged", 1)), " through the view ")
         companion = f"; served by the companion {view.info['weights_file']}" if view.info.get("companion") else ""
-        companion += second_opinion_note(view.info)
         print(f"grid-mode model: saw the {setup.rule} {pg.shape[0]}x{pg.shape[1]} planning grid plan builds, at 4 px "
               f"per cell{seen}, start cell {pg.start}, goal cell {pg.goal}{companion}")
     else:

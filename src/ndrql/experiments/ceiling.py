@@ -3,7 +3,7 @@
 For each held-out map and planning-grid size ``n`` the planner solves the conservative grid
 (:func:`ndrql.maps.safe.conservative_grid`). On it run, with the same seeds: QL, IQL, NDR-QL with the
 model's region and guideline, and NDR-QL with the *oracle's* (an 8-connected shortest path of the grid
-with line-of-sight shortcuts, drawn as the dataset draws its labels, :func:`ndrql.synth.oracle.oracle_prediction`). The model's share
+with line-of-sight shortcuts, drawn as the dataset draws its labels, :func:`ndrql.pipeline.sources.drawn_priors`: ``plan``'s exact source). The model's share
 of the oracle's reduction is ``(1 - NDR/QL) / (1 - oracle/QL)`` on pooled steps, computed from the
 same runs as the rows it divides. Runs that do not converge count with the steps they used.
 """
@@ -23,12 +23,10 @@ from ndrql.maps.problem import MapProblem
 from ndrql.maps.safe import cell_size_px
 from ndrql.maps.sizing import SIZE_LADDER
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.priors import exact_distance
-from ndrql.dataset.render import cell_means
 from ndrql.pipeline.predictions import predict_on_grid
 from ndrql.pipeline.samples import Problem
+from ndrql.pipeline.sources import drawn_priors
 from ndrql.planning.runner import run_plan
-from ndrql.synth.oracle import oracle_prediction
 
 Point = tuple[int, int]
 
@@ -94,14 +92,12 @@ def larger_sizes(n: int) -> tuple[int, ...]:
 
 
 def oracle_priors(case: GridCase, distance: bool = False) -> tuple[np.ndarray, ...]:
-    """Region and guideline of the oracle on the grid; with ``distance`` also the exact goal distance per
-    cell (4-connected moves; cells that cannot reach the goal get the largest distance plus one), the
-    perfect version of a distance head's output."""
-    region, guide = oracle_prediction(case.blocked, case.start_cell, case.goal_cell, PX_PER_CELL)
-    out = (cell_means(region, case.blocked.shape), cell_means(guide, case.blocked.shape))
-    if not distance:
-        return out
-    return out + (exact_distance(case.blocked, case.goal_cell),)
+    """Region and guideline of the oracle on the grid, drawn as ``plan``'s exact source draws them
+    (:func:`ndrql.pipeline.sources.drawn_priors`: on a map the planner knows, this row is what ``plan`` runs); with
+    ``distance`` also the exact goal distance per cell (4-connected moves; cells that cannot reach the goal get the
+    largest distance plus their Manhattan distance), the perfect version of a distance head's output."""
+    out = drawn_priors("oracle", case.blocked, case.start_cell, case.goal_cell, None)
+    return (out.region, out.guideline) + ((out.distance,) if distance else ())
 
 
 def model_priors(predictor, mode: str, case: GridCase, seen: dict | None = None) -> tuple[np.ndarray, ...]:

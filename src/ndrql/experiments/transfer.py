@@ -35,13 +35,15 @@ from ndrql.experiments.digests import array_digest, fingerprint
 from ndrql.experiments.eval_sets import eval_set, eval_spec
 from ndrql.experiments.sweep import Task, run_sweep
 from ndrql.experiments.transfer_floors import render_large
-from ndrql.experiments.transfer_report import ROWS, not_run_note, render_tables, rows_at
+from ndrql.experiments.transfer_report import MODEL, ROWS, not_run_note, render_tables, rows_at
 from ndrql.io import save_figure, write_json, write_text
 from ndrql.maps.grid import PLANNING_SIZE, bfs_distances
 from ndrql.model.predict import Predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
 from ndrql.model.weights import resolve_weights, weights_label
 from ndrql.pipeline.fallback import region_verdict
+from ndrql.pipeline.judge import judge
+from ndrql.pipeline.sources import drawn_priors
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import Preset, load_preset, method_configs
 from ndrql.planning.priors import ThresholdWarning
@@ -113,6 +115,11 @@ def grid_seconds(case: GridCase) -> dict[str, float]:
     return {"astar": astar, "bfs": bfs}
 
 
+def exact_seconds(case: GridCase) -> float:
+    """Wall seconds of plan's exact source on the case's grid (:func:`ndrql.pipeline.sources.drawn_priors`)."""
+    return _timed(drawn_priors, "exact", case.blocked, case.start_cell, case.goal_cell, None)[1]
+
+
 def _f1(predictor, mode: str, case: GridCase, waypoints, own: bool = False) -> tuple[float, float]:
     """Region and guideline F1 of the model that serves this grid against the labels it trained on here.
 
@@ -169,13 +176,20 @@ def collect(predictor, mode: str, gs: GeneratedSet, grids: tuple[int, ...], seed
                 if panels is not None and n == grids[0] and fam not in {p.family for p in panels}:
                     panels.append(PredictionPanel(fam, case.blocked, case.start_cell, case.goal_cell, model, oracle,
                                                   f"({case.n}x{case.n})"))
-                f1 = _f1(predictor, mode, case, raw.waypoints, own=bool((seen.get("second_opinion") or {}).get("served")))
+                f1 = _f1(predictor, mode, case, raw.waypoints)
                 # plan judges the prediction with the paper's threshold schedule whatever the preset (0.99, 0.98, ...)
                 judged, cover, _ = region_verdict(np.asarray(model[0]), case.blocked, case.start_cell, case.goal_cell,
                                                   PriorConfig())
+                cfg = configs(case.n).get(MODEL, (None, PriorConfig()))[1]  # NDR-QL's constants, as plan judges
+                shortest = int(bfs_distances(case.blocked, case.goal_cell)[tuple(case.start_cell)])
+                (v_exact, exact_s) = _timed(judge, oracle[0], oracle[1], case.blocked, case.start_cell, case.goal_cell,
+                                            cfg, shortest)
+                v_model = judge(np.asarray(model[0]), model[1], case.blocked, case.start_cell, case.goal_cell, cfg,
+                                shortest)
                 meta[key] = {"family": fam, "n": n, "size": case.n, "skipped": False, "f1": f1, "judged_threshold": judged,
-                             "region_cover": cover, "second_opinion": seen.get("second_opinion"),
-                             "seconds": {"prediction": predict_s, **grid_seconds(case)}}
+                             "region_cover": cover, "verdicts": {"model": v_model.to_dict(), "exact": v_exact.to_dict()},
+                             "seconds": {"prediction": predict_s, "exact": exact_seconds(case) + exact_s,
+                                         **grid_seconds(case)}}
                 priors = {"QL": None, "QL (tuned)": None, "IQL": None, BFS_ROW: None,
                           "NDR-QL (model)": [a.tolist() for a in model], "NDR-QL (oracle)": [a.tolist() for a in oracle]}
                 priors = {row: pr for row, pr in priors.items() if row in run_rows}

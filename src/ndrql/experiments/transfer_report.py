@@ -33,6 +33,8 @@ from ndrql.pipeline.fallback import (LARGE_GRID, LARGE_MIN_THRESHOLD, MAX_REGION
 #: constants with priors drawn from an 8-connected shortest path of the planning grid (the labels' rule).
 #: The last two use no learning: references for what a perfect distance or a perfect prediction gives.
 ROWS = ("QL", "QL (tuned)", "IQL", "IQL (BFS distance)", "NDR-QL (model)", "NDR-QL (oracle)")
+#: The exact-distance reference every report leads with.
+BFS_ROW = "IQL (BFS distance)"
 MODEL = "NDR-QL (model)"
 ORACLE = "NDR-QL (oracle)"
 #: The rows without a prior (tabular QL from a zero Q-table): about 10^7 steps per run on 256 cells (with the
@@ -111,12 +113,33 @@ def uninformative(record: dict, cut: float | None = None) -> bool:
     return region_reason(judged_threshold(record), record.get("region_cover"), record_size(record), cut) is not None
 
 
+def plan_row(record: dict, cut: float | None = None) -> str:
+    """The row whose runs are what ``ndrql plan`` spends on this case for NDR-QL.
+
+    Records with the judge's verdicts (``verdicts``, :func:`ndrql.pipeline.judge.judge` in
+    :func:`~ndrql.experiments.transfer.collect`): plan's default policy on a known map is the exact source, whose
+    priors are the ``NDR-QL (oracle)`` row's (:func:`ndrql.pipeline.sources.drawn_priors`); where the judge rejects
+    it, plan runs IQL-BFS (its fallback). Older records: the model row where the prediction is informative at
+    ``cut``, else IQL (the fallback of those days)."""
+    v = record.get("verdicts")
+    if v is not None:
+        if v["exact"]["accepted"]:
+            return ORACLE
+        return BFS_ROW if BFS_ROW in record["runs"] else "IQL"
+    return "IQL" if uninformative(record, cut) else MODEL
+
+
+def model_row(record: dict) -> str:
+    """The row ``plan --prior-from model`` spends: the model's where the judge accepts its prediction, else IQL-BFS
+    (IQL where that row did not run)."""
+    v = record.get("verdicts")
+    ok = v["model"]["accepted"] if v is not None else not uninformative(record)
+    return MODEL if ok else (BFS_ROW if BFS_ROW in record["runs"] else "IQL")
+
+
 def plan_steps(record: dict, cut: float | None = None) -> list[int]:
-    """The steps ``ndrql plan`` would spend on this case for NDR-QL: the model row's where the judged
-    Eq. 7 threshold (:func:`judged_threshold`) is at least ``cut`` (plan's, :func:`record_cut`, when not
-    given), else IQL's (plan's default fallback for an
-    uninformative prediction; its other test, the guideline's mass on obstacles, is not applied here)."""
-    return record["runs"]["IQL" if uninformative(record, cut) else MODEL]["steps"]
+    """The steps ``ndrql plan`` would spend on this case for NDR-QL (:func:`plan_row`)."""
+    return record["runs"][plan_row(record, cut)]["steps"]
 
 
 def against_iql(ndr: Sequence[float], iql: Sequence[float], tie: float = TIE) -> tuple[int, int, int]:
@@ -178,6 +201,15 @@ def summarize(records: list[dict], seed: int = 0) -> dict:
             "path": _paths(ok, row)}
     plan = [float(np.mean(plan_steps(r))) for r in ok]
     out["plan_vs_iql"] = geomean_ratio(plan, iql, seed)
+    if BFS_ROW in rows:
+        bfs = _means(ok, BFS_ROW)
+        out["plan_vs_bfs"] = geomean_ratio(plan, bfs, seed)
+        out["plan_against_bfs"] = tally([compare_seeds(plan_steps(r), r["runs"][BFS_ROW]["steps"]) for r in ok])
+        model = [float(np.mean(r["runs"][model_row(r)]["steps"])) for r in ok]
+        out["model_vs_bfs"] = geomean_ratio(model, bfs, seed)
+        out["model_against_bfs"] = tally([compare_seeds(r["runs"][model_row(r)]["steps"], r["runs"][BFS_ROW]["steps"])
+                                          for r in ok])
+        out["exact_rejected"] = float(np.mean([plan_row(r) != ORACLE for r in ok]))
     out["plan_worse_than_iql"] = float(np.mean([p > i for p, i in zip(plan, iql)]))
     thd = [judged_threshold(r) for r in ok]
     out["threshold_below_half"] = float(np.mean([t is None or t < 0.5 for t in thd]))
@@ -226,6 +258,29 @@ def headline_table(s: dict) -> str:
         rows.append([row, f"{d['geomean_steps']:,.0f}", "-" if same else _ratio(d["vs_iql"]), _ratio(d["vs_ql"]),
                      "-" if same else _wtl(d["against_iql"]), "-" if same else _pooled(d["pooled_vs_iql"]),
                      f"{p['mean']:.3f}, {p['p95']:.3f}, {p['worst']:.3f}", str(p["not_converged"])])
+    return md_table(head, rows)
+
+
+def lead_table(records: list[dict], seed: int = 0) -> str:
+    """What the model adds: per family, NDR-QL as ``plan`` runs it and as ``--prior-from model`` runs it, each
+    against IQL-BFS (the exact distance, no model) with its interval and clear wins / ties / losses; then NDR-QL
+    against IQL and the paper's QL."""
+    head = ["family", "maps", "plan / IQL-BFS (95% CI)", "clear wins / ties / losses vs IQL-BFS",
+            "--prior-from model / IQL-BFS", "model: wins / ties / losses vs IQL-BFS", "plan / IQL", "plan / QL"]
+    rows = []
+    for fam in sorted({r["family"] for r in records}) + ["all"]:
+        s = summarize([r for r in records if fam == "all" or r["family"] == fam], seed)
+        name = f"**{fam}**" if fam == "all" else fam
+        if not s["maps"] or "plan_vs_bfs" not in s:
+            continue
+        ql = "-"
+        if "QL" in s["rows"]:
+            ql = _ratio(geomean_ratio([float(np.mean(plan_steps(r))) for r in records if not r["skipped"] and
+                                       (fam == "all" or r["family"] == fam)],
+                                      _means([r for r in records if not r["skipped"] and (fam == "all" or r["family"] == fam)],
+                                             "QL"), seed))
+        rows.append([name, str(s["maps"]), _ratio(s["plan_vs_bfs"]), _wtl(s["plan_against_bfs"]),
+                     _ratio(s["model_vs_bfs"]), _wtl(s["model_against_bfs"]), _ratio(s["plan_vs_iql"]), ql])
     return md_table(head, rows)
 
 
@@ -282,9 +337,17 @@ def render_tables(records: list[dict], grids: tuple[int, ...], seed: int = 0) ->
             parts.append(f"**Planning grid {n}**: no map connects ({s['skipped']} skipped)")
             continue
         plan = s["plan_vs_iql"]
+        lead = ""
+        if "plan_vs_bfs" in s:
+            lead = (f"**What the model adds.** NDR-QL as `ndrql plan` runs it (on a map it knows: the exact source, "
+                    f"IQL-BFS where the judge rejects it, on {_pct(s['exact_rejected'])} of the maps): "
+                    f"{_ratio(s['plan_vs_bfs'])} steps against IQL-BFS in geometric mean (clear wins / ties / losses "
+                    f"{_wtl(s['plan_against_bfs'])}); with the network's priors (`--prior-from model`, IQL-BFS where the "
+                    f"judge rejects them) {_ratio(s['model_vs_bfs'])} ({_wtl(s['model_against_bfs'])}).\n\n"
+                    + lead_table(at_n, seed) + "\n\n")
         parts.append(
             f"**Planning grid {n}** (safe grid; maps that need it on {finer}): {s['maps']} maps planned, "
-            f"{s['skipped']} connect on no size tried.\n\n" + headline_table(s) +
+            f"{s['skipped']} connect on no size tried.\n\n" + lead + headline_table(s) +
             f"\n\nWhat `ndrql plan` spends (the model's run, or IQL's where the prediction does not connect start and goal "
             f"at Eq. 7 threshold {_cuts(at_n)}{_cover_note(at_n)}): {_ratio(plan)} against IQL in geometric mean; more than IQL on "
             f"{100 * s['plan_worse_than_iql']:.0f}% of the maps; the prediction is uninformative on "

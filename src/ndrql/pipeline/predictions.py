@@ -8,14 +8,15 @@ at 4 px per cell (:func:`ndrql.dataset.render.grid_input`), through the view in 
 the map as drawn (not inflated), resized so its longer side is 201 px and padded with obstacles
 (:func:`ndrql.dataset.render.to_model_input`), with start and goal scaled along. Predictions given
 instead of the model (``plan --prior-from``) arrive as :class:`GivenPredictions`
-(:func:`load_predictions`); the oracle's as :func:`oracle_view`.
+(:func:`load_predictions`); the oracle's as :func:`oracle_view`. Which of them a plan uses, and whether they can
+guide it, is decided in :mod:`ndrql.pipeline.prior_stage`.
 """
 
 from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,16 +24,10 @@ import numpy as np
 from ndrql.dataset.render import PX_PER_CELL, cell_means, cells_to_map, point_on_grid, to_model_input
 from ndrql.maps.grid import GridMap, MODEL_SIDE, PlanningGrid
 from ndrql.errors import NdrqlError
-from ndrql.pipeline.fallback import (MAX_GUIDE_ON_OBSTACLES, MIN_THRESHOLD, Fallback, fall_back, min_threshold,  # noqa: F401 (re-exported)
-                                     prediction_quality, region_verdict)
 from ndrql.model.predict import GridPrediction, Prediction, load_predictor
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES
-from ndrql.pipeline.propagated import propagated, propagated_note
-from ndrql.pipeline.relay import relay_note, turned_relay
-from ndrql.pipeline.report import StageClock
-from ndrql.planning.config import PriorConfig
-from ndrql.planning.methods import Method, downscale_priors, get_method, load_prior_file
-from ndrql.synth.oracle import ORACLE_NAME, oracle_prediction
+from ndrql.planning.methods import load_prior_file
+from ndrql.synth.oracle import oracle_prediction
 
 Point = tuple[int, int]
 
@@ -82,42 +77,18 @@ def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     return cells_to_map(cells, grid.source_shape, grid.cell_size)
 
 
-def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point,
-                    cfg: PriorConfig | None = None
+def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point
                     ) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any], np.ndarray | None]:
     """A grid-mode model's region, guideline and goal distance (cells; ``None`` for a model without a distance
-    head) per cell of the planning grid ``blocked``, seen through the model's view
-    (:meth:`~ndrql.model.predict.Predictor.predict_view`), and what it saw: the input's side, where start and
-    goal landed, the view and how many cells along each side it merged into one (``merged``, 1 unless
-    ``coarse`` merged them). A model with a companion (:mod:`ndrql.model.companion`) also names the
-    weights file that served (``weights_file``) and, on ONNX Runtime, the graph that ran (``runs_file``).
-
-    *Second opinion*: when the companion served and its region cannot guide planning
-    (:func:`~ndrql.pipeline.fallback.region_verdict` with ``cfg``, default the paper's constants), the base
-    model predicts the grid through its own view (cells merged), and its prediction is returned when its
-    region can; ``info["second_opinion"]`` says why it was asked and whether it served
-    (docs/large-maps.md#a-second-opinion). Where the base's region cannot either, the companion's prediction is
-    relayed (:func:`~ndrql.pipeline.relay.relay`: asked again from where its region ends, the regions joined);
-    ``info["second_opinion"]["relay"]`` gives the hops and whether the union can guide planning. Where that fails
-    too, the shipped propagating head is asked (:func:`~ndrql.pipeline.propagated.propagated`;
-    ``info["second_opinion"]["propagated"]``)."""
+    head) per cell of the planning grid ``blocked``, from one forward pass of the model that serves the grid
+    (:meth:`~ndrql.model.predict.Predictor.predict_view`: the weights' large-grid companion on a grid the view
+    merges), and what it saw: the input's side, where start and goal landed, the view and how many cells along
+    each side it merged into one (``merged``). A model with a companion also names the weights file that served
+    (``weights_file``) and, on ONNX Runtime, the graph that ran (``runs_file``). Whether the prediction can guide
+    planning is the judge's (:func:`ndrql.pipeline.judge.judge`), not this function's."""
     out = predictor.predict_view(blocked, start_cell, goal_cell)
     served = predictor.serving(max(np.shape(blocked))) if getattr(predictor, "merged_weights", None) is not None \
         else None
-    second = None
-    if served is not None and served is not predictor:
-        cfg = PriorConfig() if cfg is None else cfg
-        why = region_verdict(out.region, blocked, start_cell, goal_cell, cfg)[2]
-        if why is not None:
-            own = predictor.predict_view(blocked, start_cell, goal_cell, companion=False)
-            why_own = region_verdict(own.region, blocked, start_cell, goal_cell, cfg)[2]
-            second = {"asked_because": why, "served": why_own is None, "reason": why_own}
-            if why_own is None:
-                out, served = own, predictor
-            else:  # both uninformative: the companion asked again from where its region ends
-                out, second["relay"] = turned_relay(predictor, blocked, start_cell, goal_cell, out, cfg)
-                if not second["relay"]["served"]:  # the last resort: the propagating head
-                    out, second["propagated"] = propagated(predictor, blocked, start_cell, goal_cell, out, cfg)
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
@@ -127,21 +98,7 @@ def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal
         info["companion"] = served is not predictor
         if served.graph_file is not None:
             info["runs_file"] = str(served.graph_file)
-    if second is not None:
-        info["second_opinion"] = second
     return out.region, out.guideline, info, out.distance
-
-
-def second_opinion_note(info: dict[str, Any]) -> str:
-    """What the summary lines of ``plan`` and ``predict`` say about :func:`predict_on_grid`'s second opinion
-    (``info``: its ``model_input``); empty when none was asked."""
-    asked = info.get("second_opinion")
-    if not asked:
-        return ""
-    if asked["served"]:
-        return f"; the companion's prediction was uninformative ({asked['asked_because']}), the base model's served"
-    return (f"; the base model, asked too, was uninformative as well ({asked['reason']})" + relay_note(asked.get("relay"))
-            + propagated_note(asked.get("propagated")))
 
 
 def _on_grid(region: np.ndarray, guide: np.ndarray | None, grid: PlanningGrid, info: dict[str, Any],
@@ -160,19 +117,17 @@ def oracle_view(grid: PlanningGrid) -> ModelView:
                     {"oracle": True, "px_per_cell": PX_PER_CELL})
 
 
-def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point,
-                   cfg: PriorConfig | None = None) -> ModelView:
+def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
     """Region and guideline for planning ``grid`` from ``start`` to ``goal`` (map pixels), at the map's resolution.
 
     ``predictor``: a loaded model (:func:`ndrql.model.predict.load_predictor`). What the model sees
     follows its input mode (``predictor.input_mode``, from its checkpoint): ``grid`` models see the
     planning grid itself at 4 px per cell (start and goal in their cells' centres), through the view they
     were trained under (``predictor.view``: ``coarse:128`` merges a grid above 128 cells), and predict on it;
-    ``map`` models (the paper's) see the map resized to 201 px. ``cfg``: the constants the prediction's
-    quality is judged with (:func:`predict_on_grid`'s second opinion).
+    ``map`` models (the paper's) see the map resized to 201 px.
     """
     if getattr(predictor, "input_mode", "map") == "grid":
-        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal, cfg)
+        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
         return _on_grid(region, guide, grid, info, distance)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)
@@ -291,103 +246,3 @@ def load_predictions(path: str | os.PathLike) -> GivenPredictions:
         raise NdrqlError(f"{path}: grid_distance must be finite and have grid_blocked's shape")
     return GivenPredictions(region, guideline,
                             GridPrediction(size, blocked, cells[0], cells[1], arrays[0], arrays[1], distance))
-
-
-@dataclass(frozen=True)
-class Predicted:
-    """Region and guideline for one plan: the model's, the oracle's or given arrays, and the methods they leave."""
-
-    region_map: np.ndarray | None = None
-    """Region at the map's resolution (report, figures, JSON)."""
-    guideline_map: np.ndarray | None = None
-    """Guideline at the map's resolution."""
-    region: np.ndarray | None = None
-    """Region on the planning grid (what the priors use)."""
-    guideline: np.ndarray | None = None
-    """Guideline on the planning grid."""
-    weights: str | None = None
-    """What made them: the weights file, ``"oracle priors"``, or ``None`` for given arrays."""
-    distance: np.ndarray | None = None
-    """The model's goal distance on the planning grid (cells), for Eq. 6; ``None``: the straight line."""
-    methods: tuple[Method, ...] = ()
-    """The methods to run (after :func:`fall_back`)."""
-    fallbacks: tuple[Fallback, ...] = ()
-    """The NDR methods replaced by the fallback."""
-    record: dict[str, Any] = field(default_factory=dict)
-    """What the JSON says about them: model input, backend, prediction quality, fallback."""
-
-
-def _given(request: Any, grid: PlanningGrid, record: dict[str, Any]) -> tuple[Any, Any, ModelView | None, str | None]:
-    """Predictions that arrive with the request (the oracle's or given arrays)."""
-    predictions, grid_map = request.predictions, request.grid_map
-    if isinstance(predictions, str):  # "oracle" (checked by build_request)
-        view = oracle_view(grid)
-        record["model_input"] = view.info
-        record["prior_from"] = "oracle"
-        return view.region, view.guideline, view, ORACLE_NAME
-    given = predictions if isinstance(predictions, GivenPredictions) else GivenPredictions(*predictions)
-    on_grid = given.on(grid)
-    view = None
-    if on_grid is not None:  # made by a grid-mode model on this very grid: used as they are
-        view = ModelView(given.region, given.guideline, {"mode": "grid", "from_file": True}, *on_grid)
-    record["prior_grid"] = "as given" if on_grid is not None else "averaged from the map's pixels"
-    for name, arr in (("region", given.region), ("guideline", given.guideline)):
-        if arr is not None and np.shape(arr) != grid_map.shape:
-            raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
-                             f"{grid_map.height}x{grid_map.width}; predictions must be at the map's resolution")
-    return given.region, given.guideline, view, None
-
-
-def predict_for(request: Any, grid: PlanningGrid, clock: StageClock) -> Predicted:
-    """The predictions the NDR methods of ``request`` (a :class:`~ndrql.pipeline.request.PlanRequest`) need on
-    ``grid``, and the methods to run after :func:`fall_back`.
-
-    The request's ``predictions``: ``None`` (the model in its weights, loaded once per process),
-    ``"oracle"`` (:func:`oracle_view`), ``(region, guideline)`` at the map's resolution, or
-    :class:`GivenPredictions` (used on the planning grid as they are when made on this very grid).
-    Times the ``load`` and ``predict`` stages on ``clock``.
-    """
-    ms = [get_method(m) for m in request.methods]
-    settings = request.settings
-    record: dict[str, Any] = {}
-    if request.predictions is not None:
-        with clock.stage("predict"):
-            region_map, guideline_map, view, used_weights = _given(request, grid, record)
-    else:
-        with clock.stage("load"):
-            predictor = load_predictor(request.weights_file, settings.threads, settings.backend, settings.symmetries)
-        record["backend"] = predictor.backend_name
-        if predictor.graph_file is not None:  # the file that actually runs (an export of the weights)
-            record["runs_file"] = str(predictor.graph_file)
-        if predictor.input_mode == "grid":
-            record["symmetries"] = predictor.symmetries
-        used_weights = request.weights_file
-        with clock.stage("predict"):
-            view = predict_region(predictor, request.grid_map, grid, request.start, request.goal, request.quality_config)
-            record["model_input"] = view.info
-            if "runs_file" in view.info:  # a companion's graph may have run instead
-                record["runs_file"] = view.info.pop("runs_file")
-            if view.info.get("companion"):
-                used_weights = str(predictor.merged_weights)
-            region_map, guideline_map = view.region, view.guideline
-    needs_guide = [m.name for m in ms if m.needs_guideline]
-    if guideline_map is None and needs_guide:
-        raise NdrqlError(f"{', '.join(needs_guide)} need the guideline prediction, which "
-                         f"{used_weights or 'the predictions'} do not provide (model without guideline decoder)")
-    distance = None
-    with clock.stage("predict"):
-        if view is not None and view.region_grid is not None:  # predicted on the planning grid itself
-            region, guideline = view.region_grid, view.guideline_grid
-            distance = view.distance_grid if settings.learned_distance else None
-        else:
-            region, guideline = downscale_priors(region_map, guideline_map, grid.shape)
-        # the prediction's quality is judged with the paper's prior constants and the fields set explicitly
-        quality = prediction_quality(region, guideline_map, request.grid_map.obstacles, grid, request.quality_config)
-        record["prediction_quality"] = quality
-        ran, swaps = fall_back(ms, quality, settings.fallback)
-    if swaps:
-        record["fallback"] = {"requested": [f.requested for f in swaps], "ran": swaps[0].ran, "reasons": quality["reasons"]}
-    if any(m.n_qi for m in ran):
-        record["qi_distance"] = "model" if distance is not None else "straight line"
-    return Predicted(region_map, guideline_map, region, guideline, used_weights, distance, tuple(ran), tuple(swaps),
-                     record)

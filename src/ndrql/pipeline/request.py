@@ -40,14 +40,16 @@ from ndrql.pipeline.sensing import SenseConfig, sense_config
 from ndrql.pipeline.problem import Point, check_map_size, place_points, read_map
 from ndrql.pipeline.runs import methods_named, seeds_given
 from ndrql.pipeline.settings import PlanSettings
+from ndrql.pipeline.sources import SOURCE_NAMES, default_policy
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import get_method
 from ndrql.planning.preset import Preset, load_preset, plan_default_preset
 
 #: Kinds of map a request plans on: a user's map, or a dataset sample (the paper's setting by default).
 KINDS = ("map", "sample")
-#: The method an NDR method falls back to on a user's map when the prediction is uninformative.
-DEFAULT_FALLBACK = "IQL"
+#: The method an NDR method falls back to on a user's map when every prior source is rejected: the exact-distance
+#: prior (IQL with Eq. 5 on the BFS distance), the floor no prediction should fall below (issue 53).
+DEFAULT_FALLBACK = "IQL-BFS"
 #: Q-learning constants a caller may set (``ql={...}``, the ``plan`` flags of the same names).
 QL_FIELDS: tuple[str, ...] = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window",
                               "reward_collision", "reward_goal", "reward_revisit")
@@ -75,13 +77,13 @@ class PlanRequest:
     """Grid rule and size, robot radius, smoothing, fallback, limits: every default decided."""
     preset: Preset = field(repr=False)
     """Each method's constants: the preset with the explicitly set fields on every entry."""
-    quality_config: PriorConfig = field(repr=False)
-    """The prior constants the prediction's quality is judged with (Eq. 7's search): the paper's, with the
-    explicitly set prior fields."""
     weights: str | None = None
     """The model's weights as given (``paper``, ``general``, a file, ``None``: ``$NDRQL_WEIGHTS`` or the default)."""
     weights_file: str | None = None
     """The file they resolve to (the preset follows it)."""
+    sources: tuple[str, ...] = ("model",)
+    """The prior sources the NDR methods consult, in order (:mod:`ndrql.pipeline.sources`): decided by
+    :func:`build_request` (:func:`~ndrql.pipeline.sources.default_policy` unless the caller names one)."""
     predictions: Any = field(default=None, repr=False)
     """Predictions instead of the model: ``"oracle"``, ``(region, guideline)`` or a
     :class:`~ndrql.pipeline.predictions.GivenPredictions`; ``None``: the model."""
@@ -109,8 +111,8 @@ class PlanRequest:
         return self.preset.configs(method, grid=grid_side)
 
     @property
-    def needs_model(self) -> bool:
-        """Whether a method asks for the NDR model's predictions."""
+    def needs_priors(self) -> bool:
+        """Whether a method asks for NDR priors (region, guideline), from whichever :attr:`sources`."""
         return any(get_method(m).needs_ndr for m in self.methods)
 
     def to_dict(self) -> dict[str, Any]:
@@ -212,6 +214,19 @@ def split_scen(scen: str | os.PathLike | None, index: int | None) -> tuple[str |
     return text, k if k is not None else index
 
 
+def request_sources(predictions: Any, weights: Any, kind: str, partial: bool) -> tuple[str, ...]:
+    """The sources a request consults: the one named (``predictions`` ``"model"``, ``"exact"``, ``"oracle"``,
+    ``"head"``), the
+    given arrays (``"file"``), the model when ``weights`` name one, else :func:`~ndrql.pipeline.sources.default_policy`."""
+    if isinstance(predictions, str):
+        return (predictions,)
+    if predictions is not None:
+        return ("file",)
+    if weights is not None:
+        return ("model",)
+    return default_policy(kind, partial)
+
+
 def build_request(
     map_source: Any,
     start: Sequence[int] | None = None,
@@ -295,17 +310,19 @@ def build_request(
     sensing = sense_config(sense, sense_every, belief is not None)
     if predictions is not None and not any(get_method(m).needs_ndr for m in ms):
         raise NdrqlError(f"predictions are given but none of {', '.join(ms)} uses them (N-C, N-Q, NDR-QL do)")
-    uses_model = predictions is None
-    weights_file = str(resolve_weights(weights)) if uses_model or preset is None else None
-    if predictions is not None and weights is not None:
+    if isinstance(predictions, str) and predictions not in SOURCE_NAMES[:-1]:
+        raise NdrqlError(f"predictions must be (region, guideline) arrays, a prediction file's contents, or one of "
+                         f"{', '.join(SOURCE_NAMES[:-1])}, got {predictions[:40]!r}")
+    if predictions not in (None, "model") and weights is not None:
         raise NdrqlError("give either weights or predictions (--weights or --prior-from), not both")
-    if isinstance(predictions, str) and predictions != "oracle":
-        raise NdrqlError(f"predictions must be (region, guideline) arrays, a prediction file's contents or 'oracle', "
-                         f"got {predictions[:40]!r}")
-    preset_obj, quality, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file)
+    sources = request_sources(predictions, weights, kind, belief is not None)
+    predictions = None if predictions == "model" else predictions
+    uses_model = "model" in sources
+    weights_file = str(resolve_weights(weights)) if uses_model or preset is None else None
+    preset_obj, _, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file)
     record["preset"] = preset_obj.name
-    return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, sensing=sensing, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
-                       settings=s, preset=preset_obj, quality_config=quality, weights=None if weights is None else
+    return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, sensing=sensing, sources=sources, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
+                       settings=s, preset=preset_obj, weights=None if weights is None else
                        os.fspath(weights), weights_file=weights_file if uses_model else None, predictions=predictions,
                        start_yaw=start_yaw, goal_yaw=goal_yaw, set_fields=set_fields, info=record,
                        map_seconds=time.perf_counter() - t0)

@@ -48,14 +48,16 @@ def seeds_given(seeds: Sequence[int] | int) -> list[int]:
 
 
 def method_priors(ms: Sequence[Method], grid: PlanningGrid, region: np.ndarray | None, guideline: np.ndarray | None,
-                  consts: Constants, distance: np.ndarray | None = None) -> tuple[dict[str, Priors], dict[str, float | None]]:
+                  consts: Constants, distance: np.ndarray | None = None, threshold: float | None = ...,  # type: ignore[assignment]
+                  ) -> tuple[dict[str, Priors], dict[str, float | None]]:
     """Each method's priors (Eqs. 2-7) and the NDR-QI threshold (Eq. 7) of those that use it; ``distance``:
-    the model's goal distance for Eq. 6 (``None``: the straight line)."""
+    the model's goal distance for Eq. 6 (``None``: the straight line); ``threshold``: Eq. 7's threshold as the
+    judge found it (:func:`ndrql.pipeline.judge.judge`; left out, each NDR-QI searches its own)."""
     priors: dict[str, Priors] = {}
     thresholds: dict[str, float | None] = {}
     for m in ms:
         priors[m.name] = build_priors(m, grid.blocked, grid.start, grid.goal, region, guideline, consts(m.name)[1],
-                                      distance)
+                                      distance, threshold)
         if m.n_qi:
             thresholds[m.name] = priors[m.name].threshold
     return priors, thresholds
@@ -80,10 +82,11 @@ def check_workers(workers: int | None) -> int:
 
 def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts: Constants,
           priors: dict[str, Priors], region: np.ndarray | None, guideline: np.ndarray | None, workers: int,
-          keep_records: bool = False, progress: bool = False, distance: np.ndarray | None = None) -> list[PlanResult]:
+          keep_records: bool = False, progress: bool = False, distance: np.ndarray | None = None,
+          threshold: float | None = ...) -> list[PlanResult]:  # type: ignore[assignment]
     """Every method with every seed (methods outer): in this process with the given priors, or on
     ``workers`` processes (:func:`~ndrql.planning.runner.run_many`, which rebuilds the same priors from
-    ``region``, ``guideline`` and ``distance``)."""
+    ``region``, ``guideline``, ``distance`` and the judged ``threshold``)."""
     jobs = [(m, s) for m in ms for s in seeds]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # NDR-QI warnings were raised once while building priors
@@ -97,4 +100,4 @@ def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts
                              keep_records=keep_records)
                     for m, s in shown]
         return run_many([PlanJob(grid.blocked, grid.start, grid.goal, m.name, s, *consts(m.name), region, guideline,
-                                 keep_records, distance) for m, s in jobs], workers=workers, progress=progress)
+                                 keep_records, distance, threshold) for m, s in jobs], workers=workers, progress=progress)

@@ -13,6 +13,13 @@ from ndrql.model.predict import BACKENDS
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES, check_count as check_symmetries
 from ndrql.planning.methods import get_method
 
+#: Seconds :attr:`PlanSettings.predict_budget` gives the model's load and prediction by default: a cold load
+#: and the forward pass at 600 cells take about 0.6 s here (docs/performance.md), so this leaves room on a slower
+#: machine while keeping load + prediction + priors within 2 s.
+DEFAULT_PREDICT_BUDGET = 1.5
+#: Largest :attr:`PlanSettings.predict_budget` (an hour): beyond it "no limit" (None) says what is meant.
+MAX_PREDICT_BUDGET = 3600.0
+
 #: Planning-grid rules: ``safe`` (square cells, a cell blocked when any pixel is an obstacle; the
 #: default on a user's map) and ``area`` (the paper's rule: area average, blocked at >= 0.5).
 GRID_RULES: tuple[str, ...] = ("safe", "area")
@@ -21,7 +28,8 @@ SLOW_SIZE = 256
 
 
 #: The numeric fields of :class:`PlanSettings`, each bounded in :data:`ndrql.limits.BOUNDS`.
-NUMERIC_SETTINGS = ("size", "robot_radius", "tolerance", "max_map_pixels", "max_size", "threads", "symmetries")
+NUMERIC_SETTINGS = ("size", "robot_radius", "tolerance", "max_map_pixels", "max_size", "threads", "symmetries",
+                    "predict_budget")
 
 
 @dataclass(frozen=True)
@@ -30,7 +38,7 @@ class PlanSettings:
 
     A field left unset (``None``, fallback ``auto``) is decided by
     :func:`~ndrql.pipeline.request.build_request` from the input: on a user's own map the safe grid,
-    ``size="auto"``, smoothing on and the IQL fallback for one method; on a dataset sample the paper's
+    ``size="auto"``, smoothing on and the IQL-BFS fallback for one method; on a dataset sample the paper's
     setting, :meth:`paper` (used by the reproduction commands).
     """
 
@@ -43,7 +51,7 @@ class PlanSettings:
     smooth: bool | None = None
     """Shortcut the learned path by line of sight on the full map (default: on for a user's map, off for a dataset sample)."""
     fallback: str | None = "auto"
-    """Method to plan with instead of an NDR method when the model's prediction is uninformative (None: keep it; default auto: IQL for one method on a user's map, none on a dataset sample or with several methods)."""
+    """Method to plan with instead of an NDR method when the model's prediction is uninformative (None: keep it; default auto: IQL-BFS, the exact distance, for one method on a user's map, none on a dataset sample or with several methods)."""
     tolerance: float = 0.08
     """size auto: how much longer than the map's own shortest route the grid's route may be."""
     max_map_pixels: int = MAX_MAP_PIXELS
@@ -58,6 +66,8 @@ class PlanSettings:
     """Eq. 6's distance term from the model's predicted distance to the goal when the model has one (False: the paper's straight line)."""
     symmetries: int = DEFAULT_SYMMETRIES
     """Grid-mode models: average the prediction over this many orientations of the grid (1, 2, 4 or 8; one forward pass each, in one batch)."""
+    predict_budget: float | None = DEFAULT_PREDICT_BUDGET
+    """Seconds the model may take to load and predict; past them the plan falls back and says so (None: no limit)."""
 
     def __post_init__(self) -> None:
         if self.grid is not None and self.grid not in GRID_RULES:
@@ -105,6 +115,10 @@ class PlanSettings:
         if self.backend not in BACKENDS:
             raise NdrqlError(f"unknown inference backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
         check_symmetries(self.symmetries, NdrqlError)
+        b = self.predict_budget
+        if b is not None and (isinstance(b, bool) or not isinstance(b, (int, float)) or not 0 < b <= MAX_PREDICT_BUDGET):
+            raise NdrqlError(f"the prediction budget must be seconds in (0, {MAX_PREDICT_BUDGET:g}] or None (no limit), "
+                             f"got {brief(b)}")
         check_threads(self.threads, "threads (--threads)")
         try:  # the one table (ndrql.limits.BOUNDS); the API's errors are NdrqlError
             check_fields(self, NUMERIC_SETTINGS)

@@ -146,6 +146,7 @@ def build_priors(
     guideline: np.ndarray | None = None,
     cfg: PriorConfig = PriorConfig(),
     distance: np.ndarray | None = None,
+    threshold: float | None = ...,  # type: ignore[assignment]
 ) -> Priors:
     """Rewards and initial Q-table of ``method`` on a planning grid (module docstring for the rules).
 
@@ -153,7 +154,9 @@ def build_priors(
     only by methods that use them. ``distance`` (cells, the grid's shape): the model's predicted
     distance to the goal, which then replaces the straight line in Eq. 6 (NDR-QI only; D-QI and the
     rewards keep the straight line); ``cfg.guideline_ties`` then lets the guideline choose among equally
-    distant moves (:func:`ndrql.planning.priors.snapped_distance`).
+    distant moves (:func:`ndrql.planning.priors.snapped_distance`). ``threshold``: Eq. 7's threshold as the judge
+    found it (:func:`ndrql.pipeline.judge.judge`, the same search on the same widened region; ``None``: none joins
+    start and goal); left out, NDR-QI searches it itself.
     """
     m = get_method(method)
     blocked = np.asarray(blocked, dtype=bool)
@@ -177,8 +180,8 @@ def build_priors(
         r_c = np.full(shape, cfg.r0, dtype=np.float64)
     thd = None
     if m.n_qi:
-        q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only,  # type: ignore[arg-type]
-                           distance=distance, guideline=guideline)
+        q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, thd=threshold,  # type: ignore[arg-type]
+                           mask_only=m.qi_mask_only, distance=distance, guideline=guideline)
     elif m.d_qi:
         q0 = P.d_qi(blocked, goal, P.exact_distance(blocked, goal) if m.exact_distance else None)
     else:

@@ -92,6 +92,7 @@ def run_plan(
     keep_q: bool = False,
     astar: int | None = None,
     distance: np.ndarray | None = None,
+    threshold: float | None = ...,  # type: ignore[assignment]
 ) -> PlanResult:
     """One Q-learning run of ``method`` with ``seed`` on a planning grid (docs/method.md).
 
@@ -99,7 +100,8 @@ def run_plan(
     when they are not 4-connected. ``priors`` (from :func:`build_priors`) skips rebuilding them; a
     ``Priors`` whose ``q0`` is a previous run's final Q-table (``keep_q=True``) warm-starts the run.
     ``astar``: the A* length when the caller knows it already (many runs on one grid skip the search).
-    ``distance``: the model's predicted goal distance per cell for Eq. 6 (:func:`build_priors`).
+    ``distance``: the model's predicted goal distance per cell for Eq. 6 (:func:`build_priors`); ``threshold``:
+    Eq. 7's threshold as the judge found it (:func:`build_priors`).
     """
     t0 = time.perf_counter()
     m = get_method(method)
@@ -107,7 +109,7 @@ def run_plan(
     blocked, start, goal = _check_problem(blocked, start, goal)
     opt = int(astar) if astar is not None else astar_length(blocked, start, goal)
     if priors is None:
-        priors = build_priors(m, blocked, start, goal, region, guideline, prior_config, distance)
+        priors = build_priors(m, blocked, start, goal, region, guideline, prior_config, distance, threshold)
     h, w = blocked.shape
     cells = h * w
     if priors.r_c.shape != (h, w) or priors.q0.shape != (cells, 4):
@@ -183,6 +185,8 @@ class PlanJob:
     keep_records: bool = False
     distance: np.ndarray | None = None
     """The model's goal distance for Eq. 6 (:func:`run_plan`)."""
+    threshold: float | None = ...  # type: ignore[assignment]
+    """Eq. 7's threshold as the judge found it (:func:`run_plan`); ``...``: NDR-QI searches its own."""
 
 
 def _run_job(job: PlanJob) -> PlanResult:
@@ -198,6 +202,7 @@ def _run_job(job: PlanJob) -> PlanResult:
         job.guideline,
         keep_records=job.keep_records,
         distance=job.distance,
+        threshold=job.threshold,
     )
 
 

@@ -1,0 +1,293 @@
+"""Prior sources: whatever gives NDR-QL its region, guideline and goal distance on the planning grid, behind one protocol.
+
+A :class:`PriorSource` has a ``name``, a :meth:`~PriorSource.digest` (what its predictions depend on, for caches
+and records) and :meth:`~PriorSource.give`, which turns a :class:`SourceInput` (the planner's grid, start and goal)
+into :class:`GridPriors`, the one seam type (region and guideline in [0, 1], goal distance in cells, per planning
+cell). The sources:
+
+============  =====================================================================================================
+``model``     the NDR network (:class:`ModelSource`): one forward pass of the model that serves this grid (the
+              weights' large-grid companion above the view's limit), a grid-mode model on the grid itself, the
+              paper's map-mode model on the map resized to 201 px
+``exact``     the exact-distance prior (:class:`ExactSource`): the planner's own grid's shortest path drawn as the
+              dataset draws its labels, and the BFS distance to the goal; needs no model
+``oracle``    the same drawn from the true map (:class:`OracleSource`): the ceiling of a perfect prediction. On a
+              map the planner fully knows it is ``exact``; where part of the map is unknown it needs the answer
+``head``      the shipped propagating head (:class:`HeadSource`, :mod:`ndrql.model.propagation`): a small recurrent
+              network that carries "on a shortest route" along the free cells; a named source for studies, in no
+              default policy (about a second at 256 cells)
+``file``      predictions read from a file or given as arrays (:class:`GivenSource`, ``plan --prior-from FILE``)
+============  =====================================================================================================
+
+Which sources a plan consults, in order, is its *policy* (:func:`default_policy`); :func:`ndrql.pipeline.judge.consult`
+asks them one after the other under the time budget and keeps the first the judge accepts.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from ndrql.dataset.render import PX_PER_CELL
+from ndrql.errors import NdrqlError
+from ndrql.maps.grid import GridMap, PlanningGrid, bfs_distances
+from ndrql.model import propagation
+from ndrql.pipeline.predictions import GivenPredictions, ModelView, oracle_view, predict_region
+from ndrql.planning.methods import downscale_priors
+from ndrql.synth.labels import GUIDE_PX, REGION_PX, near_optimal_path
+
+Point = tuple[int, int]
+
+#: The source names a policy may list.
+SOURCE_NAMES: tuple[str, ...] = ("model", "exact", "oracle", "head", "file")
+#: (all but ``file``, what given arrays become, can be named by a request)
+
+
+@dataclass(frozen=True)
+class SourceInput:
+    """What a source sees of one plan: the planner's grid and points (and, for the oracle only, the truth)."""
+
+    grid: PlanningGrid
+    """The planning grid the priors are built on: what the planner knows of the map."""
+    grid_map: GridMap = field(repr=False)
+    """The map as read (a map-mode model and given files work at its resolution)."""
+    start_px: Point
+    """Start in map pixels."""
+    goal_px: Point
+    """Goal in map pixels."""
+    truth: np.ndarray | None = field(default=None, repr=False)
+    """The true planning grid's blocked cells where it differs from :attr:`grid` (part of the map unknown to the
+    planner); ``None``: the planner knows the map."""
+
+    @property
+    def blocked(self) -> np.ndarray:
+        return self.grid.blocked
+
+
+@dataclass(frozen=True)
+class GridPriors:
+    """What a source gives: region, guideline and goal distance per planning cell (the seam of every source)."""
+
+    source: str
+    """The source's name."""
+    region: np.ndarray
+    """Region probabilities per planning cell, float64 ``(h, w)``."""
+    guideline: np.ndarray | None
+    """Guideline probabilities per planning cell (``None``: the source has none)."""
+    distance: np.ndarray | None
+    """Goal distance per planning cell in cells, for Eq. 6 (``None``: the straight line)."""
+    region_map: np.ndarray | None = field(default=None, repr=False)
+    """Region at the map's resolution (figures, prediction files), when the source has it."""
+    guideline_map: np.ndarray | None = field(default=None, repr=False)
+    """Guideline at the map's resolution."""
+    info: dict[str, Any] = field(default_factory=dict)
+    """What the source saw (JSON ``model_input``)."""
+    weights: str | None = None
+    """What made them (the weights file that served, ``"oracle priors"``), for the summary."""
+
+
+class PriorSource(Protocol):
+    """The protocol every source implements."""
+
+    name: str
+
+    def digest(self) -> str:
+        """SHA-256 (16 hex) of what its predictions depend on besides the grid (weights, files); ``""``: nothing."""
+
+    def give(self, problem: SourceInput) -> GridPriors:
+        """Its priors on ``problem``'s grid."""
+
+
+def _view_priors(name: str, view: ModelView, grid: PlanningGrid, weights: str | None) -> GridPriors:
+    """A :class:`~ndrql.pipeline.predictions.ModelView` as grid priors (area-averaged onto the grid when it was
+    made at the map's resolution)."""
+    if view.region_grid is not None:
+        region, guide = view.region_grid, view.guideline_grid
+    else:
+        region, guide = downscale_priors(view.region, view.guideline, grid.shape)
+    return GridPriors(name, np.asarray(region, np.float64), None if guide is None else np.asarray(guide, np.float64),
+                      view.distance_grid, view.region, view.guideline, dict(view.info), weights)
+
+
+class ModelSource:
+    """The NDR network: one forward pass of the model that serves the grid (module docstring)."""
+
+    name = "model"
+
+    def __init__(self, predictor: Any, learned_distance: bool = True):
+        self.predictor = predictor
+        self.learned_distance = learned_distance
+
+    def digest(self) -> str:
+        try:
+            return str(self.predictor.weights_digest)[:16]
+        except (ValueError, AttributeError):
+            return ""
+
+    def give(self, problem: SourceInput) -> GridPriors:
+        p = self.predictor
+        view = predict_region(p, problem.grid_map, problem.grid, problem.start_px, problem.goal_px)
+        weights = str(p.weights_file) if getattr(p, "weights_file", None) is not None else None
+        if view.info.get("companion"):
+            weights = str(p.merged_weights)
+        out = _view_priors(self.name, view, problem.grid, weights)
+        if not self.learned_distance and out.distance is not None:
+            out = GridPriors(out.source, out.region, out.guideline, None, out.region_map, out.guideline_map, out.info,
+                             out.weights)
+        return out
+
+
+def exact_distance_field(blocked: np.ndarray, goal: Point) -> np.ndarray:
+    """Moves to ``goal`` through free cells (float64); cells that cannot reach it take the largest finite value
+    plus their Manhattan distance, so Eq. 6 still orders them sensibly."""
+    d = bfs_distances(np.asarray(blocked, bool), goal).astype(np.float64)
+    if (d < 0).any():
+        rows, cols = np.indices(d.shape)
+        far = (d.max() if (d >= 0).any() else 0.0) + np.abs(rows - goal[0]) + np.abs(cols - goal[1])
+        d = np.where(d < 0, far, d)
+    return d
+
+
+def _window_any(img: np.ndarray, before: int, after: int, axis: int) -> np.ndarray:
+    """Pixel set where ``img`` has a set pixel from ``before`` before it to ``after`` after it along ``axis``
+    (zero outside): one cumulative sum and two slices."""
+    a = np.moveaxis(np.asarray(img, dtype=bool), axis, 0)
+    n = a.shape[0]
+    cs = np.zeros((n + 1,) + a.shape[1:], dtype=np.int32)
+    np.cumsum(a, axis=0, dtype=np.int32, out=cs[1:])
+    hi = np.minimum(np.arange(n) + after + 1, n)
+    lo = np.maximum(np.arange(n) - before, 0)
+    return np.moveaxis(cs[hi] - cs[lo] > 0, 0, axis)
+
+
+def _cell_means(img: np.ndarray, px: int) -> np.ndarray:
+    """Mean of each ``px`` x ``px`` block of an image whose sides are multiples of ``px``."""
+    h, w = img.shape
+    return img.reshape(h // px, px, w // px, px).mean(axis=(1, 3), dtype=np.float64)
+
+
+def drawn_priors(name: str, blocked: np.ndarray, start: Point, goal: Point, weights: str | None) -> GridPriors:
+    """Region and guideline drawn from ``blocked``'s own near-shortest path as the dataset draws its labels, at
+    :data:`~ndrql.dataset.render.PX_PER_CELL` px per cell and averaged per cell (the guideline
+    :data:`~ndrql.synth.labels.GUIDE_PX` wide, the region its :data:`~ndrql.synth.labels.REGION_PX` square
+    dilation), and the BFS distance to the goal. The drawing samples each segment densely instead of OpenCV's
+    line rule (:func:`~ndrql.synth.oracle.oracle_prediction`, which the experiments' oracle row uses, differs from
+    it by a pixel here and there) and needs neither numba nor scipy: a few milliseconds at 128 cells."""
+    blocked = np.asarray(blocked, dtype=bool)
+    px = PX_PER_CELL
+    waypoints = near_optimal_path(blocked, start, goal).astype(np.float64) * px + (px - 1) / 2
+    h, w = blocked.shape[0] * px, blocked.shape[1] * px
+    pts = [waypoints[:1]]
+    for a, b in zip(waypoints[:-1], waypoints[1:]):
+        n = int(np.ceil(np.hypot(*(b - a)) / 0.25)) + 1
+        pts.append(a + (b - a) * np.linspace(0.0, 1.0, n)[:, None])
+    p = np.concatenate(pts)
+    guide = np.zeros((h, w), dtype=bool)
+    top = np.floor(p - (GUIDE_PX - 1) / 2).astype(np.int64)  # a GUIDE_PX square per sample
+    for dr in range(GUIDE_PX):
+        for dc in range(GUIDE_PX):
+            r, c = np.clip(top[:, 0] + dr, 0, h - 1), np.clip(top[:, 1] + dc, 0, w - 1)
+            guide[r, c] = True
+    before, after = REGION_PX // 2, REGION_PX - 1 - REGION_PX // 2
+    region = _window_any(_window_any(guide, before, after, 0), before, after, 1)
+    return GridPriors(name, _cell_means(region, px), _cell_means(guide, px),
+                      exact_distance_field(blocked, goal), info={"px_per_cell": px, name: True}, weights=weights)
+
+
+class ExactSource:
+    """The exact-distance prior on the planner's own grid (module docstring); needs no model."""
+
+    name = "exact"
+
+    def digest(self) -> str:
+        return ""
+
+    def give(self, problem: SourceInput) -> GridPriors:
+        g = problem.grid
+        return drawn_priors(self.name, g.blocked, g.start, g.goal, "exact BFS priors")
+
+
+class OracleSource:
+    """The exact-distance prior drawn from the true map: the ceiling (module docstring)."""
+
+    name = "oracle"
+
+    def digest(self) -> str:
+        return ""
+
+    def give(self, problem: SourceInput) -> GridPriors:
+        g = problem.grid
+        if problem.truth is None:
+            view = oracle_view(g)
+            out = _view_priors(self.name, view, g, "oracle priors")
+            return GridPriors(self.name, out.region, out.guideline, exact_distance_field(g.blocked, g.goal),
+                              out.region_map, out.guideline_map, out.info, out.weights)
+        return drawn_priors(self.name, problem.truth, g.start, g.goal, "oracle priors")
+
+
+class HeadSource:
+    """The shipped propagating head (module docstring): its probabilities as region and guideline, no distance."""
+
+    name = "head"
+
+    def __init__(self, threads: int = 1):
+        self.threads = threads
+
+    def digest(self) -> str:
+        return str((propagation.read_record() or {}).get("onnx_sha256", ""))[:16]
+
+    def give(self, problem: SourceInput) -> GridPriors:
+        if not propagation.available():
+            raise NdrqlError("the propagating head is not installed with this package (ndrql/data/propagator.onnx); "
+                             "use another source (--prior-from model, exact)")
+        g = problem.grid
+        prob = propagation.propagate(g.blocked, g.start, g.goal, self.threads)
+        record = propagation.read_record() or {}
+        return GridPriors(self.name, prob, prob, None, weights="propagating head",
+                          info={"head": True, "iterations": propagation.iterations(np.shape(g.blocked),
+                                                                                    int(record.get("chunk", 1)))})
+
+
+class GivenSource:
+    """Predictions given with the request (arrays at the map's resolution, or a prediction file's contents)."""
+
+    name = "file"
+
+    def __init__(self, given: GivenPredictions | tuple):
+        self.given = given if isinstance(given, GivenPredictions) else GivenPredictions(*given)
+
+    def digest(self) -> str:
+        h = hashlib.sha256()
+        for a in (self.given.region, self.given.guideline):
+            if a is not None:
+                h.update(np.ascontiguousarray(a, np.float32).tobytes())
+        return h.hexdigest()[:16]
+
+    def give(self, problem: SourceInput) -> GridPriors:
+        given, g = self.given, problem.grid
+        for name, arr in (("region", given.region), ("guideline", given.guideline)):
+            if arr is not None and np.shape(arr) != problem.grid_map.shape:
+                raise NdrqlError(f"{name} prediction is {np.shape(arr)[0]}x{np.shape(arr)[1]} but the map is "
+                                 f"{problem.grid_map.height}x{problem.grid_map.width}; predictions must be at the "
+                                 f"map's resolution")
+        on_grid = given.on(g)
+        info = {"prior_grid": "as given" if on_grid is not None else "averaged from the map's pixels"}
+        if on_grid is not None:
+            view = ModelView(given.region, given.guideline, {"mode": "grid", "from_file": True, **info}, *on_grid)
+        else:
+            view = ModelView(given.region, given.guideline, info)
+        return _view_priors(self.name, view, g, None)
+
+
+def default_policy(kind: str = "map", partial: bool = False) -> tuple[str, ...]:
+    """The sources a plan consults when the caller names none (studies/judge/README.md, rules 1 and 4): on a
+    dataset sample (the paper's setting) and on a map the planner does not fully know (a belief map), the network;
+    on a map it fully knows, the exact-distance prior, which on the development sets needed no more steps than the
+    network's prediction in any grid band and costs no model. Where every source is rejected, the plan runs the
+    request's fallback (IQL-BFS on a user's map)."""
+    if kind == "sample" or partial:
+        return ("model",)
+    return ("exact",)

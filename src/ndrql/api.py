@@ -31,6 +31,7 @@ prints it and exits with 2).
 
 from __future__ import annotations
 
+import sys
 from typing import Any, Sequence
 
 from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
@@ -73,7 +74,7 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
                 progress: bool = False, _caller: int = 1) -> PlanReport:
     """Plan ``request``: every method with every seed (:func:`solve` reads as this function). A method the
     fallback replaced issues a :class:`~ndrql.errors.FallbackWarning` at the caller's line."""
-    clock = StageClock()
+    clock = StageClock(sys.stderr if progress and sys.stderr.isatty() else None)  # long stages shown on a terminal
     clock.wall["map"] = clock.cpu["map"] = request.map_seconds
     with clock.stage("grid"):
         pg, setup = plan_grids(request.grid_map, request.start, request.goal, request.settings, request.belief)

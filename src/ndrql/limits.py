@@ -229,6 +229,7 @@ BOUNDS: dict[str, Bound] = {
     "PlanSettings.max_map_pixels": Bound(1, 2**25, "a map's arrays take about 40 bytes a pixel: 2**25 pixels is 1.3 GB"),
     "PlanSettings.tolerance": Bound(0, 10, "a route that much longer is no route", integer=False),
     "PlanSettings.predict_budget": Bound(0.001, 3600, "seconds the model may take", integer=False),
+    "--predict-budget": Bound(0.001, 3600, "seconds the model may take to load and predict (or none)", integer=False),
 }
 
 #: Environment variables ndrql reads: name -> what it takes (a :class:`Bound` for numbers).
@@ -262,13 +263,14 @@ def check_bound(value: object, bound: Bound, name: str) -> float:
     raise BoundError(f"{name} must be {bound.rule()}, got {brief(value)}")
 
 
-def check_fields(obj: object, names: tuple[str, ...]) -> None:
-    """Check the numeric fields ``names`` of a config dataclass against :data:`BOUNDS` (``None`` = unset)."""
+def check_fields(obj: object, names: tuple[str, ...], *, strict: bool = False) -> None:
+    """Check the numeric fields ``names`` of a config dataclass against :data:`BOUNDS` (``None`` = unset; text is
+    left to the class unless ``strict``, which refuses anything but a number)."""
     cls = type(obj).__name__
     for name in names:
         value = getattr(obj, name)
         bound = BOUNDS.get(field_key(cls, name))
-        if value is not None and bound is not None and not isinstance(value, str):
+        if value is not None and bound is not None and (strict or not isinstance(value, str)):
             check_bound(value, bound, name)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,8 @@ from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
 from ndrql.pipeline.request import DEFAULT_FALLBACK, PRIOR_FIELDS, QL_FIELDS
-from ndrql.pipeline.settings import GRID_RULES
+from ndrql.pipeline.settings import DEFAULT_PREDICT_BUDGET, GRID_RULES, MAX_PREDICT_BUDGET
+from ndrql.pipeline.sources import SOURCE_NAMES
 from ndrql.planning.config import field_docs
 from ndrql.planning.methods import get_method
 from ndrql.viz.plan import compare_figure, plan_figure
@@ -44,13 +46,14 @@ EXAMPLES = """examples:
   ndrql plan arena.map --scen arena.map.scen --all --jsonl arena.jsonl       # every scenario vs its optimal length
   ndrql plan map.png --start 25,179 --goal 167,5 --compare QL,IQL,NDR-QL --seeds 10 --png out/cmp.png
   ndrql plan map.png --start 25,179 --goal 167,5 --method N-Q --prior-from preds.npz
+  ndrql plan map.png --start 25,179 --goal 167,5 --prior-from model           # the network's priors on a known map
   ndrql plan office.yaml --start-world 2.5,4.0 --goal-world 12.0,1.5,1.57 --robot-radius 0.2 --path-out plan.yaml
   ndrql plan floor.png --start 300,200 --goal 1700,1800 --grid area --size 50   # the paper's grid instead of the safe one
 
 methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL (the paper's), and IQL-BFS (IQL
 with Eq. 5 on the exact BFS distance: a reference that needs no model); N-C, N-Q and NDR-QL use the
-NDR model (shipped paper or general weights, or --weights FILE, or $NDRQL_WEIGHTS; --prior-from FILE.npz gives the
-predictions instead). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
+NDR model (shipped paper or general weights, or --weights FILE, or $NDRQL_WEIGHTS) where their prior source is the
+model; on a map the planner fully knows their priors come from the exact BFS distance (--prior-from says which). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
 seed gives the same run on any machine load and any number of workers. Time per stage: load (model
 weights), predict, priors, learn; start-up (torch import, loading the compiled kernel) is per process.
 
@@ -66,6 +69,30 @@ can take minutes.
 #: Config fields that become flags (``alpha`` -> ``--alpha``), from the frozen dataclasses.
 _QL_FLAGS = QL_FIELDS
 _PRIOR_FLAGS = PRIOR_FIELDS
+
+
+#: ``--prior-from`` values that name a source rather than a file.
+PRIOR_SOURCE_NAMES = SOURCE_NAMES[:-1]
+
+
+@dataclass(frozen=True)
+class Budget:
+    """A parsed ``--predict-budget``: seconds, or ``None`` for no limit."""
+
+    value: float | None
+
+
+def budget_seconds(text: str) -> Budget:
+    """``--predict-budget``: seconds in (0, 3600] or ``none``."""
+    if text.strip().lower() == "none":
+        return Budget(None)
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seconds or none, got {text[:40]!r}") from None
+    if not 0 < v <= MAX_PREDICT_BUDGET:  # NaN fails too
+        raise argparse.ArgumentTypeError(f"seconds in (0, {MAX_PREDICT_BUDGET:g}] or none, got {text[:40]!r}")
+    return Budget(v)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -98,11 +125,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "weights on generated maps, per grid size) or a preset FILE; the constant flags override its "
                         f"values (default: the one searched for --weights: {plain_preset().name} for the default weights, "
                         "tuned for --weights paper)")
-    method.add_argument("--prior-from", metavar="FILE.npz|oracle",
-                        help="NDR predictions instead of the model: arrays 'region' and 'guideline' at the map's resolution, in [0, 1] "
-                        "(averaged onto the planning grid), as ndrql predict writes them (its grid arrays are used as they are "
-                        "when they were made on the same grid: then the runs equal plan's with the model); "
-                        "or 'oracle': drawn from the planning grid's own shortest path (a diagnostic of the ceiling, not a method)")
+    method.add_argument("--prior-from", metavar="SOURCE|FILE.npz",
+                        help="where NDR-QL's priors come from (default: on a map file the planner fully knows, 'exact': the "
+                        "planning grid's own shortest path and BFS distance, which on every development set needed no more "
+                        "steps than the network; on a dataset sample and with --hide, 'model'): 'model' (the NDR network, "
+                        "--weights), 'exact', 'oracle' (drawn from the true map: the ceiling where part of it is hidden), "
+                        "'head' (the shipped propagating head), or a FILE.npz of arrays 'region' and 'guideline' at the map's "
+                        "resolution, in [0, 1], as ndrql predict writes them; a source the judge rejects (Eq. 7 joins start and "
+                        "goal nowhere, or only along a detour) is replaced by --fallback")
+    method.add_argument("--predict-budget", type=budget_seconds, default=None, metavar="SECONDS|none",
+                        help="seconds the model may take to load and predict; past them the plan falls back and says so "
+                        f"(default: {DEFAULT_PREDICT_BUDGET:g}; none: no limit)")
     method.add_argument("--fallback", metavar="NAME|none", default=None,
                         help="plan with this method instead of the NDR one when the model's prediction is "
                         "judged uninformative (the summary and the JSON's prediction_quality say why) "
@@ -214,8 +247,8 @@ def scenario_fields(args: argparse.Namespace) -> dict[str, Any]:
 def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> dict[str, Any]:
     """The flags as keywords of :func:`ndrql.pipeline.request.build_request` (points excluded)."""
     predictions: Any = None
-    if args.prior_from == "oracle":
-        predictions = "oracle"
+    if args.prior_from in PRIOR_SOURCE_NAMES:
+        predictions = args.prior_from
     elif args.prior_from:
         predictions = load_predictions(args.prior_from)
     return dict(methods=methods, seeds=list(seeds), weights=args.weights, predictions=predictions, preset=args.preset,
@@ -224,7 +257,8 @@ def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> 
                 learned_distance=args.learned_distance, symmetries=args.symmetries, invert=args.invert,
                 threshold=args.threshold, crop=args.crop, hide=args.hide, unknown=args.unknown,
                 sense=args.sense, sense_every=args.sense_every,
-                info={"prior_from": args.prior_from} if predictions is not None and predictions != "oracle" else None,
+                info={"prior_from": args.prior_from} if predictions is not None and not isinstance(predictions, str) else None,
+                **({} if args.predict_budget is None else {"predict_budget": args.predict_budget.value}),
                 **({} if args.fallback is None else {"fallback": args.fallback}))
 
 

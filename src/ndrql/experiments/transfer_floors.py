@@ -1,20 +1,15 @@
-"""The large-grid part of the transfer and release reports: the floors of docs/large-maps.md and the time
-of each stage.
+"""The floors part of the transfer and release reports (issue 53) and the time of each stage.
 
-For a planning grid of at least :data:`FLOOR_GRID` cells the report judges each floor of "Floors for the
-next model" (docs/large-maps.md) as *met* or *missed*, with its number (:func:`floors`):
+For every planning grid the report judges each floor as *met* or *missed*, with its number (:func:`floors`):
 
-- NDR-QL's steps over IQL's, the geometric mean over maps of per-map ratios with ``plan``'s fallback (a map
-  whose prediction is uninformative counts at IQL's steps), at most :data:`MAX_STEP_RATIO`; missed too when a
-  run of the model's row hit its cap (a run that did not converge is no success, whatever steps it used);
-- the share of maps whose prediction is uninformative at most :data:`MAX_UNINFORMATIVE`;
-- no family where NDR-QL (with the fallback) is slower than IQL in the geometric mean;
-- the model's share of the oracle's gain over IQL, ``(1 - G(NDR/IQL)) / (1 - G(oracle/IQL))`` with G the
-  geometric mean over all maps of the grid, at least :data:`MIN_ORACLE_SHARE`;
-- at :data:`PREDICTION_GRID` cells, the median seconds of the prediction at most :data:`MAX_PREDICTION_SECONDS`.
+- no family where NDR-QL, as ``ndrql plan`` runs it (:func:`~ndrql.experiments.transfer_report.plan_row`), needs
+  more than :data:`MAX_FAMILY_VS_BFS` times IQL-BFS's steps (geometric mean over the family's maps);
+- plan's prediction stage and priors at most :data:`MAX_PRIOR_SECONDS` on every map;
+- NDR-QL's in-process work (prediction, priors, learning) at most :data:`MAX_WORK_RATIO` times IQL-BFS's, median
+  over maps (:func:`work_seconds`).
 
-Every grid gets the median wall seconds per stage (:func:`stage_medians`): the prediction (forward pass
-and drawing on the grid), the A* and the BFS distance field on the grid, each row's run (mean over seeds).
+Every grid gets the wall seconds per stage (:func:`stages_table`: median, 95th percentile and maximum): the model's
+forward, plan's exact source, the A* and the BFS distance field on the grid, and each row's run (mean over seeds).
 """
 
 from __future__ import annotations
@@ -24,20 +19,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ndrql.experiments.report import md_table
-from ndrql.experiments.transfer_report import MODEL, ORACLE, ROWS, summarize
+from ndrql.experiments.transfer_report import BFS_ROW, MODEL, ORACLE, ROWS, plan_row, summarize
 
-#: The floors apply from this grid size (cells) up.
-FLOOR_GRID = 128
-#: Largest NDR-QL / IQL geometric mean of per-map step ratios (with plan's fallback).
-MAX_STEP_RATIO = 0.6
-#: Largest share of maps whose prediction is uninformative.
-MAX_UNINFORMATIVE = 0.10
-#: Smallest share of the oracle's gain over IQL (geometric means).
-MIN_ORACLE_SHARE = 0.75
-#: The grid (cells) at which the prediction's time is judged, and its largest median seconds.
-PREDICTION_GRID, MAX_PREDICTION_SECONDS = 256, 0.5
+#: The floors apply from this grid size (cells) up (issue 53: every grid).
+FLOOR_GRID = 0
+#: Largest NDR-QL (as plan runs it) / IQL-BFS geometric mean in any family (issue 53: "never above IQL-BFS's by
+#: more than 2%").
+MAX_FAMILY_VS_BFS = 1.02
+#: Largest seconds of plan's prediction stage and priors on any map (issue 53: load + prediction + priors <= 2 s).
+MAX_PRIOR_SECONDS = 2.0
+#: Largest median ratio of NDR-QL's in-process work (prediction, priors, learning) to IQL-BFS's.
+MAX_WORK_RATIO = 3.0
 #: The stages timed per case, besides each row's run.
-STAGES = ("prediction", "astar", "bfs")
+STAGES = ("prediction", "exact", "astar", "bfs")
 
 
 @dataclass(frozen=True)
@@ -70,6 +64,14 @@ def capped_runs(records: list[dict], row: str = MODEL) -> int:
     return int(sum(not c for r in records if not r["skipped"] for c in r["runs"][row]["converged"]))
 
 
+def stage_tail(records: list[dict], stage: str) -> str:
+    """``median / 95th percentile / max`` wall seconds of one stage over the planned cases ("-" when untimed)."""
+    vals = [r["seconds"][stage] for r in records if not r["skipped"] and stage in r.get("seconds", {})]
+    if not vals:
+        return "-"
+    return f"{np.median(vals):.3f} / {np.percentile(vals, 95):.3f} / {max(vals):.3f}"
+
+
 def stage_medians(records: list[dict]) -> dict[str, float]:
     """Median wall seconds over the planned cases of each stage (:data:`STAGES`) and each row's run (mean over
     seeds per case); a stage no case recorded is left out (records written before stages were timed)."""
@@ -86,94 +88,77 @@ def stage_medians(records: list[dict]) -> dict[str, float]:
     return out
 
 
+def family_vs_bfs(records: list[dict], seed: int = 0) -> dict[str, float]:
+    """Per family, NDR-QL as plan runs it against IQL-BFS (geometric mean over maps)."""
+    out = {}
+    for fam in sorted({r["family"] for r in records if not r["skipped"]}):
+        s = summarize([r for r in records if r["family"] == fam], seed)
+        if "plan_vs_bfs" in s:
+            out[fam] = s["plan_vs_bfs"]["ratio"]
+    return out
+
+
+def work_seconds(record: dict) -> tuple[float, float] | None:
+    """``(NDR-QL's, IQL-BFS's)`` in-process work on one case: plan's prediction stage (the exact source, or the
+    model's forward where plan would ask it) plus the row's priors and learning (mean over seeds); ``None`` for
+    records without them."""
+    sec, runs = record.get("seconds", {}), record["runs"]
+    row = plan_row(record)
+    if "exact" not in sec or BFS_ROW not in runs or "seconds" not in runs.get(row, {}):
+        return None
+    stage = sec["exact"] if row == ORACLE else 0.0
+    return stage + runs[row]["seconds"], runs[BFS_ROW]["seconds"]
+
+
 def floors(records: list[dict], n: int, seed: int = 0) -> list[Floor]:
-    """The floors of docs/large-maps.md on the cases of grid ``n`` (module docstring); ``[]`` without a planned map."""
+    """Issue 53's floors on the cases of grid ``n`` (module docstring); ``[]`` without a planned map."""
     s = summarize(records, seed)
-    if not s["maps"]:
+    if not s["maps"] or "plan_vs_bfs" not in s:
         return []
-    plan = s["plan_vs_iql"]["ratio"]
-    capped = capped_runs(records)
-    raw = s["rows"][MODEL]["vs_iql"]["ratio"]
-    value = f"{plan:.2f} ({raw:.2f} without the fallback)" + (f"; {capped} runs hit their cap" if capped else "")
-    out = [Floor(f"NDR-QL / IQL steps, geometric mean with plan's fallback, at most {MAX_STEP_RATIO}", value,
-                 plan <= MAX_STEP_RATIO and not capped),
-           Floor(f"prediction uninformative on at most {100 * MAX_UNINFORMATIVE:.0f}% of maps",
-                 f"{100 * s['uninformative']:.0f}% of {s['maps']}", s["uninformative"] <= MAX_UNINFORMATIVE)]
-    slower = [f"{f} {x:.2f}" for f, x in family_ratios(records, seed).items() if x > 1]
-    out.append(Floor("no family where NDR-QL (with the fallback) is slower than IQL in the geometric mean",
-                     "slower: " + ", ".join(slower) if slower else "none slower", not slower))
-    if ORACLE in s["rows"]:
-        share = s["share_geo"]
-        shown = "undefined (the oracle is not faster than IQL)" if np.isnan(share) else f"{100 * share:.0f}%"
-        out.append(Floor(f"share of the oracle's gain over IQL in geometric means at least {100 * MIN_ORACLE_SHARE:.0f}%",
-                         shown, bool(share >= MIN_ORACLE_SHARE)))
-    if n == PREDICTION_GRID:
-        t = stage_medians(records).get("prediction")
-        out.append(Floor(f"prediction at {n} cells at most {MAX_PREDICTION_SECONDS} s (median)",
-                         "not timed" if t is None else f"{t:.2f} s", t is not None and t <= MAX_PREDICTION_SECONDS))
+    fams = family_vs_bfs(records, seed)
+    above = [f"{f} {x:.3f}" for f, x in fams.items() if x > MAX_FAMILY_VS_BFS]
+    worst = max(fams, key=fams.get)
+    out = [Floor(f"no family where NDR-QL (as plan runs it) needs more than {MAX_FAMILY_VS_BFS:.2f}x IQL-BFS's steps "
+                 f"(geometric mean)", ", ".join(above) if above else f"highest {worst} {fams[worst]:.3f}", not above)]
+    ok = [r for r in records if not r["skipped"]]
+    stage = [r["seconds"].get("exact", 0.0) for r in ok if "seconds" in r]
+    if stage:
+        out.append(Floor(f"prediction and priors at most {MAX_PRIOR_SECONDS:g} s on every map",
+                         f"median {np.median(stage):.3f} s, 95th percentile {np.percentile(stage, 95):.3f} s, "
+                         f"max {max(stage):.3f} s", max(stage) <= MAX_PRIOR_SECONDS))
+    pairs = [w for r in ok if (w := work_seconds(r)) is not None]
+    if pairs:
+        ratio = float(np.median([a / b for a, b in pairs if b > 0]))
+        out.append(Floor(f"NDR-QL's in-process work at most {MAX_WORK_RATIO:g}x IQL-BFS's (median over maps)",
+                         f"{ratio:.2f}x", ratio <= MAX_WORK_RATIO))
     return out
 
 
 def stages_table(records: list[dict], grids: tuple[int, ...]) -> str:
-    """Markdown: per grid, the median wall seconds of each stage and each row's run."""
+    """Markdown: per grid, the median / 95th percentile / maximum wall seconds of each stage and the median of each
+    row's run."""
     meds = {n: stage_medians([r for r in records if r["n"] == n]) for n in grids}
-    cols = [c for c in (*STAGES, *ROWS) if any(c in m for m in meds.values())]
-    names = {"prediction": "prediction (forward + drawing)", "astar": "A*", "bfs": "BFS distance field"}
-    rows = [[str(n)] + [f"{m[c]:.3f}" if c in m else "-" for c in cols] for n, m in meds.items()]
-    return md_table(["grid"] + [names.get(c, f"run: {c}") for c in cols], rows)
-
-
-def second_opinion_line(records: list[dict]) -> str | None:
-    """How often the base model was asked for a second opinion where the companion's region was uninformative,
-    and how often it served (``plan``'s rule, :func:`~ndrql.pipeline.predictions.predict_on_grid`), and the relays
-    where both were (:mod:`ndrql.pipeline.relay`); ``None`` when it never was asked."""
-    planned = [r for r in records if not r["skipped"]]
-    asked = [r["second_opinion"] for r in planned if r.get("second_opinion")]
-    if not asked:
-        return None
-    line = (f"- second opinion (the base model through its own view, asked where the companion's region was "
-            f"uninformative): asked on {len(asked)} of {len(planned)} maps, served on {sum(a['served'] for a in asked)}")
-    relayed = [a["relay"] for a in asked if (a.get("relay") or {}).get("hops") or "back" in (a.get("relay") or {})]
-    if relayed:
-        back = [r for r in relayed if "back" in r]
-        line += (f"; where both were uninformative the companion was relayed (asked again from where its region "
-                 f"ended) on {len(relayed)} maps, {sum(len(r['hops']) + len(r.get('back', [])) for r in relayed)} hops "
-                 f"in all" + (f" (on {len(back)} also from the goal's side)" if back else "")
-                 + f", and its joined regions served on {sum(_one(r) for r in relayed)}")
-    turned = [a["relay"]["turned"] for a in asked if "turned" in (a.get("relay") or {})]
-    if turned:
-        line += (f"; where that failed too the companion averaged over {turned[0]['orientations']} orientations was "
-                 f"asked on {len(turned)} maps (relayed on {sum(bool(t['hops']) or 'back' in t for t in turned)}) "
-                 f"and served on {sum(t['served'] for t in turned)}")
-    heads = [a["propagated"] for a in asked if a.get("propagated")]
-    if heads:
-        line += (f"; where everything failed the propagating head was asked on {len(heads)} maps and served on "
-                 f"{sum(h['served'] for h in heads)}")
-    return line
-
-
-def _one(relayed: dict) -> bool:
-    """Whether the relay of one orientation served (not counting the turn that may follow it)."""
-    return bool(relayed["served"]) and not (relayed.get("turned") or {}).get("served")
+    cols = [c for c in ROWS if any(c in m for m in meds.values())]
+    names = {"prediction": "model forward (--prior-from model)", "exact": "exact source (plan)", "astar": "A*",
+             "bfs": "BFS distance field"}
+    rows = [[str(n)] + [stage_tail([r for r in records if r["n"] == n], st) for st in STAGES]
+            + [f"{m[c]:.3f}" if c in m else "-" for c in cols] for n, m in meds.items()]
+    return md_table(["grid"] + [f"{names[st]}: median / p95 / max" for st in STAGES] + [f"run: {c}" for c in cols], rows)
 
 
 def render_large(records: list[dict], grids: tuple[int, ...], seed: int = 0) -> str:
-    """Markdown: the median seconds per stage and grid, then for each grid of at least :data:`FLOOR_GRID` cells
-    the floors block (each floor met or missed, with its number)."""
-    parts = ["\n**Time per stage** (median wall seconds over the planned maps of each grid, measured on the machine "
-             "that ran the report; a row's run is its mean over seeds, priors and training):\n\n"
-             + stages_table(records, grids)]
+    """Markdown: the seconds per stage and grid, then for each grid the floors block of issue 53 (each floor met or
+    missed, with its number)."""
+    parts = ["\n**Time per stage** (wall seconds over the planned maps of each grid, measured on the machine that ran "
+             "the report; a row's run is its mean over seeds of priors and training):\n\n" + stages_table(records, grids)]
     for n in grids:
         if n < FLOOR_GRID:
             continue
         fl = floors([r for r in records if r["n"] == n], n, seed)
         if not fl:
-            parts.append(f"**Floors at grid {n}** (docs/large-maps.md): no map planned, nothing judged.")
+            parts.append(f"**Floors at grid {n}**: no map planned with an IQL-BFS row, nothing judged.")
             continue
         met = sum(f.met for f in fl)
-        second = second_opinion_line([r for r in records if r["n"] == n])
-        parts.append(f"**Floors at grid {n}** (docs/large-maps.md, 'Floors for the next model'): {met} of {len(fl)} met.\n\n"
-                     + "\n".join(f.line() for f in fl)
-                     + "\n- figures at grids 50 and 100 and on the paper's data no worse: not judged by this report "
-                       "(compare with docs/results.md)" + (f"\n{second}" if second else ""))
+        parts.append(f"**Floors at grid {n}** (issue 53: NDR-QL against the exact distance, and its time): "
+                     f"{met} of {len(fl)} met.\n\n" + "\n".join(f.line() for f in fl))
     return "\n\n".join(parts) + "\n"

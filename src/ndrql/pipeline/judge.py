@@ -170,8 +170,8 @@ def consult(sources: Any, problem: Any, cfg: PriorConfig, deadline: float | None
     """Ask ``sources`` (each a :class:`~ndrql.pipeline.sources.PriorSource`) in order on ``problem`` (a
     :class:`~ndrql.pipeline.sources.SourceInput`) and judge each (:func:`judge` with ``cfg``) until one is accepted.
 
-    ``deadline``: a ``clock()`` time after which no source is asked and a running one is abandoned (said in its
-    trial: "over the time budget"). Returns ``(accepted priors or None, the trials, the first priors given)``; the
+    ``deadline``: a ``clock()`` time after which no bounded source (``src.bounded``: the networks) is asked and a
+    running one is abandoned (said in its trial: "over the time budget"); the others run inline. Returns ``(accepted priors or None, the trials, the first priors given)``; the
     last lets a plan without fallback still use a rejected prediction. An :class:`~ndrql.errors.NdrqlError` raised
     by a source propagates; any other failure is a rejected trial with its message.
     """
@@ -180,7 +180,8 @@ def consult(sources: Any, problem: Any, cfg: PriorConfig, deadline: float | None
     g = problem.grid
     shortest: int | None = None
     for src in sources:
-        left = None if deadline is None else deadline - clock()
+        bounded = getattr(src, "bounded", True)
+        left = None if deadline is None or not bounded else deadline - clock()
         if left is not None and left <= 0:
             trials.append(Trial(src.name, 0.0, None, "not asked: the time budget was spent"))
             continue

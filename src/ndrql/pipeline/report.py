@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -30,21 +31,47 @@ STAGES: tuple[str, ...] = ("startup", "map", "grid", "load", "predict", "priors"
 WORK_STAGES: tuple[str, ...] = ("load", "predict", "priors", "learn")
 
 
-class StageClock:
-    """Wall and CPU time per named stage of :data:`STAGES` (accumulating)."""
+#: Seconds a stage runs before :class:`StageClock` shows it on a terminal.
+SHOW_AFTER = 2.0
 
-    def __init__(self) -> None:
+
+class StageClock:
+    """Wall and CPU time per named stage of :data:`STAGES` (accumulating). With ``show`` (a text stream, a
+    terminal), a stage that runs longer than :data:`SHOW_AFTER` seconds is shown on one line that counts the
+    seconds until it ends, then erased."""
+
+    def __init__(self, show: Any = None) -> None:
         self.wall: dict[str, float] = {s: 0.0 for s in STAGES}
         self.cpu: dict[str, float] = {s: 0.0 for s in STAGES}
+        self._show = show
 
     @contextmanager
     def stage(self, name: str) -> Iterator[None]:
         w, c = time.perf_counter(), time.process_time()
+        done = threading.Event()
+        ticker = None
+        if self._show is not None:
+            ticker = threading.Thread(target=self._tick, args=(name, w, done), daemon=True)
+            ticker.start()
         try:
             yield
         finally:
+            done.set()
+            if ticker is not None:
+                ticker.join()
             self.wall[name] += time.perf_counter() - w
             self.cpu[name] += time.process_time() - c
+
+    def _tick(self, name: str, t0: float, done: threading.Event) -> None:
+        """Show ``name`` and its seconds once a second after :data:`SHOW_AFTER`, erase the line when it ends."""
+        if done.wait(SHOW_AFTER):
+            return
+        out = self._show
+        while not done.wait(1.0 if out is not None else 0):
+            out.write(f"\rndrql: {name} ... {time.perf_counter() - t0:.0f} s ")
+            out.flush()
+        out.write("\r" + " " * 40 + "\r")
+        out.flush()
 
 
 @dataclass(frozen=True)

@@ -214,15 +214,22 @@ def split_scen(scen: str | os.PathLike | None, index: int | None) -> tuple[str |
     return text, k if k is not None else index
 
 
-def request_sources(predictions: Any, weights: Any, kind: str, partial: bool) -> tuple[str, ...]:
+#: Settings that only the network uses: set to anything but their default, they ask for the model's priors.
+MODEL_SETTINGS = ("backend", "threads", "symmetries", "learned_distance")
+
+
+def request_sources(predictions: Any, weights: Any, kind: str, partial: bool,
+                    settings: PlanSettings | None = None) -> tuple[str, ...]:
     """The sources a request consults: the one named (``predictions`` ``"model"``, ``"exact"``, ``"oracle"``,
-    ``"head"``), the
-    given arrays (``"file"``), the model when ``weights`` name one, else :func:`~ndrql.pipeline.sources.default_policy`."""
+    ``"head"``), the given arrays (``"file"``), the model when ``weights`` name one or a setting only the model uses
+    (:data:`MODEL_SETTINGS`) differs from its default, else :func:`~ndrql.pipeline.sources.default_policy`."""
     if isinstance(predictions, str):
         return (predictions,)
     if predictions is not None:
         return ("file",)
-    if weights is not None:
+    plain = PlanSettings()
+    if weights is not None or (settings is not None and any(getattr(settings, k) != getattr(plain, k)
+                                                            for k in MODEL_SETTINGS)):
         return ("model",)
     return default_policy(kind, partial)
 
@@ -315,7 +322,7 @@ def build_request(
                          f"{', '.join(SOURCE_NAMES[:-1])}, got {predictions[:40]!r}")
     if predictions not in (None, "model") and weights is not None:
         raise NdrqlError("give either weights or predictions (--weights or --prior-from), not both")
-    sources = request_sources(predictions, weights, kind, belief is not None)
+    sources = request_sources(predictions, weights, kind, belief is not None, s)
     predictions = None if predictions == "model" else predictions
     uses_model = "model" in sources
     weights_file = str(resolve_weights(weights)) if uses_model or preset is None else None

@@ -70,6 +70,10 @@ class PlanSettings:
     """Seconds the model may take to load and predict; past them the plan falls back and says so (None: no limit)."""
 
     def __post_init__(self) -> None:
+        check_fields(self, tuple(n for n in NUMERIC_SETTINGS if n != "size"), strict=True)  # ndrql.limits.BOUNDS
+        for name in ("grid", "fallback", "backend"):
+            if not isinstance(getattr(self, name), (str, type(None))):
+                raise NdrqlError(f"{name} must be a name (text), got {brief(getattr(self, name))}")
         if self.grid is not None and self.grid not in GRID_RULES:
             raise NdrqlError(f"unknown planning grid rule {self.grid!r}; valid: {', '.join(GRID_RULES)}")
         size = self.size
@@ -120,10 +124,6 @@ class PlanSettings:
             raise NdrqlError(f"the prediction budget must be seconds in (0, {MAX_PREDICT_BUDGET:g}] or None (no limit), "
                              f"got {brief(b)}")
         check_threads(self.threads, "threads (--threads)")
-        try:  # the one table (ndrql.limits.BOUNDS); the API's errors are NdrqlError
-            check_fields(self, NUMERIC_SETTINGS)
-        except ValueError as exc:
-            raise NdrqlError(str(exc)) from None
 
     @classmethod
     def paper(cls, **overrides) -> "PlanSettings":

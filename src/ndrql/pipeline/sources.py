@@ -93,6 +93,9 @@ class PriorSource(Protocol):
     """The protocol every source implements."""
 
     name: str
+    bounded: bool
+    """Whether it runs under the request's time budget (the networks: their cost grows with the grid and the
+    machine); the others cost a few graph searches and run inline."""
 
     def digest(self) -> str:
         """SHA-256 (16 hex) of what its predictions depend on besides the grid (weights, files); ``""``: nothing."""
@@ -116,6 +119,7 @@ class ModelSource:
     """The NDR network: one forward pass of the model that serves the grid (module docstring)."""
 
     name = "model"
+    bounded = True
 
     def __init__(self, predictor: Any, learned_distance: bool = True):
         self.predictor = predictor
@@ -201,6 +205,7 @@ class ExactSource:
     """The exact-distance prior on the planner's own grid (module docstring); needs no model."""
 
     name = "exact"
+    bounded = False
 
     def digest(self) -> str:
         return ""
@@ -214,6 +219,7 @@ class OracleSource:
     """The exact-distance prior drawn from the true map: the ceiling (module docstring)."""
 
     name = "oracle"
+    bounded = False
 
     def digest(self) -> str:
         return ""
@@ -232,6 +238,7 @@ class HeadSource:
     """The shipped propagating head (module docstring): its probabilities as region and guideline, no distance."""
 
     name = "head"
+    bounded = True
 
     def __init__(self, threads: int = 1):
         self.threads = threads
@@ -255,6 +262,7 @@ class GivenSource:
     """Predictions given with the request (arrays at the map's resolution, or a prediction file's contents)."""
 
     name = "file"
+    bounded = False
 
     def __init__(self, given: GivenPredictions | tuple):
         self.given = given if isinstance(given, GivenPredictions) else GivenPredictions(*given)

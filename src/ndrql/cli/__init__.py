@@ -21,9 +21,9 @@ from typing import NoReturn
 from ndrql.cli.options import check_flags
 from ndrql.cli.outputs import guard
 from ndrql.io.readset import run_inputs
-from ndrql.cli.text import plain, short_usage
+from ndrql.cli.text import EscapedStream, plain, short_usage
 from ndrql.version import __version__
-from ndrql.errors import MissingDependency, NdrqlError, require_torch
+from ndrql.errors import NdrqlError, torch_missing
 
 #: Subcommand modules (under ``ndrql.cli``), in the order ``--help`` lists them.
 SUBCOMMANDS: tuple[str, ...] = (
@@ -118,17 +118,23 @@ def main(argv: list[str] | None = None) -> int:
     import warnings
 
     warnings.formatwarning = _format_warning  # the CLI's own output format; the library only warns
-    argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
-    parser = build_parser(argv[0] if argv else None)
-    args, extra = parser.parse_known_args(argv)
-    if extra:  # the subcommand's parser reports flags it does not know, with its own usage
-        chosen = _chosen_parser(parser, args)
-        chosen.error(f"unrecognized arguments: {' '.join(extra)}")
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 0
-    if args.command in COMPILING_COMMANDS:
-        _compile_notice()
+    parser = args = None
+    try:  # the one door: parsing, argparse's type functions, the environment and the notice too
+        argv = join_negative_values(sys.argv[1:] if argv is None else list(argv))
+        parser = build_parser(argv[0] if argv else None)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # the subcommand's parser reports flags it does not know, with its own usage
+            chosen = _chosen_parser(parser, args)
+            chosen.error(f"unrecognized arguments: {' '.join(extra)}")
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 0
+        if args.command in COMPILING_COMMANDS:
+            _compile_notice()
+    except SystemExit:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - every failure becomes one line
+        return _door(exc, parser, args)
     held: list[str] = []
     shown_before = warnings.showwarning
 
@@ -140,10 +146,13 @@ def main(argv: list[str] | None = None) -> int:
             held.append(text)
 
     warnings.showwarning = show
+    stdout = sys.stdout
     try:
+        sys.stdout = EscapedStream(stdout) if stdout is not None else None  # type: ignore[assignment]
         with run_inputs():  # the files this command reads, which no output may replace
             code = _run(parser, args)
     finally:
+        sys.stdout = stdout
         warnings.showwarning = shown_before
     if code == 0:
         sys.stderr.write("".join(held))
@@ -174,7 +183,7 @@ def _error(message: object, code: int = 2) -> int:
 
 
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    """Guard the outputs, run the subcommand and turn every failure into one line and an exit code."""
+    """Check the numbers and the outputs, run the subcommand; every failure goes through :func:`_door`."""
     try:
         check_flags(_chosen_parser(parser, args), args)  # every number against ndrql.limits.BOUNDS
         guard(args)  # every output checked against every input and each other, before any work
@@ -182,41 +191,40 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         if sys.stdout is not None:
             sys.stdout.flush()
         return code
-    except BrokenPipeError:  # `ndrql ... | head`: the reader left; stop quietly like other Unix tools
+    except SystemExit:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - every failure becomes one line
+        return _door(exc, parser, args)
+
+
+def _door(exc: BaseException, parser: argparse.ArgumentParser | None, args: argparse.Namespace | None) -> int:
+    """The one door: any failure as one line on stderr and its exit code (NDRQL_DEBUG=1 re-raises a bug)."""
+    if isinstance(exc, BrokenPipeError):  # `ndrql ... | head`: the reader left; stop quietly like other Unix tools
         _silence_stdout()
         return 141
-    except KeyboardInterrupt:
+    if isinstance(exc, KeyboardInterrupt) or _interrupted(exc):  # also inside compiled code (a SystemError)
         print("ndrql: interrupted", file=sys.stderr)
         return 130
-    except (NdrqlError, ValueError, OverflowError) as exc:
+    if isinstance(exc, (NdrqlError, ValueError, OverflowError)):
         return _error(exc)
-    except RecursionError:
+    if isinstance(exc, RecursionError):
         return _error("the input is nested too deeply to read")
-    except ImportError as exc:  # a torch-only command in a light install (pip install ndrql): say what to install
-        if exc.name is not None and exc.name.split(".")[0] != "torch":
-            raise
+    if isinstance(exc, ImportError) and (exc.name or "").split(".")[0] == "torch":  # a light install: what to install
         target = getattr(args, "target", None)  # reproduce TARGET
-        try:
-            require_torch(_chosen_parser(parser, args).prog + (f" {target}" if isinstance(target, str) else ""))
-        except MissingDependency as missing:
-            return _error(missing)
-        raise
-    except MemoryError:
+        what = _chosen_parser(parser, args).prog if parser is not None and args is not None else "this command"
+        return _error(torch_missing(what + (f" {target}" if isinstance(target, str) else "")))
+    if isinstance(exc, MemoryError):
         return _error("out of memory", 1)
-    except OSError as exc:  # writing stdout on a full disk, a file vanishing under us, ...
+    if isinstance(exc, OSError):  # writing stdout on a full disk, a file vanishing under us, ...
         _silence_stdout()
         where = f" ({exc.filename})" if getattr(exc, "filename", None) else " (standard output)"
         return _error(f"cannot go on: {exc.strerror or type(exc).__name__}{where}")
-    except Exception as exc:  # a bug: one line that says so (NDRQL_DEBUG=1 shows the traceback)
-        if _interrupted(exc):  # Ctrl-C inside compiled code surfaces as a SystemError
-            print("ndrql: interrupted", file=sys.stderr)
-            return 130
-        import os
+    import os
 
-        if os.environ.get("NDRQL_DEBUG"):
-            raise
-        return _error(f"internal error ({type(exc).__name__}: {exc}); please report it with the command "
-                      f"(NDRQL_DEBUG=1 shows where)", 1)
+    if os.environ.get("NDRQL_DEBUG"):
+        raise exc
+    return _error(f"internal error ({type(exc).__name__}: {exc}); please report it with the command "
+                  f"(NDRQL_DEBUG=1 shows where)", 1)
 
 
 #: Subcommands that run the compiled planners; on the first run after install they say that they compile.

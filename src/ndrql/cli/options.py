@@ -52,7 +52,7 @@ def add_dataclass_options(parser: argparse.ArgumentParser, cls: type, skip: tupl
         if isinstance(default, bool):
             parser.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction, default=None, help=help_text)
         elif isinstance(default, dict):
-            parser.add_argument(flag, dest=f.name, type=json.loads, default=None, help=help_text + " as JSON")
+            parser.add_argument(flag, dest=f.name, type=json_value, default=None, help=help_text + " as JSON")
         else:
             parser.add_argument(flag, dest=f.name, type=type(default), default=None, help=help_text)
 
@@ -89,6 +89,17 @@ def configs_from_flags(args: argparse.Namespace, specs: tuple[tuple[type, tuple[
         except ValueError as exc:
             raise NdrqlError(f"bad option: {exc}") from None
     return out
+
+
+def json_value(text: str) -> Any:
+    """A flag's JSON value; argparse reports a bad one as ``invalid json_value value`` on one line (too deep a
+    nesting too, never a traceback)."""
+    if len(text) > 100_000:
+        raise argparse.ArgumentTypeError("longer than 100,000 characters")
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise argparse.ArgumentTypeError("nested too deeply") from None
 
 
 def numeric_values(value: Any) -> list[float]:

@@ -71,3 +71,27 @@ def text_table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: str 
 
     out = [line(cells[0]), "-" * (sum(widths) + gap * (n - 1))]
     return out + [line(row) for row in cells[1:]]
+
+
+#: C0 and C1 control characters but tab and newline, as ``\\xNN``: what a file name or a map's own text can hold.
+_CONTROL = {c: f"\\x{c:02x}" for c in (*range(0x00, 0x09), *range(0x0b, 0x20), 0x7f, *range(0x80, 0xa0))}
+
+
+def escape_controls(text: str) -> str:
+    """``text`` with control characters (escape sequences, carriage returns, bells) written as ``\\xNN``."""
+    return text.translate(_CONTROL)
+
+
+class EscapedStream:
+    """Standard output for the CLI: everything written is escaped once, here (:func:`escape_controls`), so a
+    map named with terminal escape sequences cannot retitle, recolour or overwrite the terminal."""
+
+    def __init__(self, raw: Any) -> None:
+        self._raw = raw
+
+    def write(self, text: str) -> int:
+        self._raw.write(escape_controls(text))
+        return len(text)
+
+    def __getattr__(self, name: str) -> Any:  # flush, fileno, isatty, buffer, encoding, ...
+        return getattr(self._raw, name)

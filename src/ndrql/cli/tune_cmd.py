@@ -12,6 +12,7 @@ from ndrql.cli.common import add_weights_argument, check_outputs
 from ndrql.cli.options import add_command
 from ndrql.dataset.layout import resolve_root
 from ndrql.errors import NdrqlError
+from ndrql.io.readset import in_package
 from ndrql.limits import MAX_GRID_SIZE, MIN_GRID_SIZE, MAX_RUNS, MAX_WORKERS, SEED_LIMIT, check_int
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning import compiled
@@ -179,6 +180,20 @@ def check_storage(url: str | None) -> None:
             folder = os.path.dirname(os.path.abspath(path))
             if not os.path.isdir(folder):
                 raise NdrqlError(f"--storage {shown}: the folder {folder} does not exist")
+            check_sqlite_file(path, f"--storage {shown}")
+
+
+def check_sqlite_file(path: str, flag: str) -> None:
+    """An SQLite storage file is written in place by SQLite, not by ndrql's writer: refuse a folder, a symlink,
+    a file the package ships and any existing file that is not an SQLite database (a map, a checkpoint)."""
+    if os.path.islink(path) or os.path.isdir(path) or in_package(path):
+        what = "a symbolic link" if os.path.islink(path) else "a folder" if os.path.isdir(path) else \
+            "inside the installed ndrql package"
+        raise NdrqlError(f"{flag}: {path} is {what}; give an SQLite file (it is created when missing)")
+    if os.path.isfile(path) and os.path.getsize(path) > 0:
+        with open(path, "rb") as fh:
+            if fh.read(16) != b"SQLite format 3\0":
+                raise NdrqlError(f"{flag}: {path} is not an SQLite database; nothing was written, give another file")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -190,6 +205,8 @@ def run(args: argparse.Namespace) -> int:
     if not methods:
         raise NdrqlError("--methods is empty")
     check_storage(args.storage)  # before the maps are built: a bad URL is one line now
+    if not args.storage and args.out:
+        check_sqlite_file(os.path.join(args.out, "studies.db"), f"--out {args.out}")
     if args.start_from:
         load_preset(args.start_from)  # an unknown preset is one line now, not after the maps are built
     if args.maps == "generated":
@@ -285,7 +302,7 @@ def _collect(args, cfgs, problems, storage, digest, log):
     """Each method's best trial on ``problems``, its check against spec on fresh seeds, and the provenance."""
     import optuna
 
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    optuna.logging.set_verbosity(optuna.logging.ERROR)  # errors reach ndrql's one door
     settings, studies, alternates, trials = {}, {}, {}, {}
     for cfg in cfgs:
         name = study_name(cfg, [p.key for p in problems], digest)

@@ -21,6 +21,7 @@ import torch
 
 from ndrql.dataset.cache import cache_dir, load_split
 from ndrql.io import file_digest, write_json
+from ndrql.limits import env_number
 from ndrql.model.checkpoint import load_checkpoint, model_from_checkpoint
 from ndrql.training.evaluate import evaluate
 
@@ -74,7 +75,7 @@ def evaluate_weights(path: str | Path, root: Path, limit: int | None, progress: 
             return json.loads(cached.read_text())
         except (json.JSONDecodeError, UnicodeDecodeError):
             pass  # a damaged cache entry is recomputed
-    torch.set_num_threads(max(1, int(os.environ.get("NDRQL_EVAL_THREADS", "1"))))
+    torch.set_num_threads(env_number("NDRQL_EVAL_THREADS", 1))
     ck = load_checkpoint(path)
     model = model_from_checkpoint(ck)
     encoding = dict(ck["config"]).get("encoding", "point")

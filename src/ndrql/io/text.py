@@ -67,7 +67,8 @@ def load_json(text: str | bytes, what: str, error: type[NdrqlError] = NdrqlError
 
 
 def _strict_loader() -> Any:
-    """A ``yaml.SafeLoader`` subclass that refuses a mapping with a key given twice."""
+    """A ``yaml.SafeLoader`` subclass that refuses a mapping with a key given twice and reads ``010`` as 10
+    (YAML 1.2, as ROS map_server does; PyYAML's YAML 1.1 reads it as octal 8)."""
     import yaml  # lazy: a third-party library, only for YAML inputs
 
     class StrictLoader(yaml.SafeLoader):
@@ -83,6 +84,15 @@ def _strict_loader() -> Any:
                     seen.add(key)
             return super().construct_mapping(node, deep=deep)
 
+        def construct_yaml_int(self, node: Any) -> Any:
+            """YAML 1.2's integers, as ROS map_server (yaml-cpp) reads them: ``010`` is 10, not octal 8."""
+            text = str(self.construct_scalar(node)).replace("_", "")
+            body = text.lstrip("+-")
+            if body.isdigit():
+                return -int(body) if text.startswith("-") else int(body)
+            return super().construct_yaml_int(node)
+
+    StrictLoader.add_constructor("tag:yaml.org,2002:int", StrictLoader.construct_yaml_int)
     return StrictLoader
 
 

@@ -160,8 +160,9 @@ def average_weights(sources: list[str | Path], dst: str | Path, shares: list[flo
     if not sources:
         raise CheckpointError("average: no weights files given")
     shares = [1.0 / len(sources)] * len(sources) if shares is None else [float(s) for s in shares]
-    if len(shares) != len(sources) or any(not s > 0 for s in shares):
-        raise CheckpointError(f"average: need one positive share per weights file, got {shares}")
+    if len(shares) != len(sources) or any(not 0 < s <= 1e6 for s in shares):  # NaN and inf fail too
+        raise CheckpointError(f"average: need one positive, finite share (at most 1e6) per weights file, got "
+                              f"{', '.join(f'{s:g}' for s in shares[:8])}")
     total = sum(shares)
     datas = [load_checkpoint(s) for s in sources]
     first = datas[0]
@@ -173,6 +174,8 @@ def average_weights(sources: list[str | Path], dst: str | Path, shares: list[flo
         if ref.is_floating_point():
             acc = sum(d["model"][key].float() * (w / total) for d, w in zip(datas, shares))
             weights[key] = acc.half()
+            if not bool(torch.isfinite(weights[key]).all()):
+                raise CheckpointError(f"average: {key} is not finite in the average (fp16); nothing was written")
         else:
             weights[key] = ref
     payload = {

@@ -29,7 +29,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
-from ndrql.errors import NdrqlError, PointError
+from ndrql.errors import NdrqlError, PointError, brief
 from ndrql.limits import check_finite
 from ndrql.maps.grid import GridMap
 from ndrql.maps.readers import IMAGE_SUFFIXES, YAML_SUFFIXES
@@ -234,6 +234,20 @@ def request_sources(predictions: Any, weights: Any, kind: str, partial: bool,
     return default_policy(kind, partial)
 
 
+#: What the API's object arguments may be (anything else is one NdrqlError, never an AttributeError deep inside).
+_KINDS: dict[str, tuple[type, ...]] = {"weights": (str, os.PathLike), "preset": (str, os.PathLike, Preset),
+                                       "config": (QLConfig,), "prior_config": (PriorConfig,), "ql": (Mapping,),
+                                       "priors": (Mapping,)}
+
+
+def _check_kinds(**given: Any) -> None:
+    for name, value in given.items():
+        if value is not None and not isinstance(value, _KINDS[name]):
+            want = " or ".join("a path" if k is os.PathLike else "a mapping" if k is Mapping else
+                               "text" if k is str else f"a {k.__name__}" for k in _KINDS[name])
+            raise NdrqlError(f"{name} must be {want}, got {brief(value)}")
+
+
 def build_request(
     map_source: Any,
     start: Sequence[int] | None = None,
@@ -286,6 +300,7 @@ def build_request(
     not_options = [k for k in setting_fields if k not in {f.name for f in dataclasses.fields(PlanSettings)}]
     if not_options:
         raise NdrqlError(f"unknown plan option {not_options[0]!r}")
+    _check_kinds(weights=weights, preset=preset, config=config, prior_config=prior_config, ql=ql, priors=priors)
     ms = tuple(m.name for m in methods_named(methods))
     seed_list = tuple(seeds_given(seeds))
     s = _settings(settings, kind, len(ms), setting_fields)

@@ -16,6 +16,7 @@ exactly the batches it would have seen.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -29,7 +30,7 @@ from ndrql.dataset.cache import load_split
 from ndrql.dataset.splits import train_val_split
 from ndrql.dataset.views import GridView
 from ndrql.errors import CheckpointError
-from ndrql.io import make_folder
+from ndrql.io import folder_lock, make_folder
 from ndrql.model.registry import build_model
 from ndrql.training import distributed as D
 from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
@@ -181,7 +182,8 @@ def run_training(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, pr
     device = D.resolve_device(cfg.device, world)
     joined = D.init_process_group(world, device)
     try:
-        return _run(cfg, Path(run_dir), resume, progress, log, world, device)
+        with folder_lock(run_dir, "run folder") if world.is_main else contextlib.nullcontext():  # one training a folder
+            return _run(cfg, Path(run_dir), resume, progress, log, world, device)
     finally:
         if joined:
             D.destroy_process_group()

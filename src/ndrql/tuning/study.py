@@ -35,7 +35,8 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ndrql.errors import NdrqlError
-from ndrql.io import data_digest, make_folder
+from ndrql.io import data_digest
+from ndrql.tuning.shared import default_storage, engine_kwargs, retry_shared  # noqa: F401 (default_storage: re-exported)
 from ndrql.planning import compiled
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.preset import load_preset
@@ -135,12 +136,6 @@ def study_name(cfg: TuneConfig, problem_keys: Sequence[str], weights_digest: str
     return f"{cfg.method}-{data_digest(blob)[:10]}"
 
 
-def default_storage(out_dir: str | Path) -> str:
-    """SQLite file ``<out_dir>/studies.db`` as an Optuna storage URL (the folder is created)."""
-    folder = make_folder(out_dir)
-    return f"sqlite:///{(folder / 'studies.db').resolve()}"
-
-
 def open_storage(url: str, cfg: TuneConfig) -> Any:
     """An Optuna storage for ``url``; SQL ones with heartbeats, a stale trial retried once."""
     import optuna
@@ -150,12 +145,14 @@ def open_storage(url: str, cfg: TuneConfig) -> Any:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # heartbeats and the retry callback are "experimental" in Optuna
         retry_cls = getattr(optuna.storages, "RetryHeartbeatStaleTrialCallback", None)
-        kw: dict[str, Any] = {"heartbeat_interval": cfg.heartbeat, "grace_period": cfg.grace}
-        try:
+        kw: dict[str, Any] = {"heartbeat_interval": cfg.heartbeat, "grace_period": cfg.grace,
+                              "engine_kwargs": engine_kwargs(url)}
+        try:  # another tune process may be creating the same tables (ndrql.tuning.shared)
             if retry_cls is not None:
-                return optuna.storages.RDBStorage(url, heartbeat_stale_trial_callback=retry_cls(max_retry=1), **kw)
+                return retry_shared(lambda: optuna.storages.RDBStorage(
+                    url, heartbeat_stale_trial_callback=retry_cls(max_retry=1), **kw))
             retry = optuna.storages.RetryFailedTrialCallback(max_retry=1)
-            return optuna.storages.RDBStorage(url, failed_trial_callback=retry, **kw)
+            return retry_shared(lambda: optuna.storages.RDBStorage(url, failed_trial_callback=retry, **kw))
         except Exception as exc:  # sqlalchemy's errors: a bad URL, a folder that does not exist
             raise NdrqlError(f"cannot open the study storage {url[:120]}: {exc.__class__.__name__}") from None
 
@@ -216,8 +213,9 @@ def open_study(cfg: TuneConfig, name: str, storage: Any) -> Any:
     sampler = optuna.samplers.TPESampler(
         seed=cfg.seed, n_startup_trials=cfg.startup_trials,
         constraints_func=None if _has_set_constraint() else _constraints_func)
-    return optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=optuna.pruners.NopPruner(),
-                               direction="minimize", load_if_exists=True)
+    return retry_shared(lambda: optuna.create_study(study_name=name, storage=storage, sampler=sampler,  # shared
+                                                    pruner=optuna.pruners.NopPruner(), direction="minimize",
+                                                    load_if_exists=True))
 
 
 def _constraint_values(ev: Evaluation, baseline: dict[str, Any]) -> dict[str, float]:
@@ -363,10 +361,9 @@ def run_study(cfg: TuneConfig, problems: Sequence[Problem], storage: str, weight
     import optuna
     from tqdm import tqdm
 
-
     if not problems:
         raise NdrqlError("no planning problems to tune on")
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    optuna.logging.set_verbosity(optuna.logging.ERROR)  # a failed trial propagates: ndrql's one line says it
     name = name or study_name(cfg, [p.key for p in problems], weights_digest)
     study = open_study(cfg, name, open_storage(storage, cfg))
     fail_orphans(study, cfg.grace)

@@ -156,7 +156,8 @@ def test_shipped_general_model_has_the_distance_head_and_plan_uses_it():
     goal = p.grid.goal
     assert d[goal] < 3  # about 0 at the goal itself
     report = ndrql.solve(obstacles, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1,
-                         settings=PlanSettings(fallback=None), preset="spec")  # the paper's threshold search connects here
+                         settings=PlanSettings(fallback=None), preset="spec",  # the paper's threshold search connects here
+                         predictions="model")  # a known map takes the exact prior unless the model is named
     assert report.info["qi_distance"] == "model" and report.results[0].converged
 
 

@@ -140,7 +140,8 @@ def test_a_grid_mode_model_predicts_on_the_safe_grid_plan_builds(model_weights):
     if predictor.input_mode != "grid":
         pytest.skip(f"{model_weights} holds a map-mode model")
     m = _walls()
-    report = ndrql.solve(m, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1, fallback=None)
+    report = ndrql.solve(m, (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1, fallback=None,
+                         predictions="model")  # a known map takes the exact prior unless the model is named
     auto = predictor.predict(m, (10, 10), (110, 150))
     assert auto.grid.size == report.setup.size and np.array_equal(auto.grid.blocked, report.grid.blocked)
     assert (auto.grid.start, auto.grid.goal) == (report.grid.start, report.grid.goal)

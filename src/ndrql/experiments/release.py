@@ -20,6 +20,7 @@ The report states how many times each sealed set has been evaluated and with whi
 from __future__ import annotations
 
 import datetime as _dt
+import gzip
 import json
 import subprocess
 from pathlib import Path
@@ -29,7 +30,7 @@ from ndrql.errors import NdrqlError
 from ndrql.experiments.eval_sets import eval_set, eval_spec, registry, verify_seal
 from ndrql.experiments.transfer import transfer
 from ndrql.experiments.transfer_report import rows_at
-from ndrql.io import file_digest, write_json
+from ndrql.io import file_digest, write_bytes, write_json
 from ndrql.planning.preset import Preset
 
 #: The ledger's format tag.
@@ -83,6 +84,25 @@ def times_evaluated(ledger: dict, name: str) -> int:
     return sum(name in run["sets"] for run in ledger["runs"])
 
 
+def keep_records(summary: Path, folder: Path, run_id: int, name: str) -> dict:
+    """The per-map records of one sealed read, gzipped beside the ledger (``records/run-<id>-<set>.json.gz``, to be
+    committed with it) so that a reader can recompute every table; their path and SHA-256 for the ledger."""
+    if not summary.is_file():
+        return {}
+    target = folder / "records" / f"run-{run_id}-{name}.json.gz"
+    write_bytes(target, gzip.compress(summary.read_bytes(), mtime=0))
+    return {"records": target.as_posix(), "records_sha256": file_digest(target)}
+
+
+def attempt_line(book: dict, grid: int, run_id: int) -> str:
+    """``- grid N: sealed read k at this size (runs ...)``: how many runs of the ledger up to ``run_id`` read a sealed
+    set at ``grid``, so that a held-out figure names its attempt."""
+    runs = [r["run"] for r in book["runs"] if grid in r.get("grids", []) and r["run"] <= run_id]
+    earlier = ", ".join(map(str, runs[:-1])) or "none"
+    return (f"- grid {grid}: sealed read {len(runs)} at this size (earlier runs at this size: {earlier}; "
+            f"what each showed: docs/results.md)\n")
+
+
 def check_sealed_names(names: list[str]) -> list[str]:
     """``names`` if each is a registered sealed set; a development set is refused (its figures are the
     transfer report's)."""
@@ -130,11 +150,13 @@ def release(out: str | Path, sets: list[str], *, ledger: str | Path = DEFAULT_LE
         prior = [r["commit"] for r in book["runs"] if name in r["sets"]]
         header = (f"# Release report: sealed set {name!r}\n\nThis set has been evaluated {len(prior)} time"
                   f"{'s' if len(prior) != 1 else ''} (ledger {ledger.as_posix()}: runs with commits "
-                  f"{', '.join(prior)}); this is run {run_id}, commit {entry['commit']}.\n\n")
+                  f"{', '.join(prior)}); this is run {run_id}, commit {entry['commit']}.\n\n"
+                  + "".join(attempt_line(book, n, run_id) for n in grids) + "\n")
         path = transfer(Path(out) / name, weights=weights, set_name=name, grids=grids, seeds=seeds, seed0=seed0,
                         workers=workers, executor=executor, progress=progress, command=command, log=log,
                         preset=preset, release=True, header=header, name="release", rows=rows)
-        entry["reports"][name] = {"path": path.as_posix(), "sha256": file_digest(path)}
+        entry["reports"][name] = {"path": path.as_posix(), "sha256": file_digest(path),
+                                  **keep_records(path.parent / "summary.json", ledger.parent, run_id, name)}
         paths.append(path)
     entry["finished"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     write_json(ledger, book)

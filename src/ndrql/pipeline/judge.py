@@ -35,10 +35,12 @@ from ndrql.planning.priors import adaptive_threshold, widen_region
 
 Point = tuple[int, int]
 
-#: Longest route through the region, as a multiple of the grid's shortest route, that still guides planning.
-#: A region whose corridor holds only a detour costs steps against the exact distance (issue 53's rule,
-#: docs/large-maps.md#the-judge); 1.0 would reject a corridor a single move longer than the optimum.
-MAX_ROUTE_RATIO = 1.10
+#: Longest route through the region, as a multiple of the grid's shortest route, that still guides planning: the
+#: region must hold a shortest route. Chosen by rule 2 of studies/judge/README.md from none, 1.25, 1.10, 1.05 and 1.00
+#: on the development runs (grids 50, 100, 128, 256): the strict cut gave the lowest worst family of NDR-QL with the
+#: network's priors against IQL-BFS (1.017 at 128 cells; 1.022 at 1.05, 1.045 without a cut). It matters where the
+#: network is asked (``--prior-from model``, belief maps); the exact source's route is the shortest by construction.
+MAX_ROUTE_RATIO = 1.0
 
 
 @dataclass(frozen=True)

@@ -78,10 +78,10 @@ def measure(args: argparse.Namespace) -> int:
                     runs = [run_plan(case.blocked, s, g, "IQL-BFS", sd, ql, priors=pri) for sd in seeds]
                     rows[name] = {"steps": [int(r.convergence_steps if r.converged else r.total_steps) for r in runs],
                                   "converged": [bool(r.converged) for r in runs]}
-                for e in every:
+                for e, carry in [(e, c) for c in args.carry.split(",") for e in every]:
                     runs = [run_sensed(case.blocked, bel, known, s, g, "IQL-BFS", sd, ql, priors_on,
-                                       SenseConfig(radius=radius, every=e)) for sd in seeds]
-                    rows[f"every {e}"] = {"steps": [r.steps for r in runs], "converged": [r.converged for r in runs],
+                                       SenseConfig(radius=radius, every=e, carry=carry)) for sd in seeds]
+                    rows[f"every {e}" + ("" if carry == "shift" else f", {carry}")] = {"steps": [r.steps for r in runs], "converged": [r.converged for r in runs],
                                           "recomputes": [r.recomputes for r in runs],
                                           "known_end": [round(r.known_share[-1], 4) if r.known_share else None
                                                         for r in runs]}
@@ -122,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fraction", type=float, default=0.3)
     ap.add_argument("--radius", type=float, default=0.08, help="sensing radius, share of the grid's longer side")
     ap.add_argument("--every", default="5,20,100", help="episodes between recomputations, comma-separated")
+    ap.add_argument("--carry", default="shift", help="what a rebuild does to the Q-table: shift, reset, keep "
+                    "(comma-separated for several rows)")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--preset", default="general")
     ap.add_argument("--limit", type=int, default=None)

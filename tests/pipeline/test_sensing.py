@@ -82,7 +82,7 @@ def test_sense_through_the_api_reveals_and_records(tmp_path):
     assert rep.info["sensing"]["radius_cells"] == 3.0 and rep.info["sensing"]["every"] == 2 and len(runs) == 4
     assert all(r["known_end"] > r["known_start"] for r in runs) and any(r["recomputes"] >= 1 for r in runs)
     assert all(r.converged and r.astar_length == 87 for r in rep.results)
-    assert rep.request.to_dict()["sense"] == {"radius": 3.0, "every": 2, "max_chunks": 10_000}
+    assert rep.request.to_dict()["sense"] == {"radius": 3.0, "every": 2, "carry": "shift", "max_chunks": 10_000}
 
 
 def test_sense_errors_are_one_clear_line():
@@ -116,3 +116,16 @@ def test_sense_cli_equals_api(ndrql_exe, tmp_path):
     assert doc["sensing"]["runs"] == api.info["sensing"]["runs"]
     assert_one_line_error(run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34",
                                   "--sense", "3", "--method", "IQL"), "give --hide MASK")
+
+
+@pytest.mark.parametrize("carry", ["shift", "reset", "keep"])
+def test_every_carry_converges_and_the_rebuild_changes_the_run(carry):
+    t = _truth()
+    belief = t.copy()
+    belief[0:16, 10] = False
+    known = np.ones_like(t)
+    known[0:16, 8:13] = False
+    r = run_sensed(t, belief, known, S, G, "IQL-BFS", 4, QLConfig(), _priors_on, SenseConfig(radius=3, every=1, carry=carry))
+    assert r.converged and r.recomputes >= 1 and r.path_length >= 43
+    with pytest.raises(ValueError, match="carry"):
+        SenseConfig(radius=3, carry="forget")

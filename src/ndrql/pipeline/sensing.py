@@ -34,6 +34,8 @@ Cell = tuple[int, int]
 #: Episodes between recomputations by default: after every episode, the best of 1, 2, 5, 20 and 100 on the
 #: development set partial-dev (studies/partial/README.md, "Revealed as it moves").
 DEFAULT_EVERY = 1
+#: What a rebuild of the priors does to the Q-table (:attr:`SenseConfig.carry`).
+CARRY = ("shift", "reset", "keep")
 #: Priors of a method on a belief grid (``True`` = blocked).
 PriorsOn = Callable[[np.ndarray], Priors]
 
@@ -46,6 +48,9 @@ class SenseConfig:
     """Sensing radius in planning cells (line of sight on the true grid)."""
     every: int = 20
     """Episodes between rebuilds of the priors (when something new was revealed since the last)."""
+    carry: str = "shift"
+    """What a rebuild does to the Q-table: ``shift`` (each entry moves by the change of its prior), ``reset``
+    (the new priors, what was learned dropped) or ``keep`` (the Q-table as learned; only the rewards change)."""
     max_chunks: int = 10_000
     """Most rebuild intervals of a run (``max_chunks x every`` episodes; the cap of the :class:`QLConfig` holds too)."""
 
@@ -54,6 +59,8 @@ class SenseConfig:
             raise ValueError(f"the sensing radius must be positive, got {self.radius}")
         if self.every < 1 or self.max_chunks < 1:
             raise ValueError("every and max_chunks must be at least 1")
+        if self.carry not in CARRY:
+            raise ValueError(f"carry must be one of {', '.join(CARRY)}, got {self.carry!r}")
 
 
 @dataclass
@@ -148,7 +155,10 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
         since += 1
         if pending and since >= sensing.every:
             fresh = priors_on(belief)
-            q = np.ascontiguousarray(q + (fresh.q0 - pri.q0))
+            if sensing.carry == "shift":
+                q = np.ascontiguousarray(q + (fresh.q0 - pri.q0))
+            elif sensing.carry == "reset":
+                q = np.array(fresh.q0, dtype=np.float64, copy=True)
             pri, pending, since = fresh, False, 0
             out.recomputes += 1
     if res is not None:
@@ -191,7 +201,8 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
                          "known_start": round(float(known.mean()), 4),
                          "known_end": round(r.known_share[-1], 4) if r.known_share else round(float(known.mean()), 4)})
     if record is not None:
-        record["sensing"] = {"radius_cells": sensing.radius, "every": sensing.every, "runs": runs}
+        record["sensing"] = {"radius_cells": sensing.radius, "every": sensing.every, "carry": sensing.carry,
+                             "runs": runs}
     return out
 
 

@@ -12,7 +12,7 @@ from ndrql.errors import NdrqlError
 from ndrql.experiments import eval_sets, transfer_report as tr
 from ndrql.experiments.ceiling import larger_sizes, ladder_top
 from ndrql.experiments.eval_sets import parse_registry
-from ndrql.experiments.transfer_floors import floors, render_large, stage_medians
+from ndrql.experiments.transfer_floors import capped_runs, floors, render_large, stage_medians
 from ndrql.experiments.transfer_report import (ROWS, default_rows, not_run_note, parse_rows, render_tables,
                                                summarize)
 
@@ -52,22 +52,54 @@ def test_the_fallback_geomean_and_the_oracle_share_by_hand():
     assert s["rows"]["NDR-QL (model)"]["vs_ql"] is None
 
 
+def _judged(rec: dict, exact_ok: bool, model_ok: bool = True, exact_s: float = 0.005) -> dict:
+    """``rec`` with the judge's verdicts as transfer now records them, and the exact source's seconds."""
+    verdict = lambda ok: {"accepted": ok, "threshold": 0.9 if ok else None, "reason": None if ok else "no"}  # noqa: E731
+    return {**rec, "verdicts": {"model": verdict(model_ok), "exact": verdict(exact_ok)},
+            "seconds": {**rec["seconds"], "exact": exact_s}}
+
+
+def _judged_three(n: int = 128, exact_b: bool = False, exact_s: tuple[float, ...] = (0.005,) * 3) -> list[dict]:
+    """_three with verdicts: the exact source accepted on a1 and a2 (plan runs the oracle row's priors: 300 and
+    400 steps against IQL-BFS's 1000 and 2000), on b1 as ``exact_b`` says (rejected: plan runs IQL-BFS, 800)."""
+    a1, a2, b1 = _three(n)
+    return [_judged(a1, True, exact_s=exact_s[0]), _judged(a2, True, exact_s=exact_s[1]),
+            _judged(b1, exact_b, model_ok=False, exact_s=exact_s[2])]
+
+
+def test_plan_row_follows_the_judges_verdicts():
+    a1, a2, b1 = _judged_three()
+    assert [tr.plan_row(r) for r in (a1, a2, b1)] == ["NDR-QL (oracle)", "NDR-QL (oracle)", "IQL (BFS distance)"]
+    assert [tr.model_row(r) for r in (a1, b1)] == ["NDR-QL (model)", "IQL (BFS distance)"]
+    old = _three()[2]  # a record written before the verdicts: the model row where informative, else IQL
+    assert tr.plan_row(old) == "IQL" and tr.plan_row(_three()[0]) == "NDR-QL (model)"
+    s = summarize([a1, a2, b1])
+    assert s["plan_vs_bfs"]["ratio"] == pytest.approx((0.3 * 0.2 * 1.0) ** (1 / 3))
+    assert s["exact_rejected"] == pytest.approx(1 / 3)
+
+
 def test_the_floors_block_says_met_or_missed_with_the_number():
-    text = render_large(_three(), (128,))
-    assert "**Floors at grid 128** (docs/large-maps.md, 'Floors for the next model'): 3 of 4 met." in text
-    assert "- NDR-QL / IQL steps, geometric mean with plan's fallback, at most 0.6: 0.46 (0.58 without the fallback): met" in text
-    assert "- prediction uninformative on at most 10% of maps: 33% of 3: missed" in text
-    assert "- no family where NDR-QL (with the fallback) is slower than IQL in the geometric mean: none slower: met" in text
-    share = 100 * (1 - 0.1 ** (1 / 3)) / (1 - 0.03 ** (1 / 3))
-    assert f"- share of the oracle's gain over IQL in geometric means at least 75%: {share:.0f}%: met" in text
-    assert "prediction at" not in text  # judged at 256 cells only
-    # maze informative now (threshold 0.3): its 2.0 counts, the family is slower than IQL
-    fl = {f.name.split(",")[0]: f for f in floors(_three(thd_b=0.3), 128)}
-    assert fl["no family where NDR-QL (with the fallback) is slower than IQL in the geometric mean"].line().endswith(
-        "slower: maze 2.00: missed")
-    at256 = render_large(_three(256, predict_s=0.7), (256,))
-    assert "- prediction at 256 cells at most 0.5 s (median): 0.70 s: missed" in at256 and "of 5 met" in at256
-    assert "| 256 | 0.700 | 0.010 | 0.020 |" in at256
+    text = render_large(_judged_three(), (128,))
+    assert "**Floors at grid 128** (issue 53: NDR-QL against the exact distance, and its time): 3 of 3 met." in text
+    assert ("- no family where NDR-QL (as plan runs it) needs more than 1.02x IQL-BFS's steps (geometric mean): "
+            "highest maze 1.000: met") in text
+    assert ("- prediction and priors at most 2 s on every map: median 0.005 s, 95th percentile 0.005 s, "
+            "max 0.005 s: met") in text
+    # work: the exact source's 0.005 s plus the oracle row's 0.01 s against IQL-BFS's 0.01 s; IQL-BFS itself on b1
+    assert "- NDR-QL's in-process work at most 3x IQL-BFS's (median over maps): 1.50x: met" in text
+    # the exact source accepted on the maze as well, its row there taking 2x IQL-BFS's steps, and slow on one map
+    recs = _judged_three(exact_b=True, exact_s=(0.5, 0.5, 2.5))
+    recs[2]["runs"]["NDR-QL (oracle)"] = _row([1600, 1600])
+    worse = render_large(recs, (128,))
+    assert "0 of 3 met." in worse
+    assert "IQL-BFS's steps (geometric mean): maze 2.000: missed" in worse
+    assert "median 0.500 s, 95th percentile 2.300 s, max 2.500 s: missed" in worse
+    assert "(median over maps): 51.00x: missed" in worse
+    fl = floors(_judged_three(256), 256)
+    assert [f.met for f in fl] == [True, True, True]
+    assert floors(_three(), 128)[0].line().endswith("highest maze 1.000: met")  # older records: no work floor
+    assert len(floors(_three(), 128)) == 2
+    assert "| 128 | 0.300 / " in text  # the stage table: the model forward's median first
 
 
 def test_a_capped_run_counts_as_not_converged_and_wins_nothing():
@@ -75,8 +107,7 @@ def test_a_capped_run_counts_as_not_converged_and_wins_nothing():
     o = summarize(recs)["rows"]["NDR-QL (model)"]["against_iql"]
     # a1 and a2 would be clear wins; capped on one seed each while IQL converged: losses; b1 a loss anyway
     assert (o["wins"], o["ties"], o["losses"]) == (0, 0, 3)
-    line = floors(recs, 128)[0].line()
-    assert line.endswith("; 3 runs hit their cap: missed")
+    assert capped_runs(recs) == 3 and capped_runs(recs, "IQL") == 0
     assert summarize(recs)["rows"]["NDR-QL (model)"]["path"]["not_converged"] == 3
 
 
@@ -134,7 +165,8 @@ def test_the_rows_run_and_the_stage_times_are_recorded(monkeypatch, tmp_path, mo
     planned = [r for r in summary["records"] if not r["skipped"]]
     assert planned
     for r in planned:
-        assert set(r["runs"]) == set(default_rows(128)) and set(r["seconds"]) == {"prediction", "astar", "bfs"}
+        assert set(r["runs"]) == set(default_rows(128)) and set(r["seconds"]) == {"prediction", "exact", "astar", "bfs"}
+        assert set(r["verdicts"]) == {"model", "exact"}
         assert all(x["max_episodes"] == 20000 and x["max_steps"] == 4 * r["size"] ** 2 and x["seconds"] > 0
                    for x in r["runs"].values())
     assert "**Time per stage**" in text and "| run: IQL |" in text

@@ -157,20 +157,26 @@ def exact_distance_field(blocked: np.ndarray, goal: Point) -> np.ndarray:
 
 def _window_any(img: np.ndarray, before: int, after: int, axis: int) -> np.ndarray:
     """Pixel set where ``img`` has a set pixel from ``before`` before it to ``after`` after it along ``axis``
-    (zero outside): one cumulative sum and two slices."""
+    (zero outside): one cumulative sum (int16: sides up to 32,767 px) and slices."""
     a = np.moveaxis(np.asarray(img, dtype=bool), axis, 0)
     n = a.shape[0]
-    cs = np.zeros((n + 1,) + a.shape[1:], dtype=np.int32)
-    np.cumsum(a, axis=0, dtype=np.int32, out=cs[1:])
-    hi = np.minimum(np.arange(n) + after + 1, n)
-    lo = np.maximum(np.arange(n) - before, 0)
-    return np.moveaxis(cs[hi] - cs[lo] > 0, 0, axis)
+    cs = np.zeros((n + 1,) + a.shape[1:], dtype=np.int16)
+    np.cumsum(a, axis=0, dtype=np.int16, out=cs[1:])
+    hi = np.empty_like(cs[1:])  # hi[i] = cs[min(i + after + 1, n)]
+    k = max(0, n - after - 1)
+    hi[:k] = cs[after + 1:after + 1 + k]
+    hi[k:] = cs[n]
+    lo = np.zeros_like(hi)  # lo[i] = cs[max(i - before, 0)]
+    if n > before:
+        lo[before:] = cs[:n - before]
+    return np.moveaxis(hi > lo, 0, axis)
 
 
 def _cell_means(img: np.ndarray, px: int) -> np.ndarray:
-    """Mean of each ``px`` x ``px`` block of an image whose sides are multiples of ``px``."""
+    """Mean of each ``px`` x ``px`` block of a boolean image whose sides are multiples of ``px``."""
     h, w = img.shape
-    return img.reshape(h // px, px, w // px, px).mean(axis=(1, 3), dtype=np.float64)
+    sums = np.asarray(img, dtype=np.uint8).reshape(h // px, px, w // px, px).sum(axis=(1, 3), dtype=np.uint16)
+    return sums / float(px * px)
 
 
 def drawn_priors(name: str, blocked: np.ndarray, start: Point, goal: Point, weights: str | None) -> GridPriors:

@@ -1,9 +1,10 @@
-"""Hostile and careless input through the real console script.
+"""Hostile and careless input through ``ndrql``'s command line (``main()`` as the console script runs it).
 
 Every case: exit code 2 and exactly one ``ndrql: error: ...`` line on stderr (or, where the input is
 legitimate, success), nothing outside the output replaced, no temporary files left behind. The
 memory cases run under an address-space cap of about 2 GB (``RLIMIT_AS``), checked first against a
-normal command, so a regression shows up as "out of memory" instead of swapping the machine.
+normal command, so a regression shows up as "out of memory" instead of swapping the machine; they share
+one child process under that cap (``helpers.child``), which starts the interpreter and torch once.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from helpers.child import CommandChild
 from helpers.cli import assert_one_line_error, run_cli
 from helpers.synthetic_dataset import make_tiny_dataset
 
@@ -33,10 +35,23 @@ def _cap_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (CAP, CAP))
 
 
+#: The capped commands share one child process under the cap (one interpreter and torch for all of them).
+CAPPED = CommandChild(_cap_memory)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _capped_child():
+    yield
+    CAPPED.close()
+
+
 def run(exe: list[str], *args: str, cwd: Path, cap: bool = False, env: dict | None = None, preexec=None,
         timeout: float = 600) -> subprocess.CompletedProcess:
-    """Run ``ndrql ARGS`` in ``cwd`` with a cache of its own there (and the memory cap when ``cap``)."""
+    """Run ``ndrql ARGS`` in ``cwd`` with a cache of its own there (and the memory cap when ``cap``: in the
+    shared capped child, or a child of its own when ``NDRQL_TEST_CHILD=1``)."""
     full_env = {**os.environ, "NDRQL_CACHE": str(cwd / ".cache"), **(env or {})}
+    if cap and preexec is None and os.environ.get("NDRQL_TEST_CHILD") != "1":
+        return CAPPED.run(*args, cwd=cwd, env=full_env, timeout=timeout)
     return run_cli(exe, *args, cwd=cwd, env=full_env, timeout=timeout,
                    preexec_fn=preexec or (_cap_memory if cap else None))
 

@@ -13,7 +13,7 @@ from ndrql.experiments.transfer import BFS_ROW, row_configs, tuned_ql
 from ndrql.experiments.transfer_report import (ROWS, against_iql, judged_threshold, plan_steps, render_tables, summarize,
                                                uninformative)
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.pipeline.predictions import MIN_THRESHOLD
+from ndrql.pipeline.fallback import MIN_THRESHOLD
 from ndrql.planning.preset import load_preset
 
 

@@ -25,13 +25,14 @@ asks them one after the other under the time budget and keeps the first the judg
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
 
-from ndrql.dataset.render import PX_PER_CELL
+from ndrql.dataset.render import PX_PER_CELL, cells_to_map
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import GridMap, PlanningGrid, bfs_distances
 from ndrql.model import propagation
@@ -207,6 +208,14 @@ def drawn_priors(name: str, blocked: np.ndarray, start: Point, goal: Point, weig
                       exact_distance_field(blocked, goal), info={"px_per_cell": px, name: True}, weights=weights)
 
 
+def on_map(priors: GridPriors, grid: PlanningGrid) -> GridPriors:
+    """``priors`` with their region and guideline also at the map's resolution (each pixel its cell's value), as
+    the report's figures and ``PlanReport.region`` show them."""
+    def up(cells: np.ndarray | None) -> np.ndarray | None:
+        return None if cells is None else cells_to_map(cells, grid.source_shape, grid.cell_size)
+    return dataclasses.replace(priors, region_map=up(priors.region), guideline_map=up(priors.guideline))
+
+
 class ExactSource:
     """The exact-distance prior on the planner's own grid (module docstring); needs no model."""
 
@@ -218,7 +227,7 @@ class ExactSource:
 
     def give(self, problem: SourceInput) -> GridPriors:
         g = problem.grid
-        return drawn_priors(self.name, g.blocked, g.start, g.goal, "exact BFS priors")
+        return on_map(drawn_priors(self.name, g.blocked, g.start, g.goal, "exact BFS priors"), g)
 
 
 class OracleSource:
@@ -237,7 +246,7 @@ class OracleSource:
             out = _view_priors(self.name, view, g, "oracle priors")
             return GridPriors(self.name, out.region, out.guideline, exact_distance_field(g.blocked, g.goal),
                               out.region_map, out.guideline_map, out.info, out.weights)
-        return drawn_priors(self.name, problem.truth, g.start, g.goal, "oracle priors")
+        return on_map(drawn_priors(self.name, problem.truth, g.start, g.goal, "oracle priors"), g)
 
 
 class HeadSource:

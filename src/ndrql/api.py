@@ -44,7 +44,7 @@ from ndrql.pipeline.problem import check_points, read_map, scenario_points
 from ndrql.pipeline.report import STAGES, WORK_STAGES, PlannedRun, PlanReport, StageClock, planned_runs
 from ndrql.pipeline.request import PlanRequest, build_request
 from ndrql.pipeline.runs import check_workers, learn, method_priors, qi_distance
-from ndrql.pipeline.settings import PlanSettings
+from ndrql.pipeline.settings import DEFAULT_PREDICT_BUDGET, PlanSettings
 from ndrql.pipeline.shortest import AStarRun, search
 from ndrql.planning import compiled
 from ndrql.planning.methods import get_method
@@ -117,51 +117,98 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     )
 
 
-def solve(map_or_request: Any, *positional: Any, workers: int | None = None, keep_records: bool = False,
-          progress: bool = False, **request_fields: Any) -> PlanReport:
+#: The keywords of :func:`solve` that go to :func:`build_request` (the request), the rest are how it runs.
+REQUEST_KEYWORDS = ("start", "goal", "start_world", "goal_world", "scen", "scen_index", "methods", "seeds", "weights",
+                    "predictions", "preset", "ql", "priors", "config", "prior_config", "settings", "sample", "invert",
+                    "threshold", "crop", "hide", "unknown", "sense", "sense_every", "grid", "size", "robot_radius",
+                    "smooth", "fallback", "tolerance", "max_map_pixels", "max_size", "threads", "backend",
+                    "learned_distance", "symmetries", "predict_budget")
+#: The request keywords whose "not given" value is not ``None`` (every other one is not given when ``None``).
+_NOT_GIVEN: dict[str, Any] = {"invert": False, "threshold": 128, "crop": False, "fallback": "auto",
+                              "predict_budget": DEFAULT_PREDICT_BUDGET}
+
+
+def _given(values: dict[str, Any]) -> dict[str, Any]:
+    """The request keywords of ``values`` that were given: not ``None`` (not at :data:`_NOT_GIVEN`'s value for
+    those listed there, where ``None`` is a value: no fallback, no time limit)."""
+    out = {}
+    for k in REQUEST_KEYWORDS:
+        v = values.get(k)
+        if k in _NOT_GIVEN:
+            d = _NOT_GIVEN[k]
+            if v is d or (type(v) is type(d) and v == d):
+                continue
+        elif v is None:
+            continue
+        out[k] = v
+    return out
+
+
+def solve(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence[int] | None = None,
+          methods: Sequence[str] | str = ("NDR-QL",), seeds: Sequence[int] | int = (0,), *,
+          start_world: Sequence[float] | None = None, goal_world: Sequence[float] | None = None,
+          scen: str | None = None, scen_index: int | None = None, weights: str | None = None, predictions: Any = None,
+          preset: Any = None, ql: dict[str, Any] | None = None, priors: dict[str, Any] | None = None,
+          config: Any = None, prior_config: Any = None, settings: PlanSettings | None = None,
+          sample: dict[str, Any] | None = None, invert: bool = False, threshold: float = 128, crop: bool = False,
+          hide: Any = None, unknown: str | None = None, sense: float | None = None, sense_every: int | None = None,
+          grid: str | None = None, size: int | str | None = None, robot_radius: float | None = None,
+          smooth: bool | None = None, fallback: str | None = "auto", tolerance: float | None = None,
+          max_map_pixels: int | None = None, max_size: int | None = None, threads: int | None = None,
+          backend: str | None = None, learned_distance: bool | None = None, symmetries: int | None = None,
+          predict_budget: float | None = DEFAULT_PREDICT_BUDGET,
+          workers: int | None = None, keep_records: bool = False, progress: bool = False) -> PlanReport:
     """Plan on one map with every method and every seed of a request; returns a :class:`PlanReport`.
 
     ``map_or_request``: a :class:`~ndrql.pipeline.request.PlanRequest` (from
-    :func:`~ndrql.pipeline.request.build_request`), or a map (file, :class:`GridMap` or 2-D array,
-    non-zero = obstacle) followed by the keywords of :func:`~ndrql.pipeline.request.build_request`
-    (``start``, ``goal``, ``methods``, ``seeds`` may also come positionally): ``start_world``,
-    ``goal_world``, ``scen`` (``"arena.map.scen:K"``), ``weights``, ``predictions``, ``preset``,
-    ``ql={...}``, ``priors={...}``, ``settings`` or any :class:`PlanSettings` field (``grid``, ``size``,
-    ``robot_radius``, ...). The defaults are ``ndrql plan``'s: on a map file the safe grid with ``size
-    auto``, the general weights with the preset searched for them, and IQL when the model's prediction
-    is uninformative (then the run says so: ``requested_method``, ``fallback_reason``, and a
-    :class:`~ndrql.errors.FallbackWarning`).
+    :func:`~ndrql.pipeline.request.build_request`; then no other request keyword), or a map (file,
+    :class:`GridMap` or 2-D array, non-zero = obstacle) with the keywords of
+    :func:`~ndrql.pipeline.request.build_request` (:data:`REQUEST_KEYWORDS`: the points in pixels or metres or a
+    MovingAI scenario, the methods and seeds, where the priors come from, the constants) and of
+    :class:`PlanSettings` (``grid``, ``size``, ``robot_radius``, ``fallback``, ``predict_budget``, ...). The
+    defaults are ``ndrql plan``'s: on a map file the safe grid with ``size auto``; NDR-QL's priors from the exact
+    source on a map the planner fully knows, from the network (the general weights) on a belief map (``hide=``) or
+    with ``predictions="model"``; IQL-BFS when every source is rejected (then the run says so:
+    ``requested_method``, ``fallback_reason``, and a :class:`~ndrql.errors.FallbackWarning`).
 
     ``workers``: processes for many runs (default: all cores; results do not depend on it);
     ``keep_records``: per-episode records in the results; ``progress``: a bar on a terminal.
     """
-    request = _request(map_or_request, positional, SOLVE_POSITIONAL, dict(request_fields))
+    fields = _given(dict(locals()))
+    fields.pop("methods", None) if methods == ("NDR-QL",) else None
+    fields.pop("seeds", None) if seeds == (0,) else None
+    request = _request(map_or_request, (), SOLVE_POSITIONAL, fields)
     return run_request(request, workers=workers, keep_records=keep_records, progress=progress, _caller=2)
 
 
-def plan(map_or_request: Any, *positional: Any, workers: int | None = None, **request_fields: Any) -> PlannedRun:
+def plan(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence[int] | None = None,
+         method: str = "NDR-QL", seed: int = 0, *, start_world: Sequence[float] | None = None,
+         goal_world: Sequence[float] | None = None, scen: str | None = None, scen_index: int | None = None,
+         weights: str | None = None, predictions: Any = None, preset: Any = None, ql: dict[str, Any] | None = None,
+         priors: dict[str, Any] | None = None, config: Any = None, prior_config: Any = None,
+         settings: PlanSettings | None = None, sample: dict[str, Any] | None = None, invert: bool = False,
+         threshold: float = 128, crop: bool = False, hide: Any = None, unknown: str | None = None,
+         sense: float | None = None, sense_every: int | None = None, grid: str | None = None,
+         size: int | str | None = None, robot_radius: float | None = None, smooth: bool | None = None,
+         fallback: str | None = "auto", tolerance: float | None = None, max_map_pixels: int | None = None,
+         max_size: int | None = None, threads: int | None = None, backend: str | None = None,
+         learned_distance: bool | None = None, symmetries: int | None = None,
+         predict_budget: float | None = DEFAULT_PREDICT_BUDGET, workers: int | None = None) -> PlannedRun:
     """Plan a path with one method and one seed; returns the run (a :class:`PlanResult` with its route).
 
     ``ndrql.plan("map.png", start=(25, 179), goal=(167, 5))`` runs NDR-QL with seed 0; ``method=`` and
     ``seed=`` choose others, and the keywords are those of :func:`solve`. ``result.path`` is in
     planning-grid cells; ``result.route`` is the path on the map (checked for collisions, shortcut, with
-    world poses on ROS maps) and ``result.success`` says whether it holds. When the model's prediction is
-    uninformative, IQL runs instead: ``result.method`` is then ``"IQL"``, ``result.requested_method``
-    ``"NDR-QL"``, ``result.fallback_reason`` says why, and a :class:`~ndrql.errors.FallbackWarning` is issued.
+    world poses on ROS maps) and ``result.success`` says whether it holds. When every prior source is rejected,
+    IQL-BFS runs instead: ``result.method`` is then ``"IQL-BFS"``, ``result.requested_method`` ``"NDR-QL"``,
+    ``result.fallback_reason`` says why, and a :class:`~ndrql.errors.FallbackWarning` is issued.
     """
-    fields = dict(request_fields)
+    fields = _given(dict(locals()))
     if not isinstance(map_or_request, PlanRequest):
-        named = dict(zip(PLAN_POSITIONAL, positional))
-        for k in named:
-            if k in fields:
-                raise NdrqlError(f"{k} given twice")
-        fields.update(named)
-        positional = ()
-        if "methods" in fields or "seeds" in fields:
-            raise NdrqlError("plan runs one method with one seed (method=, seed=); use solve for several")
-        fields["methods"] = (fields.pop("method", "NDR-QL"),)
-        fields["seeds"] = (fields.pop("seed", 0),)
-    request = _request(map_or_request, positional, SOLVE_POSITIONAL, fields)
+        fields["methods"], fields["seeds"] = (method,), (seed,)
+    elif method != "NDR-QL" or seed != 0:
+        raise NdrqlError("a PlanRequest is the whole plan: change it with build_request, not with more arguments")
+    request = _request(map_or_request, (), SOLVE_POSITIONAL, fields)
     if len(request.methods) * len(request.seeds) != 1:
         raise NdrqlError("plan runs one method with one seed; use solve for this request")
     return run_request(request, workers=workers, _caller=2).results[0]

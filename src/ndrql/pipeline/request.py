@@ -50,6 +50,8 @@ KINDS = ("map", "sample")
 #: The method an NDR method falls back to on a user's map when every prior source is rejected: the exact-distance
 #: prior (IQL with Eq. 5 on the BFS distance), the floor no prediction should fall below (issue 53).
 DEFAULT_FALLBACK = "IQL-BFS"
+#: Setting fields whose ``None`` is a value, not "unset": no fallback, no time limit.
+NONE_MEANS = ("fallback", "predict_budget")
 #: Q-learning constants a caller may set (``ql={...}``, the ``plan`` flags of the same names).
 QL_FIELDS: tuple[str, ...] = ("alpha", "epsilon", "gamma", "max_steps", "max_episodes", "window",
                               "reward_collision", "reward_goal", "reward_revisit")
@@ -162,7 +164,7 @@ def _settings(settings: PlanSettings | None, kind: str, n_methods: int, given: M
     """``settings`` with the fields given (not ``None``) on top, and the input-dependent defaults decided."""
     base = settings if settings is not None else PlanSettings()
     try:
-        s = dataclasses.replace(base, **{k: v for k, v in given.items() if v is not None or k == "fallback"})
+        s = dataclasses.replace(base, **{k: v for k, v in given.items() if v is not None or k in NONE_MEANS})
     except TypeError as exc:
         raise NdrqlError(f"bad option: {exc}") from None
     sample = kind == "sample"

@@ -120,12 +120,11 @@ def _seen(weights: Path) -> tuple[str, Path | None]:
     return mode, companion_path(weights, config) if mode == "grid" else None
 
 
-#: How a ``cells`` entry was made: :func:`~ndrql.pipeline.predictions.predict_on_grid`, plan's own call (the
-#: companion on a grid the view merges, the base's second opinion where the companion's region is uninformative,
-#: the relay where both are, four orientations where the relay fails). A ``cells`` entry with another rule (or
-#: none: the companion alone; ``predict_on_grid``: before the relay; ``predict_on_grid+relay``: before the four
-#: orientations) is predicted again.
-CELLS_RULE = "predict_on_grid+relay+turns"
+#: How a ``cells`` entry was made: :func:`~ndrql.pipeline.predictions.predict_on_grid`, plan's own call with the
+#: model source (one forward of the model that serves the grid: the companion on a grid the view merges). An entry
+#: with another rule (the relay and the second opinion of earlier releases) is predicted again; the entry's digest
+#: (:attr:`PredictionCache.digest`) covers the weights and the companion, every file the source reads.
+CELLS_RULE = "one-forward"
 
 
 class PredictionCache:

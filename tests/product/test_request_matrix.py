@@ -97,6 +97,11 @@ ROWS = [
      dict(map="npy", start=(5, 5), goal=(65, 60), predictions="{flat}", fallback=None)),
     ("oracle-safe-size", ["{png}", "--start", "5,5", "--goal", "65,60", "--prior-from", "oracle", "--size", "18"],
      dict(map="png", start=(5, 5), goal=(65, 60), predictions="oracle", size=18)),
+    ("prior-from-model", ["{npy}", "--start", "5,5", "--goal", "65,60", "--prior-from", "model"],
+     dict(map="npy", start=(5, 5), goal=(65, 60), predictions="model")),
+    ("prior-from-exact-compare", ["{png}", "--start", "5,5", "--goal", "65,60", "--prior-from", "exact",
+                                  "--compare", "IQL-BFS,NDR-QL"],
+     dict(map="png", start=(5, 5), goal=(65, 60), predictions="exact", methods=["IQL-BFS", "NDR-QL"])),
 ]
 
 ROW = {r[0]: r for r in ROWS}
@@ -104,7 +109,7 @@ ROW = {r[0]: r for r in ROWS}
 #: What must agree between the CLI's JSON and the API's report.
 KEYS = ("planning_size", "grid", "start", "goal", "source_start", "source_goal", "astar_length", "methods",
         "requested_methods", "seeds", "config", "prior_config", "ndr_qi_threshold", "ndr_qi_threshold_reason",
-        "fallback", "planning_grid", "preset", "prediction_quality", "request")
+        "fallback", "planning_grid", "preset", "prediction_quality", "request", "policy")
 RUN_KEYS = ("method", "requested_method", "fallback_reason", "seed", "converged", "convergence_episode",
             "convergence_steps", "episodes", "total_steps", "path", "path_length", "length_ratio", "path_pixels",
             "collisions", "path_world", "success")
@@ -120,7 +125,7 @@ def _api(kw: dict, maps: dict) -> dict:
     kw = {k: _fill(v, maps) for k, v in kw.items()}
     source = maps[kw.pop("map")]
     kw.setdefault("seeds", SEEDS)
-    if isinstance(kw.get("predictions"), str) and kw["predictions"] != "oracle":
+    if isinstance(kw.get("predictions"), str) and kw["predictions"] not in ("oracle", "model", "exact"):
         kw["predictions"] = ndrql.api.load_predictions(kw["predictions"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
@@ -145,6 +150,8 @@ def _same(cli: dict, api: dict, name: str) -> None:
         for k in RUN_KEYS:
             assert a.get(k) == b.get(k), f"{name}: run {a['method']} seed {a['seed']}: {k} differs"
         assert (a.get("route") or {}).get("pixels") == (b.get("route") or {}).get("pixels"), f"{name}: final path"
+    untimed = lambda d: [{k: v for k, v in t.items() if k != "seconds"} for t in d.get("sources") or []]  # noqa: E731
+    assert untimed(cli) == untimed(api), f"{name}: sources differ"
 
 
 @pytest.mark.parametrize("name,flags,kw", ROWS, ids=[r[0] for r in ROWS])
@@ -159,10 +166,14 @@ def test_the_rows_cover_what_the_issue_asks(maps, tmp_path, capsys):
     """The matrix is not vacuous: the fallback fires in one row and not in another, the scenario is used,
     both grid rules and both weights appear, and a world request writes world poses."""
     fired = _api(dict(ROW["fallback-fires"][2]), maps)
-    assert fired["methods"] == ["IQL"] and fired["requested_methods"] == ["NDR-QL"]
+    assert fired["methods"] == ["IQL-BFS"] and fired["requested_methods"] == ["NDR-QL"]
     assert fired["runs"][0]["requested_method"] == "NDR-QL" and "uninformative" in fired["runs"][0]["fallback_reason"]
+    assert fired["policy"] == ["file"] and fired["sources"][0]["accepted"] is False
     kept = _api(dict(ROW["fallback-none"][2]), maps)
     assert kept["methods"] == ["NDR-QL"] and kept["runs"][0]["fallback_reason"] is None
+    default = _api(dict(ROW["png-pixels-NDR-QL"][2]), maps)  # a map the planner knows: the exact prior
+    assert default["policy"] == ["exact"] and default["sources"][0]["accepted"] and default["methods"] == ["NDR-QL"]
+    assert _api(dict(ROW["prior-from-model"][2]), maps)["policy"] == ["model"]
     scen = _api(dict(ROW["movingai-scenario"][2]), maps)
     assert scen["source_start"] == [10, 60] and scen["source_goal"] == [60, 10] and scen["scenario"]["index"] == 1
     assert _api(dict(ROW["area-grid-compare"][2]), maps)["planning_grid"]["rule"] == "area"
@@ -184,10 +195,14 @@ def test_the_console_script_agrees_too(row, maps, tmp_path, ndrql_exe):
 
 
 def test_preset_follows_the_resolved_weights_file(maps, monkeypatch):
-    """``NDRQL_WEIGHTS=paper`` with no flag: the paper model and the constants searched for it."""
+    """``NDRQL_WEIGHTS=paper`` with no flag: the paper model and the constants searched for it (the model where the
+    request asks for it; on a known map the default policy needs no model, and keeps the weights' preset)."""
     monkeypatch.setenv("NDRQL_WEIGHTS", "paper")
-    req = ndrql.build_request(str(maps["npy"]), (5, 5), (65, 60))
+    req = ndrql.build_request(str(maps["npy"]), (5, 5), (65, 60), predictions="model")
     assert req.weights_file.endswith("ndr_default.pt") and req.preset.name == plan_default_preset("paper")
+    default = ndrql.build_request(str(maps["npy"]), (5, 5), (65, 60))
+    assert default.sources == ("exact",) and default.weights_file is None
+    assert default.preset.name == plan_default_preset("paper")
     monkeypatch.delenv("NDRQL_WEIGHTS")
     assert ndrql.build_request(str(maps["npy"]), (5, 5), (65, 60)).preset.name == plan_default_preset("general")
 
@@ -244,15 +259,15 @@ def test_a_fallback_is_named_in_the_summary_the_json_the_warning_and_the_figure(
                      "--workers", "1", "--json", str(out)])
     captured = capsys.readouterr()
     assert code == 0, captured.err
-    assert "IQL (fallback for NDR-QL) seed 0" in captured.out and "fell back to IQL" in captured.out
+    assert "IQL-BFS (fallback for NDR-QL) seed 0" in captured.out and "fell back to IQL-BFS" in captured.out
     assert "did not run" not in captured.err  # the CLI names it once, in the summary (the API warns)
     run = json.loads(out.read_text())["runs"][0]
-    assert run["method"] == "IQL" and run["requested_method"] == "NDR-QL" and run["fallback_reason"]
+    assert run["method"] == "IQL-BFS" and run["requested_method"] == "NDR-QL" and run["fallback_reason"]
     with pytest.warns(FallbackWarning):
         report = ndrql.solve(str(maps["npy"]), (5, 5), (65, 60), predictions=ndrql.api.load_predictions(maps["flat"]),
                              workers=1)
     titles = [ax.get_title() for ax in plan_figure(report).axes]
-    assert any("IQL (fallback for NDR-QL)" in t for t in titles), titles
+    assert any("IQL-BFS (fallback for NDR-QL)" in t for t in titles), titles
 
 
 def test_every_command_shares_the_grid_size_bounds(maps, capsys):

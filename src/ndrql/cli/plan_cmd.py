@@ -364,7 +364,8 @@ def run(args: argparse.Namespace) -> int:
     if report.info.get("prior_from") == "oracle":
         echo("model: oracle priors (the planning grid's own shortest path; a diagnostic, not a method)")
     elif report.info.get("prior_from") == "exact":
-        echo("model: none; exact BFS priors (the planning grid's own shortest path and distance, no model)")
+        echo("priors: exact (the planning grid's own shortest path and BFS distance, no model: on a map the planner "
+             "fully knows they need no more steps than the network's; --prior-from model asks the network)")
     elif report.weights:
         turns = report.info.get("symmetries", 1)
         seen = report.info.get("model_input", {})  # the model's view, named only where it changes what it sees

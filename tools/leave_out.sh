@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Leave-families-out transfer (docs/history.md#leave-families-out): one reference run on all 12 families and
+# Leave-families-out transfer (studies/history.md#leave-families-out): one reference run on all 12 families and
 # one run per group of 3 families left out, all with the same short budget, warm-started from the
 # paper model on the same generated set (tools/train_general.sh); then each model plans the held-out
 # evaluation set (`ndrql reproduce transfer`), so a family's drop is (excluded run) - (reference run)

@@ -31,7 +31,7 @@ HARD_FAMILIES = ("city", "narrow_passage", "maze", "scatter", "corridor_maze", "
 #: The families the fourth companion drew more of (``--seed 8``): where the third broke or lost at 256 cells.
 WEAK_FAMILIES = ("maze", "corridor_maze", "floor", "warehouse", "scatter")
 #: The training sets the scripts and docs generate: label -> (seed, sizes, families; None = the shipped model's
-#: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (docs/large-maps.md):
+#: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (studies/large_view/history.md):
 #: ``--family all`` at seed 4 (201-1,024 px) and seed 6 (512/1,024 px), :data:`HARD_FAMILIES` at seed 7,
 #: :data:`WEAK_FAMILIES` at seed 8, ``--family all`` at seed 9 (512/1,024 px).
 TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801), None),

@@ -25,7 +25,7 @@ cd "$(dirname "$0")/.."
 NDRQL=${NDRQL:-.venv/bin/ndrql}
 CACHE=${NDRQL_CACHE:-$HOME/.cache/ndrql}
 DATA=${DATA:-../shared/data/path-planning-dataset}
-MODE=${MODE:-grid}                 # what the model sees (docs/history.md#ceiling): grid or map
+MODE=${MODE:-grid}                 # what the model sees (studies/history.md#ceiling): grid or map
 GRIDS=${GRIDS:-40,50,64,80,100,128}
 COUNT=${COUNT:-20000}
 SIZES=${SIZES:-201,401,801}
@@ -43,7 +43,7 @@ DECODER=${DECODER:-}
 RANKING=${RANKING:-}  # not RANK: torchrun reads that one
 VIEW=${VIEW:-native}  # how the model sees large grids (ndrql.dataset.views; coarse:128 for the large-map model)
 # the shipped general model's twelve families unless FAMILIES is given (FAMILIES=all: every registered one,
-# the large-map families included, as docs/large-maps.md plans the next model)
+# the large-map families included, as studies/large_view/history.md plans the next model)
 if [ "${FAMILIES:-}" = all ]; then
   FAMILIES=$(.venv/bin/python -c "from ndrql.synth.families import family_names; print(','.join(family_names()))")
 else

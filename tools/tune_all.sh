@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The searches behind the shipped `tuned` preset (docs/history.md#tuning): one Optuna study per
+# The searches behind the shipped `tuned` preset (studies/history.md#tuning): one Optuna study per
 # method, the same budget for every method, then the preset and its check on fresh seeds.
 #
 #   tools/tune_all.sh                         # QL, O-QL, IQL, NDR-QL; then src/ndrql/planning/presets/tuned.json

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The searches behind the shipped `general` preset (docs/history.md#tuning-per-grid-size): the
+# The searches behind the shipped `general` preset (studies/history.md#tuning-per-grid-size): the
 # general weights on the held-out generated set 'tune', one Optuna study per method and planning-grid
 # size, the same budget for every study, each starting from the method's `tuned` constants (trial 1;
 # trial 0 is the spec point), then the preset with one entry per grid size and its check on fresh seeds.

@@ -1,4 +1,4 @@
-"""Tables and figures of docs/history.md#tuning from the stored searches and the scale runs.
+"""Tables and figures of studies/history.md#tuning from the stored searches and the scale runs.
 
     .venv/bin/python tools/tuning_report.py      # prints markdown; copies Optuna's plots to docs/tuning/
 

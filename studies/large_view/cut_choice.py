@@ -1,4 +1,4 @@
-"""The rule of docs/large-maps.md#low-thresholds-on-large-grids applied to transfer summaries written with each cut
+"""The rule of history.md#low-thresholds-on-large-grids applied to transfer summaries written with each cut
 (``cut_transfer.py``): per cut, pooled over the sets given, the maps ``plan`` calls uninformative, its steps
 against IQL's (geometric mean, those maps at IQL's steps) and the families where it is slower than IQL; then
 the cut the rule picks (fewest steps among the cuts with no family slower; within 2% of the best, the highest)::

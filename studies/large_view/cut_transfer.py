@@ -2,7 +2,7 @@
 uninformative when no Eq. 7 threshold of at least the cut joins start and goal
 (:data:`ndrql.pipeline.fallback.LARGE_MIN_THRESHOLD`, shipped 0.1); this runs the transfer report with the cut
 given, inside ``plan`` (the second opinion and the relay follow the same verdict), for the rule of
-docs/large-maps.md#low-thresholds-on-large-grids::
+large_view/history.md#low-thresholds-on-large-grids::
 
     PYTHONPATH=src python studies/large_view/cut_transfer.py --cut 0.02 -- --eval-set large-dev2-256 --grids 256 \\
         --weights general --preset general --seeds 3 --workers 2 --rows "IQL,NDR-QL (model)" --out DIR

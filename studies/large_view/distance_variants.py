@@ -8,7 +8,7 @@ prediction can guide planning, with the model's region and guideline and four di
 
 One JSON line per map: its key, family, planning grid, Eq. 7 threshold, and per distance NDR-QL's mean
 steps over IQL's (IQL's steps read from the report, same seeds) and the worst greedy path over A*.
-docs/large-maps.md#distance-through-the-region::
+large_view/history.md#distance-through-the-region::
 
     PYTHONPATH=src python studies/large_view/distance_variants.py --set large-dev2-256 --grid 256 \\
         --report DIR/summary.json --out variants.jsonl [--part 0 --parts 2] [--uninformative]

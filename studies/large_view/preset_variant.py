@@ -1,6 +1,6 @@
 """A candidate preset for a development check: the shipped ``general`` preset with prior constants set in NDR-QL's
 entries for the given grids, named ``general-variant``; checked by loading it back. The schedule's tail of
-docs/large-maps.md#the-schedules-tail-rule-written-2026-11-27-before-its-runs::
+large_view/history.md#the-schedules-tail-rule-written-2026-11-27-before-its-runs::
 
     PYTHONPATH=src python studies/large_view/preset_variant.py --set thd_tail=1 --grids 50,100 --out general-tail.json
     ndrql reproduce transfer --eval-set select --grids 50,100 --weights general --preset general-tail.json ...

@@ -1,4 +1,4 @@
-"""The candidate preset of docs/large-maps.md#distance-through-the-region: the shipped ``general`` preset with
+"""The candidate preset of history.md#distance-through-the-region: the shipped ``general`` preset with
 ``region_distance`` 1 in NDR-QL's entries for the given grids (default 128: every grid above 113 cells), named
 ``general-rd``; checked by loading it back. Its default is what the development reports judged; since
 2026-11-27 the shipped preset has it at every grid, so it changes nothing today: it is kept for the commands

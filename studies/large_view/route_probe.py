@@ -1,6 +1,6 @@
 """What the maps whose prediction is uninformative at 256 cells have in common: per map of a development transfer
 report, the length of the optimal route on the planning grid and its detour (route over the Manhattan distance
-of start and goal), tabulated against ``plan``'s verdict (docs/large-maps.md#floors-for-the-next-model-on-the-sealed-large-sets)::
+of start and goal), tabulated against ``plan``'s verdict (history.md#floors-for-the-next-model-on-the-sealed-large-sets)::
 
     PYTHONPATH=src python studies/large_view/route_probe.py large-dev2-256=DIR/summary.json [SET=REPORT ...] [--grid 256]
 

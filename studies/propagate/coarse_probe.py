@@ -1,4 +1,4 @@
-"""The probe of the rule "the propagating head on merged cells above 256 cells" (docs/large-maps.md): on every map of
+"""The probe of the rule "the propagating head on merged cells above 256 cells" (large_view/history.md): on every map of
 the development sets planned on more than 256 cells, the shipped head's region at full resolution and on the grid
 with 2 x 2 cells merged (``merge_walls``), each judged by ``plan``'s own test on the planning grid.
 

@@ -1,4 +1,4 @@
-"""The adoption rule's figures for the propagating head (docs/large-maps.md, "A propagating head where everything
+"""The adoption rule's figures for the propagating head (large_view/history.md, "A propagating head where everything
 else fails"): a development transfer run with the head, and the same run replayed without it (the maps the head
 served counted at IQL's steps, as ``plan`` did before).
 

@@ -1,4 +1,5 @@
-"""studies/large_view/cut_choice.py, cut_transfer.py and route_probe.py: the cut rule of docs/large-maps.md#low-thresholds-on-large-grids
+"""studies/large_view/cut_choice.py, cut_transfer.py and route_probe.py: the cut rule of
+large_view/history.md#low-thresholds-on-large-grids
 on hand-made records, and the cut reaching plan's verdict."""
 
 from __future__ import annotations

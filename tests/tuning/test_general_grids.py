@@ -1,5 +1,5 @@
-"""Which entry of the shipped ``general`` preset serves which planning grid (docs/large-maps.md, a search of the
-planners' constants at 128 cells, and exploration where IQL is already at its minimum).
+"""Which entry of the shipped ``general`` preset serves which planning grid (studies/large_view/history.md,
+a search of the planners' constants at 128 cells, and exploration where IQL is already at its minimum).
 
 - Grids up to 113 cells (50, 100 and the paper's 50-cell grids) keep the constants they were reported with.
 - Grids of 114-181 cells take the grid-128 entry: NDR-QL's searched constants and IQL's grid-100 constants, each

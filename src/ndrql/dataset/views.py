@@ -1,4 +1,4 @@
-"""How a ``grid``-mode model sees a large planning grid: the *view* (docs/large-maps.md).
+"""How a ``grid``-mode model sees a large planning grid: the *view* (studies/large_view/history.md).
 
 The model was trained to see a planning grid at 4 px per cell (:func:`ndrql.dataset.render.grid_input`),
 so a grid of 256 cells is a 1,024 px input. A view bounds what it sees:

@@ -1,7 +1,7 @@
 """F1 of a ``grid``-mode model on the paper's splits, scored two ways.
 
 A grid-mode model never sees the 201 px map: it sees the safe planning grid of ``n`` cells (50 for
-the paper's setting) at 4 px per cell and predicts there (``docs/history.md#ceiling``). So its F1 on
+the paper's setting) at 4 px per cell and predicts there (``studies/history.md#ceiling``). So its F1 on
 the paper's test splits is measured
 
 - against the **dataset's labels** at 201 px: each map pixel takes the mean probability of its

@@ -1,7 +1,7 @@
 """The propagating head: one weight-tied block iterated over the planning grid (torch; training and export).
 
 Where the companion, the base model, the relay and four orientations all leave a large grid without a region
-(docs/large-maps.md#a-propagating-head-where-everything-else-fails-rule-written-2026-11-27-before-its-runs),
+(studies/large_view/history.md#a-propagating-head-where-everything-else-fails-rule-written-2026-11-27-before-its-runs),
 ``plan`` asks this head (through its ONNX graph, :mod:`ndrql.model.propagation`, no torch). It sees the grid
 at one pixel per cell (free, start, goal) and answers, per cell, "on some 4-connected shortest route from start
 to goal".

@@ -30,7 +30,7 @@ LARGE_GRID = 128
 #: There a region that joins start and goal only below this threshold costs steps instead of saving them:
 #: on the development sets ``large-dev-256`` and ``large-tune-256`` (108 maps) NDR-QL took 2.1x IQL's steps
 #: in geometric mean on such maps, and of the cuts 0.02, 0.05 and 0.1 this one gave plan the fewest steps
-#: (docs/large-maps.md#low-thresholds-on-large-grids); at 50-100 cells such maps still win (above).
+#: (studies/large_view/history.md#low-thresholds-on-large-grids); at 50-100 cells such maps still win (above).
 LARGE_MIN_THRESHOLD = 0.1
 
 
@@ -46,7 +46,7 @@ MAX_GUIDE_ON_OBSTACLES = 0.5
 #: threshold: a region over most of the map does not say where the path runs, and Eq. 8 then rewards almost
 #: every cell. Seen where the companion sees a grid at 1 px per cell (a 1,024 px maze planned at 512 cells:
 #: the region covered 93% of the free cells at threshold 0.81 and NDR-QL took 5.7x IQL's steps;
-#: docs/large-maps.md#a-region-over-the-whole-map). On 50-128 cells a 7.5-cell band may fairly cover most
+#: studies/large_view/history.md#a-region-over-the-whole-map). On 50-128 cells a 7.5-cell band may fairly cover most
 #: of a small open map, so the test is not applied there.
 MAX_REGION_COVER = 0.5
 

@@ -35,7 +35,7 @@ own name so results tables match the paper and a fuller O-QL can replace it with
 Q-table with ``dist`` the exact number of moves to the goal through free cells
 (:func:`ndrql.planning.priors.exact_distance`) instead of the straight line. It needs no model and runs a
 search over the whole grid; on large grids it takes about as few steps as NDR-QL or fewer
-(docs/large-maps.md#distance-through-the-region), which is why the reports carry it as the row
+(studies/large_view/history.md#distance-through-the-region), which is why the reports carry it as the row
 ``IQL (BFS distance)``. It takes IQL's constants from a preset unless the preset has its own entry.
 """
 

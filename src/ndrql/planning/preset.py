@@ -57,7 +57,8 @@ READS = (1, 2)
 BUILTIN = ("spec", "tuned", "general")
 #: The constants a preset may set, per config: what the search explores, and the choices beyond the
 #: paper that a preset fixes per grid (region_dilation, guideline_ties: docs/results.md#transfer;
-#: region_distance: docs/large-maps.md#distance-through-the-region; thd_tail: docs/method.md#4-the-priors-eqs-2-7).
+#: region_distance: studies/large_view/history.md#distance-through-the-region;
+#: thd_tail: docs/method.md#4-the-priors-eqs-2-7).
 PRESET_FIELDS: dict[str, tuple[str, ...]] = {
     "ql": ("alpha", "epsilon", "gamma"),
     "priors": ("r_max", "g_row", "g_col", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step",

@@ -240,7 +240,7 @@ def region_distance(blocked: np.ndarray, region: np.ndarray, thd: float, goal: t
     A predicted distance field can promise a shorter way than the region holds (a gap the region's band
     crosses, a pocket where it dips); counted through the region, every cell's distance falls by one along
     some move that stays inside, so the distance term leads where the mask lets the agent go
-    (docs/large-maps.md#distance-through-the-region)."""
+    (studies/large_view/history.md#distance-through-the-region)."""
     blocked = np.asarray(blocked, dtype=bool)
     inside = bfs_distances(blocked | ~(_check_field("region", region, blocked.shape) > thd), goal)
     other = _straight(blocked.shape, goal) if distance is None else _check_distance(distance, blocked.shape)

@@ -36,7 +36,7 @@ STAGES = ("prediction", "exact", "astar", "bfs")
 
 @dataclass(frozen=True)
 class Floor:
-    """One floor of docs/large-maps.md judged on one grid."""
+    """One floor of the release report judged on one grid."""
 
     name: str
     """What is measured, with its limit."""

@@ -31,10 +31,12 @@ prints it and exits with 2).
 
 from __future__ import annotations
 
+import functools
+import inspect
 import sys
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence, TypeVar
 
-from ndrql.errors import FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
+from ndrql.errors import ArgumentError, FallbackWarning, NdrqlError, NdrqlWarning, PointError  # noqa: F401 (what callers catch and filter)
 from ndrql.pipeline.fallback import warn_fallbacks
 from ndrql.pipeline.predictions import GivenPredictions, load_predictions
 from ndrql.pipeline.prior_stage import Predicted, predict_for
@@ -53,6 +55,25 @@ from ndrql.planning.methods import get_method
 SOLVE_POSITIONAL = ("start", "goal", "methods", "seeds")
 #: Positional arguments of :func:`plan` after the map.
 PLAN_POSITIONAL = ("start", "goal", "method", "seed")
+
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _named_arguments(fn: _F) -> _F:
+    """An API function whose wrong arguments (an unknown keyword, one given twice, too many) are an
+    :class:`NdrqlError` naming them, like every other bad input, not Python's ``TypeError``."""
+    sig = inspect.signature(fn)
+
+    @functools.wraps(fn)
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        try:
+            sig.bind(*args, **kwargs)
+        except TypeError as exc:
+            raise ArgumentError(f"{fn.__name__}(): {exc}") from None
+        return fn(*args, **kwargs)
+
+    return checked  # type: ignore[return-value]
 
 
 def _request(map_or_request: Any, positional: Sequence[Any], names: Sequence[str], fields: dict[str, Any]) -> PlanRequest:
@@ -144,6 +165,7 @@ def _given(values: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+@_named_arguments
 def solve(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence[int] | None = None,
           methods: Sequence[str] | str = ("NDR-QL",), seeds: Sequence[int] | int = (0,), *,
           start_world: Sequence[float] | None = None, goal_world: Sequence[float] | None = None,
@@ -181,6 +203,7 @@ def solve(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequenc
     return run_request(request, workers=workers, keep_records=keep_records, progress=progress, _caller=2)
 
 
+@_named_arguments
 def plan(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence[int] | None = None,
          method: str = "NDR-QL", seed: int = 0, *, start_world: Sequence[float] | None = None,
          goal_world: Sequence[float] | None = None, scen: str | None = None, scen_index: int | None = None,
@@ -214,6 +237,7 @@ def plan(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence
     return run_request(request, workers=workers, _caller=2).results[0]
 
 
+@_named_arguments
 def astar(map_or_request: Any, start: Sequence[int] | None = None, goal: Sequence[int] | None = None, *,
           octile: bool = False, start_world: Sequence[float] | None = None, goal_world: Sequence[float] | None = None,
           scen: str | None = None, scen_index: int | None = None, grid: str | None = None, size: int | str | None = None,

@@ -40,6 +40,10 @@ class BoundError(NdrqlError, ValueError):
     """A number outside its declared range (:data:`ndrql.limits.BOUNDS`); also a ``ValueError``."""
 
 
+class ArgumentError(NdrqlError, TypeError):
+    """An API function called with an unknown keyword, one given twice or too many; also a ``TypeError``."""
+
+
 class MapFormatError(NdrqlError):
     """A map file is missing, unreadable, corrupt, or of an unsupported format."""
 

@@ -239,14 +239,15 @@ def request_sources(predictions: Any, weights: Any, kind: str, partial: bool,
 #: What the API's object arguments may be (anything else is one NdrqlError, never an AttributeError deep inside).
 _KINDS: dict[str, tuple[type, ...]] = {"weights": (str, os.PathLike), "preset": (str, os.PathLike, Preset),
                                        "config": (QLConfig,), "prior_config": (PriorConfig,), "ql": (Mapping,),
-                                       "priors": (Mapping,)}
+                                       "priors": (Mapping,), "scen": (str, os.PathLike), "invert": (bool,),
+                                       "crop": (bool,)}
 
 
 def _check_kinds(**given: Any) -> None:
     for name, value in given.items():
         if value is not None and not isinstance(value, _KINDS[name]):
             want = " or ".join("a path" if k is os.PathLike else "a mapping" if k is Mapping else
-                               "text" if k is str else f"a {k.__name__}" for k in _KINDS[name])
+                               "text" if k is str else "True or False" if k is bool else f"a {k.__name__}" for k in _KINDS[name])
             raise NdrqlError(f"{name} must be {want}, got {brief(value)}")
 
 
@@ -302,7 +303,8 @@ def build_request(
     not_options = [k for k in setting_fields if k not in {f.name for f in dataclasses.fields(PlanSettings)}]
     if not_options:
         raise NdrqlError(f"unknown plan option {not_options[0]!r}")
-    _check_kinds(weights=weights, preset=preset, config=config, prior_config=prior_config, ql=ql, priors=priors)
+    _check_kinds(weights=weights, preset=preset, config=config, prior_config=prior_config, ql=ql, priors=priors,
+                 scen=scen, invert=invert, crop=crop)
     ms = tuple(m.name for m in methods_named(methods))
     seed_list = tuple(seeds_given(seeds))
     s = _settings(settings, kind, len(ms), setting_fields)

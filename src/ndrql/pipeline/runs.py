@@ -9,8 +9,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ndrql.errors import NdrqlError
-from ndrql.limits import MAX_RUNS, MAX_WORKERS, check_seeds
+from ndrql.errors import NdrqlError, brief
+from ndrql.limits import BOUNDS, MAX_RUNS, check_bound, check_seeds
 from ndrql.maps.grid import PlanningGrid
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, Priors, build_priors, get_method
@@ -23,7 +23,10 @@ Constants = Callable[[str], tuple[QLConfig, PriorConfig]]
 
 def methods_named(methods: Sequence[str | Method] | str) -> list[Method]:
     """The methods to run, each once; :class:`NdrqlError` for none, an unknown name or a repeated one."""
-    names = [methods] if isinstance(methods, str) else list(methods)
+    names = [methods] if isinstance(methods, (str, Method)) else list(methods) if isinstance(methods, (list, tuple)) \
+        else None
+    if names is None or not all(isinstance(n, (str, Method)) for n in names):
+        raise NdrqlError(f"methods must be a method name or a list of them, got {brief(methods)}")
     ms = [get_method(n.strip() if isinstance(n, str) else n) for n in names]
     if not ms:
         raise NdrqlError("no method given")
@@ -74,10 +77,9 @@ def qi_distance(ms: Sequence[Method], consts: Constants, thresholds: dict[str, f
 
 def check_workers(workers: int | None) -> int:
     """Worker processes for the runs (default: all cores); :class:`NdrqlError` below 1."""
-    n = default_workers() if workers is None else int(workers)
-    if not 1 <= n <= MAX_WORKERS:
-        raise NdrqlError(f"workers must be in 1..{MAX_WORKERS}, got {workers}")
-    return n
+    if workers is None:
+        return default_workers()
+    return int(check_bound(workers, BOUNDS["--workers"], "workers"))  # the one table (ndrql.limits)
 
 
 def learn(grid: PlanningGrid, ms: Sequence[Method], seeds: Sequence[int], consts: Constants,

@@ -154,3 +154,17 @@ def test_ros_unknown_space_as_obstacle_or_free(tmp_path):
     rec = report.info["belief"]
     assert rec["kind"] == "ros" and rec["unknown_px"] == 10 and "truth behind it is not known" in rec["note"]
     assert report.results[0].converged and rec["true_optimum"] == rec["belief_optimum"] == 2 * (30 - 5) + 50
+
+
+def test_the_paper_grid_takes_a_belief_too():
+    report = ndrql.solve(_wall(), start=START, goal=GOAL, methods=["IQL-BFS"], seeds=[0], hide=_mask(), grid="area",
+                         size=40)
+    rec = report.info["belief"]
+    assert report.setup.rule == "area" and rec["true_optimum"] == 87 and rec["belief_optimum"] == 29
+    assert report.results[0].converged
+
+
+def test_a_ros_start_in_unknown_space_with_unknown_free(tmp_path):
+    yml = _ros(tmp_path)
+    with pytest.raises(PointError, match="unknown to the planner .* the map's unknown space"):
+        ndrql.build_request(str(yml), (35, 30), (5, 55), methods=["IQL"], unknown="free")

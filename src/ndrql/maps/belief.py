@@ -134,8 +134,8 @@ def check_belief(belief: Belief, start: Sequence[int], goal: Sequence[int]) -> N
     for name, p in (("start", start), ("goal", goal)):
         r, c = int(p[0]), int(p[1])
         if belief.unknown[r, c]:
-            raise PointError(f"{name} {r},{c} is unknown to the planner (inside the mask); a robot knows where it "
-                             f"stands and where it goes: keep both visible")
+            raise PointError(f"{name} {r},{c} is unknown to the planner (in the mask or the map's unknown space); a "
+                             f"robot knows where it stands and where it goes: keep both known")
         if belief.obstacles[r, c]:
             raise PointError(f"{name} {r},{c} is an obstacle of the belief map")
     known_free = ~belief.unknown & ~belief.obstacles

@@ -146,7 +146,8 @@ def belief_lines(info: dict[str, Any]) -> list[str]:
     if not b:
         return []
     seen = b.get("belief_optimum")
-    lines = [f"belief ({b['kind']}): {b['unknown_share']:.0%} of the free space unknown to the planner (counted free); "
+    share = f"{b['unknown_share']:.0%}" if b["unknown_share"] >= 0.1 else f"{b['unknown_share']:.1%}"
+    lines = [f"belief ({b['kind']}): {share} of the free space unknown to the planner (counted free); "
              f"priors from the belief, learning on the map; optimum {b['true_optimum']} moves on the map, "
              + (f"{seen} on the belief" if seen is not None else "none on the belief")]
     if b.get("note"):

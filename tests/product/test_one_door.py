@@ -202,3 +202,21 @@ def test_several_tune_processes_share_one_new_sqlite_storage(tmp_path):
 
     assert len(optuna.load_study(study_name="shared", storage=url).trials) == 9
     assert os.path.getsize(Path(url[len("sqlite:///"):])) > 0
+
+
+def test_a_ros_resolution_beyond_any_map_is_refused(tmp_path):
+    from ndrql.errors import MapFormatError
+    from ndrql.maps.readers import load_map
+
+    Image.fromarray(np.full((8, 8), 255, np.uint8)).save(tmp_path / "m.png")
+    for value in ("1e-300", "1e300"):
+        (tmp_path / "m.yaml").write_text(f"image: m.png\nresolution: {value}\norigin: [0, 0, 0]\n"
+                                         "occupied_thresh: 0.65\nfree_thresh: 0.196\nnegate: 0\n")
+        with pytest.raises(MapFormatError, match="resolution"):
+            load_map(tmp_path / "m.yaml")
+
+
+def test_a_missing_scenario_file_is_called_a_scenario(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.map").write_text("type octile\nheight 4\nwidth 4\nmap\n" + "....\n" * 4)
+    one_line(capsys, ["plan", "a.map", "--scen", "nope.scen:1", "--method", "IQL"], "MovingAI scenario file not found")

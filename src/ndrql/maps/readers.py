@@ -49,9 +49,9 @@ def check_pixels(height: int, width: int, max_pixels: int | None, path: Path) ->
                              f"too thin to plan on; crop it")
 
 
-def _require_file(path: Path) -> None:
+def _require_file(path: Path, what: str = "map file") -> None:
     if not path.is_file():
-        raise MapFormatError(f"not a file: {path}" if path.exists() else f"map file not found: {path}")
+        raise MapFormatError(f"not a file: {path}" if path.exists() else f"{what} not found: {path}")
     note_input(path, "the map file")
 
 
@@ -180,8 +180,8 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
     if missing:
         raise MapFormatError(f"ROS map {path}: missing key(s) {', '.join(missing)}")
     resolution = _ros_float(doc, "resolution", path)
-    if resolution <= 0:
-        raise MapFormatError(f"ROS map {path}: 'resolution' must be positive, got {resolution}")
+    if not 1e-6 <= resolution <= 1e6:  # metres per pixel: a micrometre to a thousand kilometres
+        raise MapFormatError(f"ROS map {path}: 'resolution' must be positive, in [1e-06, 1e+06] m, got {resolution:g}")
     occ = _ros_float(doc, "occupied_thresh", path)
     free = _ros_float(doc, "free_thresh", path)
     if not (0.0 <= free <= occ <= 1.0):
@@ -243,7 +243,7 @@ def read_ros_yaml(path: str | Path, crop: bool = False, max_pixels: int | None =
 
 
 def _read_text(path: Path, what: str) -> str:
-    _require_file(path)
+    _require_file(path, f"{what} file")
     try:
         return path.read_bytes().decode("ascii")
     except UnicodeDecodeError:

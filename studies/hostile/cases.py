@@ -70,7 +70,7 @@ def plant(work: Path, step: str) -> None:
         from ndrql.model.checkpoint import FORMAT, FORMAT_VERSION
 
         name, how = rest.split("=", 1)
-        t = {"stride0": torch.zeros(1).expand(60000, 60000), "neg": torch.zeros(4)[2:].as_strided((3,), (1,), 5)}[how]
+        t = torch.zeros(1).expand(60000, 60000) if how == "stride0" else torch.zeros(int(how))
         torch.save({"format": FORMAT, "format_version": FORMAT_VERSION, "config": {}, "model": {"w": t}}, work / name)
     else:
         raise ValueError(step)
@@ -263,7 +263,7 @@ def input_cases() -> list[dict]:
            case("inputs", ["plan", "map.png", *PTS, "--preset", "victim.bin"], "refuse", "victim.bin"),
            case("inputs", ["plan", "bomb.png", *PTS], "refuse", "", ["copy:bomb.png<-" + str(_bomb())]),
            case("inputs", ["plan", "map.png", "--start", "1,1", "--goal", "10,20", "--method", "IQL"], "refuse", "obstacle"),
-           case("inputs", ["plan", "map.png", "--start", "1,1", "--goal", "999999999999,1"], "refuse", "--goal"),
+           case("inputs", ["plan", "map.png", "--start", "1,1", "--goal", "999999999999,1"], "refuse", "goal"),
            case("inputs", ["plan", "map.png", "--start", "1,1", "--goal", "\x1b[2J,1"], "refuse", "--goal"),
            case("inputs", ["plan", "map.png", *PTS, "--weights", "w.pt", "--prior-from", "model"], "refuse", "w.pt",
                 ["pt:w.pt=stride0"]),

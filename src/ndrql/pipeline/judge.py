@@ -196,6 +196,9 @@ def consult(sources: Any, problem: Any, cfg: PriorConfig, deadline: float | None
         if error is not None:
             if isinstance(error, NdrqlError):
                 raise error
+            if type(error).__name__ == "SourceDeclined":  # the source said why it cannot serve this problem
+                trials.append(Trial(src.name, took, None, str(error)))
+                continue
             trials.append(Trial(src.name, took, None, f"failed: {type(error).__name__}: {error}"))
             continue
         if shortest is None:

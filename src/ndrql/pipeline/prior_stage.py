@@ -118,7 +118,8 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
     deadline = None if budget is None else time.perf_counter() + float(budget)
     with clock.stage("load"):
         sources = _sources(request, record)
-    problem = SourceInput(grid, request.grid_map, request.start, request.goal, truth)
+    problem = SourceInput(grid, request.grid_map, request.start, request.goal,
+                          partial=getattr(request, "belief", None) is not None, truth=truth)
     cfg = judged_config(ms, consts)
     with clock.stage("predict"):
         chosen, trials, first = consult(sources, problem, cfg, deadline)

@@ -59,6 +59,8 @@ class SourceInput:
     """Start in map pixels."""
     goal_px: Point
     """Goal in map pixels."""
+    partial: bool = False
+    """Whether part of the map is unknown to the planner (a belief map: :attr:`grid` counts it free)."""
     truth: np.ndarray | None = field(default=None, repr=False)
     """The true planning grid's blocked cells where it differs from :attr:`grid` (part of the map unknown to the
     planner); ``None``: the planner knows the map."""
@@ -88,6 +90,21 @@ class GridPriors:
     """What the source saw (JSON ``model_input``)."""
     weights: str | None = None
     """What made them (the weights file that served, ``"oracle priors"``), for the summary."""
+
+
+class SourceDeclined(Exception):
+    """A source that cannot serve this problem says why (recorded as its trial's reason, not an error)."""
+
+
+#: Why the network declines a belief map when its weights have no input for unknown cells.
+NO_UNKNOWN_CHANNEL = ("the model has no input for unknown cells: on belief maps its priors, like the exact prior of "
+                      "the belief, commit the agent to routes hidden walls cut (2.7-6.5x IQL-BFS's steps, "
+                      "studies/partial)")
+
+
+def sees_unknown(predictor: Any) -> bool:
+    """Whether a model's input encoding has a channel for cells unknown to the planner."""
+    return "unknown" in str(getattr(predictor, "encoding", ""))
 
 
 class PriorSource(Protocol):
@@ -134,6 +151,8 @@ class ModelSource:
 
     def give(self, problem: SourceInput) -> GridPriors:
         p = self.predictor
+        if problem.partial and not sees_unknown(p):
+            raise SourceDeclined(NO_UNKNOWN_CHANNEL)
         view = predict_region(p, problem.grid_map, problem.grid, problem.start_px, problem.goal_px)
         weights = str(p.weights_file) if getattr(p, "weights_file", None) is not None else None
         if view.info.get("companion"):

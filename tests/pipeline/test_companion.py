@@ -180,13 +180,13 @@ def test_plan_names_the_weights_file_that_served(model_weights, tmp_path, capsys
     obstacles = np.kron(_grid(16), np.ones((8, 8), bool))  # a 128 px map: a wall with a gap
     for size, served in ((16, base), (32, comp)):
         report = ndrql.solve(obstacles, (8, 8), (120, 120), methods=["NDR-QL"], seeds=[0], weights=base,
-                             backend="torch", size=size, workers=1)
+                             backend="torch", size=size, workers=1, predict_budget=None)  # a cold torch load
         out = report.to_dict()
         assert out["model_input"]["weights_file"] == served.name and out["weights"] == str(served)
         assert out["model_input"]["companion"] is (served == comp)
     np.save(tmp_path / "map.npy", obstacles)
     plan = ["plan", str(tmp_path / "map.npy"), "--start", "8,8", "--goal", "120,120", "--weights", str(base),
-            "--backend", "torch", "--size", "32", "--method", "NDR-QL", "--workers", "1"]
+            "--backend", "torch", "--size", "32", "--method", "NDR-QL", "--workers", "1", "--predict-budget", "none"]
     rc = main([*plan, "--json", str(tmp_path / "out.json")])
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("model:"))
     assert rc == 0 and "comp.pt" in line and "the companion of base.pt for the grids its view merges" in line

@@ -44,8 +44,10 @@ def test_plan_uses_the_models_distance_in_eq6(distance_model):
     from ndrql.pipeline.predictions import predict_region
 
     # the learned distance alone: the general preset counts it through the region (tests/pipeline/test_region_distance_plan.py)
+    # no time budget: a fresh checkpoint's first load (torch, the ONNX export) may take longer than plan's default
     report = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
-                         workers=1, settings=PlanSettings(fallback=None), priors={"region_distance": 0})
+                         workers=1, settings=PlanSettings(fallback=None, predict_budget=None),
+                         priors={"region_distance": 0})
     assert report.info["qi_distance"] == "model"
     pg = report.grid
     view = predict_region(Predictor.load(distance_model, threads=1, backend="torch"), report.grid_map, pg,
@@ -57,12 +59,17 @@ def test_plan_uses_the_models_distance_in_eq6(distance_model):
                            report.prior_config)
     assert not np.allclose(with_d.q0, without.q0)
     off = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=distance_model,
-                      workers=1, settings=PlanSettings(fallback=None, learned_distance=False), priors={"region_distance": 0})
+                      workers=1, settings=PlanSettings(fallback=None, learned_distance=False, predict_budget=None),
+                      priors={"region_distance": 0})
     assert off.info["qi_distance"] == "straight line"
-    # without a distance head nothing changes: the paper's straight line
+    # predictions without a distance (arrays at the map's resolution): the paper's straight line
+    given = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], workers=1,
+                        predictions=(report.region, report.guideline), priors={"region_distance": 0})
+    assert given.info["qi_distance"] == "straight line"
+    # the oracle carries the true map's BFS distance (pipeline/sources.py)
     oracle = ndrql.solve(two_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], predictions="oracle", workers=1,
                          priors={"region_distance": 0})
-    assert oracle.info["qi_distance"] == "straight line"
+    assert oracle.info["qi_distance"] == "true map's BFS distance"
 
 
 def test_predict_file_carries_the_distance_to_plan(distance_model, tmp_path, ndrql_exe):

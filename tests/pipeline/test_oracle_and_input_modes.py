@@ -73,7 +73,7 @@ def test_grid_mode_model_predicts_on_the_planning_grid(grid_model):
     torch_pred = Predictor.load(grid_model, threads=1, backend="torch")
     assert torch_pred.input_mode == "grid"
     report = ndrql.solve(_walls(), (10, 10), (110, 150), methods=["NDR-QL"], seeds=[0], weights=grid_model, workers=1,
-                         fallback=None)
+                         fallback=None, predict_budget=None)  # a fresh checkpoint's first load: no time budget
     pg = report.grid
     view = predict_region(torch_pred, report.grid_map, pg, report.start, report.goal)
     assert view.info["mode"] == "grid" and view.info["side"] == 4 * max(pg.shape)

@@ -50,7 +50,7 @@ def main() -> None:
         rows: dict[str, dict[str, list[float]]] = {k: {"pre": [], "work": [], "grid": []} for k in CONFIGS}
         for i in range(a.maps):
             raw = generate_sample(spec, i)
-            extra = {"size": side} if a.own_pixels else {}
+            extra = {"size": side, "max_size": max(side, 512)} if a.own_pixels else {}
             for name, kw in CONFIGS.items():
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")

@@ -177,26 +177,31 @@ def exact_distance_field(blocked: np.ndarray, goal: Point) -> np.ndarray:
 
 def _window_any(img: np.ndarray, before: int, after: int, axis: int) -> np.ndarray:
     """Pixel set where ``img`` has a set pixel from ``before`` before it to ``after`` after it along ``axis``
-    (zero outside): one cumulative sum (int16: sides up to 32,767 px) and slices."""
-    a = np.moveaxis(np.asarray(img, dtype=bool), axis, 0)
-    n = a.shape[0]
-    cs = np.zeros((n + 1,) + a.shape[1:], dtype=np.int16)
-    np.cumsum(a, axis=0, dtype=np.int16, out=cs[1:])
-    hi = np.empty_like(cs[1:])  # hi[i] = cs[min(i + after + 1, n)]
-    k = max(0, n - after - 1)
-    hi[:k] = cs[after + 1:after + 1 + k]
-    hi[k:] = cs[n]
-    lo = np.zeros_like(hi)  # lo[i] = cs[max(i - before, 0)]
-    if n > before:
-        lo[before:] = cs[:n - before]
-    return np.moveaxis(hi > lo, 0, axis)
+    (zero outside): ``before`` zeros in front, then in-place ORs of the array with itself shifted by 1, 2, 4, ...
+    (a window of ``w`` pixels in about log2(w) passes over contiguous memory)."""
+    a = np.asarray(img, dtype=bool)
+    n = a.shape[axis]
+    pad = [(0, 0), (0, 0)]
+    pad[axis] = (before, 0)
+    f = np.pad(a, pad)
+    width, span = before + after + 1, 1
+
+    def cut(lo: int, hi: int | None) -> tuple[slice, ...]:
+        return (slice(lo, hi), slice(None)) if axis == 0 else (slice(None), slice(lo, hi))
+
+    while span < width:  # f[i] = any(a_padded[i : i + span])
+        step = min(span, width - span)
+        f[cut(0, -step)] |= f[cut(step, None)]
+        span += step
+    return f[cut(0, n)]
 
 
 def _cell_means(img: np.ndarray, px: int) -> np.ndarray:
-    """Mean of each ``px`` x ``px`` block of a boolean image whose sides are multiples of ``px``."""
-    h, w = img.shape
-    sums = np.asarray(img, dtype=np.uint8).reshape(h // px, px, w // px, px).sum(axis=(1, 3), dtype=np.uint16)
-    return sums / float(px * px)
+    """Mean of each ``px`` x ``px`` block of a boolean image whose sides are multiples of ``px`` (sums of strided
+    slices: numpy sums a short last axis slowly)."""
+    a = np.asarray(img, dtype=np.uint8)
+    cols = sum(a[:, k::px] for k in range(px))
+    return sum(cols[k::px].astype(np.uint16) for k in range(px)) / float(px * px)
 
 
 def drawn_priors(name: str, blocked: np.ndarray, start: Point, goal: Point, weights: str | None) -> GridPriors:

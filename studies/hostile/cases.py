@@ -180,7 +180,7 @@ def output_cases() -> list[dict]:
             full = [*argv, target] if flag is None else [*argv, flag, target]
             out.append(case("outputs", full, expect, needle, setup))
     out.append(case("outputs", [*PLAN, "--json", "same.json", "--png", "same.json"], "refuse", "both write"))
-    out.append(case("outputs", [*PLAN, "--json", "map.yaml"], "refuse", ""))
+    out.append(case("outputs", ["plan", "map.yaml", *PTS, "--method", "IQL", "--json", "map.yaml"], "refuse", ""))
     out.append(case("outputs", ["plan", "map.yaml", *PTS, "--method", "IQL", "--png", "map.png"], "refuse", ""))
     return out
 

@@ -49,3 +49,41 @@ def test_method_page_covers_every_equation_and_the_dataset_page_its_source():
     dataset = (REPO_ROOT / "docs" / "dataset.md").read_text(encoding="utf-8")
     assert "https://github.com/JimOriginal/path-planning-dataset" in dataset and "NDRQL_DATASET" in dataset
     assert (REPO_ROOT / "CHANGELOG.md").read_text(encoding="utf-8").startswith("# Changelog")
+
+
+def _subcommands(parser):
+    import argparse
+
+    return next((a.choices for a in parser._actions if isinstance(a, argparse._SubParsersAction)), {})
+
+
+def unknown_flags(text: str, root) -> list[str]:
+    """Every ``--flag`` of an ``ndrql SUBCOMMAND ...`` command in ``text`` that SUBCOMMAND's parser does not define
+    (``line: prog: flag``), so a page never tells a user to type a flag that is not there."""
+    bad = []
+    for i, line in enumerate(text.splitlines(), 1):
+        for m in re.finditer(r"(?:^|[`$]\s*|\s)ndrql ([a-z][\w-]*(?: [^`#\n]*)?)", line):
+            tokens, parser, k = m.group(1).split(), root, 0
+            while k < len(tokens) and tokens[k] in _subcommands(parser):
+                parser, k = _subcommands(parser)[tokens[k]], k + 1
+            if parser is root:
+                continue
+            options = {s for a in parser._actions for s in a.option_strings}
+            bad += [f"{i}: {parser.prog}: {t.split('=')[0].rstrip(',.;:)')}" for t in tokens[k:]
+                    if t.startswith("--") and t.split("=")[0].rstrip(",.;:)") not in options]
+    return bad
+
+
+@pytest.mark.parametrize("path", [p for p in DOCS if p.name != "cli.md"], ids=lambda p: p.name)
+def test_commands_in_the_docs_use_real_flags(path):
+    from ndrql.cli import build_parser
+
+    bad = unknown_flags(path.read_text(encoding="utf-8"), build_parser())
+    assert not bad, f"{path.name}: " + "; ".join(bad)
+
+
+def test_the_flag_check_finds_a_made_up_flag():
+    from ndrql.cli import build_parser
+
+    text = "run `ndrql plan map.png --start 1,2 --no-such-flag` or\n    ndrql map info m.png --gridd 3\n"
+    assert unknown_flags(text, build_parser()) == ["1: ndrql plan: --no-such-flag", "2: ndrql map info: --gridd"]

@@ -94,14 +94,17 @@ def test_the_door_turns_ctrl_c_into_one_line(capsys, monkeypatch):
 
 @pytest.mark.parametrize("fields", [{"config": {}}, {"preset": {}}, {"weights": 5}, {"robot_radius": "x"},
                                     {"tolerance": {}}, {"max_size": [None]}, {"fallback": {}}, {"seeds": "x"},
-                                    {"methods": 5}, {"max_map_pixels": "many"}])
+                                    {"methods": 5}, {"methods": [{}]}, {"max_map_pixels": "many"}, {"scen": 5},
+                                    {"crop": []}, {"workers": "x"}, {"workers": 10**6}, {"nonsense": 1}])
 def test_the_api_raises_ndrql_errors_only(fields):
     import ndrql
+    from ndrql.errors import ArgumentError
     from ndrql.maps.bundled import bundled_sample
 
     sample = bundled_sample()
-    with pytest.raises(NdrqlError):
-        ndrql.plan(sample.grid_map, sample.start, sample.goal, **fields)
+    with pytest.raises(NdrqlError) as raised:
+        ndrql.solve(sample.grid_map, sample.start, sample.goal, **fields)
+    assert "nonsense" not in fields or isinstance(raised.value, (ArgumentError, TypeError))
 
 
 def test_a_settings_object_refuses_what_is_not_a_number():

@@ -73,13 +73,13 @@ def test_map_too_large_for_given_limit_and_grid_too_fine(ndrql_exe, walls):
 
 def test_missing_model_weights(ndrql_exe, walls):
     env = {**os.environ, "NDRQL_WEIGHTS": "/nonexistent/ndr.pt"}
-    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", env=env)
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--prior-from", "model", env=env)
     assert_one_line_error(r, "missing model weights: /nonexistent/ndr.pt")
-    r = run_cli(ndrql_exe, "demo", "--out", walls.parent / "demo", env=env)
-    assert_one_line_error(r, "missing model weights: /nonexistent/ndr.pt")
-    # methods without the model do not need weights
+    # methods without the model, and NDR-QL on a known map (the exact prior by default), do not need weights
     r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", "--method", "IQL", env=env)
     assert r.returncode == 0 and "IQL seed 0: converged" in r.stdout, r.stderr
+    r = run_cli(ndrql_exe, "plan", walls, "--start", "0,0", "--goal", "50,50", env=env)
+    assert r.returncode == 0 and "prediction: exact accepted" in r.stdout, r.stderr
 
 
 def test_corrupt_weights(ndrql_exe, walls, tmp_path):

@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     pg = report.grid
     print(f"demo map: {sample.info['source']}")
     print(f"planning grid {pg.shape[0]}x{pg.shape[1]}, start {pg.start} (pixel {sample.start}), "
-          f"goal {pg.goal} (pixel {sample.goal}); model {_short(report.weights or '-')}")
+          f"goal {pg.goal} (pixel {sample.goal}); NDR-QL's priors: "
+          f"{(report.info.get('prediction_quality') or {}).get('source') or '-'} ({_short(report.weights or '-')})")
     print("\n".join(_summary(report)))
     table = table_markdown(report)
     head = (f"QL vs IQL vs NDR-QL on the bundled sample map ({sample.info['source']}); seeds 0..{args.seeds - 1}; "

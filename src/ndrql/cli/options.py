@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from dataclasses import dataclass
 import json
 from typing import Any
 
 from ndrql.errors import NdrqlError
 from ndrql.limits import bound_for, check_bound
+from ndrql.pipeline.settings import MAX_PREDICT_BUDGET
 from ndrql.planning.config import field_docs
 
 
@@ -119,3 +121,23 @@ def check_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> No
         bound = bound_for(action.option_strings[-1], command) if numbers else None
         for v in numbers if bound is not None else ():
             check_bound(v, bound, action.option_strings[-1])
+
+
+@dataclass(frozen=True)
+class Budget:
+    """A parsed ``--predict-budget``: seconds, or ``None`` for no limit."""
+
+    value: float | None
+
+
+def budget_seconds(text: str) -> Budget:
+    """``--predict-budget``: seconds in (0, 3600] or ``none``."""
+    if text.strip().lower() == "none":
+        return Budget(None)
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seconds or none, got {text[:40]!r}") from None
+    if not 0 < v <= MAX_PREDICT_BUDGET:  # NaN fails too
+        raise argparse.ArgumentTypeError(f"seconds in (0, {MAX_PREDICT_BUDGET:g}] or none, got {text[:40]!r}")
+    return Budget(v)

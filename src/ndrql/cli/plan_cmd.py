@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -12,8 +11,8 @@ from ndrql.api import PlanSettings, build_request, run_request
 from ndrql.cli.common import (add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
                               check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
                               warnings_to_stderr, write_json)
-from ndrql.cli.options import add_command, add_seed_options, grid_size
-from ndrql.cli.plan_help import PLAIN_METHOD, add_constant_groups, plain_preset
+from ndrql.cli.options import add_command, add_seed_options, budget_seconds, grid_size
+from ndrql.cli.plan_help import PLAIN_METHOD, PRIOR_FROM_HELP, add_constant_groups, plain_preset
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_report import summary_lines
 from ndrql.dataset.views import view_note
@@ -25,7 +24,7 @@ from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
 from ndrql.pipeline.predictions import load_predictions
 from ndrql.pipeline.request import DEFAULT_FALLBACK, PRIOR_FIELDS, QL_FIELDS
-from ndrql.pipeline.settings import DEFAULT_PREDICT_BUDGET, GRID_RULES, MAX_PREDICT_BUDGET
+from ndrql.pipeline.settings import DEFAULT_PREDICT_BUDGET, GRID_RULES
 from ndrql.pipeline.sources import SOURCE_NAMES
 from ndrql.planning.config import field_docs
 from ndrql.planning.methods import get_method
@@ -69,30 +68,8 @@ can take minutes.
 #: Config fields that become flags (``alpha`` -> ``--alpha``), from the frozen dataclasses.
 _QL_FLAGS = QL_FIELDS
 _PRIOR_FLAGS = PRIOR_FIELDS
-
-
 #: ``--prior-from`` values that name a source rather than a file.
 PRIOR_SOURCE_NAMES = SOURCE_NAMES[:-1]
-
-
-@dataclass(frozen=True)
-class Budget:
-    """A parsed ``--predict-budget``: seconds, or ``None`` for no limit."""
-
-    value: float | None
-
-
-def budget_seconds(text: str) -> Budget:
-    """``--predict-budget``: seconds in (0, 3600] or ``none``."""
-    if text.strip().lower() == "none":
-        return Budget(None)
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seconds or none, got {text[:40]!r}") from None
-    if not 0 < v <= MAX_PREDICT_BUDGET:  # NaN fails too
-        raise argparse.ArgumentTypeError(f"seconds in (0, {MAX_PREDICT_BUDGET:g}] or none, got {text[:40]!r}")
-    return Budget(v)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -125,14 +102,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "weights on generated maps, per grid size) or a preset FILE; the constant flags override its "
                         f"values (default: the one searched for --weights: {plain_preset().name} for the default weights, "
                         "tuned for --weights paper)")
-    method.add_argument("--prior-from", metavar="SOURCE|FILE.npz",
-                        help="where NDR-QL's priors come from (default: on a map file the planner fully knows, 'exact': the "
-                        "planning grid's own shortest path and BFS distance, which on every development set needed no more "
-                        "steps than the network; on a dataset sample and with --hide, 'model'): 'model' (the NDR network, "
-                        "--weights), 'exact', 'oracle' (drawn from the true map: the ceiling where part of it is hidden), "
-                        "'head' (the shipped propagating head), or a FILE.npz of arrays 'region' and 'guideline' at the map's "
-                        "resolution, in [0, 1], as ndrql predict writes them; a source the judge rejects (Eq. 7 joins start and "
-                        "goal nowhere, or only along a detour) is replaced by --fallback")
+    method.add_argument("--prior-from", metavar="SOURCE|FILE.npz", help=PRIOR_FROM_HELP)
     method.add_argument("--predict-budget", type=budget_seconds, default=None, metavar="SECONDS|none",
                         help="seconds the model may take to load and predict; past them the plan falls back and says so "
                         f"(default: {DEFAULT_PREDICT_BUDGET:g}; none: no limit)")

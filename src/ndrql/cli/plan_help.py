@@ -74,3 +74,12 @@ def add_constant_groups(parser: argparse.ArgumentParser, ql_fields: tuple[str, .
                      ql_fields, shown={n: shown_default(preset, n) for n in ql_fields})
     add_config_flags(parser.add_argument_group("advanced: prior constants, paper Eqs. 2-7 (docs/method.md)"),
                      PriorConfig, prior_fields, shown={n: shown_default(preset, n) for n in prior_fields})
+
+
+#: ``plan --prior-from``'s help (the sources: ndrql.pipeline.sources).
+PRIOR_FROM_HELP = ("where NDR-QL's priors come from (default: 'exact' on a map the planner fully knows, 'model' on a "
+                   "dataset sample and with --hide): 'model' (the NDR network, --weights), 'exact' (the planning grid's "
+                   "own shortest path and BFS distance), 'oracle' (drawn from the true map: the ceiling where part of it "
+                   "is hidden), 'head' (the shipped propagating head), or a FILE.npz of arrays 'region' and 'guideline' "
+                   "at the map's resolution, in [0, 1], as ndrql predict writes them; a source the judge rejects (Eq. 7 "
+                   "joins start and goal nowhere, or only along a detour) is replaced by --fallback")

@@ -185,6 +185,36 @@ def output_cases() -> list[dict]:
     return out
 
 
+MORE_OUTPUTS = [
+    (("eval", "--weights", "victim.bin"), "--json", ".json"), (("eval", "--weights", "victim.bin"), "--markdown", ".md"),
+    (("data", "show", "sub"), "--png", ".png"), (("export-weights", "victim.bin"), "--out", ".pt"),
+    (("average-weights", "victim.bin", "victim.bin"), "--out", ".pt"), (("export-onnx",), "--out", ".onnx"),
+    (("tune", "--method", "IQL"), "--export-preset", ".json"),
+]
+
+
+def more_output_cases() -> list[dict]:
+    """The other commands' outputs: a link to an input, a name inside the package, a hard link to an input."""
+    out = []
+    for argv, flag, ext in MORE_OUTPUTS:
+        for target, setup, needle in ((f"l{ext}", [f"link:l{ext}->victim.bin"], "symbolic link"),
+                                      (str(PACKAGE / "planning" / "presets" / f"new{ext}"), [], "package"),
+                                      (f"h{ext}", [f"hard:h{ext}->victim.bin"], "victim.bin")):
+            if needle == "victim.bin" and "victim.bin" not in argv:  # a hard link to a file the command does not
+                c = case("more-outputs", [*argv, flag, target], "any", "", setup)  # read: the name is replaced,
+                c["allow"] = (target,)  # the other name keeps its contents
+            else:
+                c = case("more-outputs", [*argv, flag, target], "refuse", needle, setup)
+            out.append(c)
+    out.append(case("more-outputs", ["export-onnx", "--out", "g.onnx"], "refuse", "symbolic link",
+                    ["link:g.json->victim.bin"]))
+    out.append(case("more-outputs", ["predict", "map.png", *PTS, "--out", "o"], "refuse", "package",
+                    [f"link:o->{PACKAGE / 'data'}"]))
+    out.append(case("more-outputs", ["plan", "map.png", *PTS, "--method", "NDR-QL", "--prior-from", "model"], "any", "",
+                    env={"NDRQL_CACHE": str(PACKAGE / "data")}))
+    return out
+
+
 # --- folders ----------------------------------------------------------------------------------------------
 
 def folder_cases() -> list[dict]:
@@ -319,5 +349,5 @@ def api_cases() -> list[dict]:
 def all_cases(folder: Path) -> list[dict]:
     fixtures(folder)
     rng = random.Random(56)
-    return flag_cases(rng) + output_cases() + folder_cases() + env_cases() + input_cases() + api_cases()
+    return flag_cases(rng) + output_cases() + more_output_cases() + folder_cases() + env_cases() + input_cases() + api_cases()
 

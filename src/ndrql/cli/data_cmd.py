@@ -42,6 +42,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--size", type=_int_list, default=(MODEL_SIDE,),
                    help=f"map sides in px, comma-separated; each sample draws one (default: {MODEL_SIDE})")
     g.add_argument("--seed", type=int, default=0, help="seed of the set (default: 0)")
+    g.add_argument("--masks", default="", help="also draw a belief of each map for the model for belief maps "
+                   "(ndrql.synth.belief_sets), e.g. blobs:0.1-0.5,sensed,outdated,none:0.2 (none: the share of maps "
+                   "with nothing hidden, default 0.2); default: no beliefs")
+    g.add_argument("--mask-seed", type=int, default=0, help="seed of the beliefs with --masks (a training seed, "
+                   "0..899999; default: 0)")
     g.add_argument("--out", type=Path, required=True, help="output directory (new, empty, or a partial run of the same set)")
     g.add_argument("--workers", type=int, default=1, help="processes (default: 1; results do not depend on it)")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -64,9 +69,13 @@ def run_generate(args: argparse.Namespace) -> int:
     families = family_names() if args.family.strip() == "all" else tuple(f.strip() for f in args.family.split(",") if f.strip())
     if not 1 <= args.workers <= 256:
         raise NdrqlError(f"--workers must be 1..256, got {args.workers}")
-    spec = SetSpec(families, tuple(args.size), args.count, args.seed)
+    if args.mask_seed and not args.masks:
+        raise NdrqlError("--mask-seed is the seed of the beliefs: give --masks too")
+    spec = SetSpec(families, tuple(args.size), args.count, args.seed, args.masks, args.mask_seed)
     root = generate_set(args.out, spec, workers=args.workers, progress=not args.no_progress, log=print)
-    print(f"wrote {spec.count} samples of {', '.join(spec.families)} ({', '.join(map(str, spec.sizes))} px, seed {spec.seed}) to {root}")
+    beliefs = f", beliefs {spec.masks} (mask seed {spec.mask_seed})" if spec.masks else ""
+    print(f"wrote {spec.count} samples of {', '.join(spec.families)} ({', '.join(map(str, spec.sizes))} px, seed "
+          f"{spec.seed}{beliefs}) to {root}")
     return 0
 
 

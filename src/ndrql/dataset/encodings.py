@@ -2,6 +2,10 @@
 
 All return float32 arrays (C, H, W). ``point`` (default) is the paper's NDR input: map (1 = obstacle),
 a single-pixel start channel and a single-pixel goal channel.
+
+An encoding named ``BASE+unknown`` (:data:`UNKNOWN_ENCODINGS`: ``point+unknown``) is ``BASE``'s channels plus
+one channel that is 1 on the pixels unknown to the planner (the model for belief maps): the map channel then
+shows the belief with its unknown cells free. Without an unknown mask that channel is 0 (a known map).
 """
 
 from __future__ import annotations
@@ -72,13 +76,43 @@ ENCODINGS: dict[str, Callable[[np.ndarray, Point, Point], np.ndarray]] = {
 }
 
 
+#: Encodings with an unknown channel (appended last) -> the encoding of their other channels.
+UNKNOWN_ENCODINGS: dict[str, str] = {"point+unknown": "point"}
+
+
+def has_unknown(name: str) -> bool:
+    """Whether encoding ``name`` has the unknown channel."""
+    return name in UNKNOWN_ENCODINGS
+
+
+def encoding_channels(name: str) -> int:
+    """Input channels of encoding ``name`` (3, and one more with the unknown channel)."""
+    get_encoding(name)
+    return 4 if has_unknown(name) else 3
+
+
 def get_encoding(name: str) -> Callable[[np.ndarray, Point, Point], np.ndarray]:
     """Look up an encoding by name; the error lists the valid ones."""
-    if name not in ENCODINGS:
-        raise ValueError(f"unknown input encoding {name!r}; valid: {', '.join(ENCODINGS)}")
-    return ENCODINGS[name]
+    if name not in ENCODINGS and name not in UNKNOWN_ENCODINGS:
+        raise ValueError(f"unknown input encoding {name!r}; valid: {', '.join([*ENCODINGS, *UNKNOWN_ENCODINGS])}")
+    return ENCODINGS[UNKNOWN_ENCODINGS.get(name, name)]
 
 
-def encode_input(obstacles: np.ndarray, start: Point, goal: Point, encoding: str = "point") -> np.ndarray:
-    """Encode one (map, start, goal) as the model's (3, H, W) float32 input."""
-    return get_encoding(encoding)(np.asarray(obstacles, bool), tuple(start), tuple(goal))
+def encode_input(obstacles: np.ndarray, start: Point, goal: Point, encoding: str = "point",
+                 unknown: np.ndarray | None = None) -> np.ndarray:
+    """Encode one (map, start, goal) as the model's (C, H, W) float32 input; ``unknown`` (bool, the map's
+    shape) fills the unknown channel of an encoding that has one (``None``: zeros). ``ValueError`` for an
+    unknown mask given to an encoding without the channel or of another shape."""
+    obstacles = np.asarray(obstacles, bool)
+    out = get_encoding(encoding)(obstacles, tuple(start), tuple(goal))
+    if not has_unknown(encoding):
+        if unknown is not None:
+            raise ValueError(f"encoding {encoding!r} has no unknown channel; encode the belief with "
+                             f"{', '.join(UNKNOWN_ENCODINGS)}")
+        return out
+    channel = np.zeros((1, *obstacles.shape), np.float32)
+    if unknown is not None:
+        if np.shape(unknown) != obstacles.shape:
+            raise ValueError(f"unknown mask is {np.shape(unknown)}, the map {obstacles.shape}")
+        channel[0] = np.asarray(unknown, bool)
+    return np.concatenate([out, channel])

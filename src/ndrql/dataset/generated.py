@@ -24,7 +24,9 @@ import numpy as np
 from ndrql.errors import DatasetError, NdrqlError
 from ndrql.io import file_digest, save_npz, write_json, write_text
 from ndrql.io.text import load_json, read_capped
+from ndrql.maps.belief import Belief
 from ndrql.limits import DEVELOPMENT_SEEDS, SEALED_SEEDS, check_training_seed
+from ndrql.synth.belief_sets import KIND_CODES, draw_training_belief, kind_code, parse_masks
 from ndrql.synth.generate import RawSample, SetSpec, generate_sample
 from ndrql.workers import process_pool
 
@@ -50,7 +52,7 @@ def build_shard(spec: SetSpec, k: int, shard_size: int = SHARD_SIZE) -> dict[str
     samples = [generate_sample(spec, i) for i in range(lo, hi)]
     maps = [np.packbits(s.obstacles.ravel()) for s in samples]
     wps = [np.asarray(s.waypoints, np.int32).reshape(-1, 2) for s in samples]
-    return {
+    out = {
         "index": np.arange(lo, hi, dtype=np.int64),
         "sizes": np.array([s.obstacles.shape[0] for s in samples], np.int32),
         "points": np.array([s.start + s.goal for s in samples], np.int32).reshape(-1, 4),
@@ -60,6 +62,19 @@ def build_shard(spec: SetSpec, k: int, shard_size: int = SHARD_SIZE) -> dict[str
         "wp_offsets": np.concatenate([[0], np.cumsum([len(w) for w in wps])]).astype(np.int64),
         "waypoints": np.concatenate(wps) if wps else np.zeros((0, 2), np.int32),
     }
+    return {**out, **belief_arrays(spec, samples, lo)} if spec.masks else out
+
+
+def belief_arrays(spec: SetSpec, samples: list[RawSample], lo: int) -> dict[str, np.ndarray]:
+    """The beliefs of a set drawn with ``--masks`` (:mod:`ndrql.synth.belief_sets`): per sample the kind's code,
+    the believed obstacles and the unknown pixels, bit-packed at the map's size like the maps (offsets shared)."""
+    mask_spec = parse_masks(spec.masks)
+    beliefs = [draw_training_belief(mask_spec, s.obstacles, s.start, s.goal, spec.mask_seed, lo + j)
+               for j, s in enumerate(samples)]
+    packed = lambda key: np.concatenate([np.packbits(getattr(b, key).ravel()) for b in beliefs]) if beliefs \
+        else np.zeros(0, np.uint8)  # noqa: E731
+    return {"mask_kinds": np.array([kind_code(b) for b in beliefs], np.int8), "believed": packed("obstacles"),
+            "unknown": packed("unknown")}
 
 
 def _write_shard(args: tuple[str, dict, int, int]) -> int:
@@ -73,6 +88,8 @@ def _write_shard(args: tuple[str, dict, int, int]) -> int:
 
 #: Arrays every shard holds.
 SHARD_KEYS = ("index", "sizes", "points", "families", "map_offsets", "maps", "wp_offsets", "waypoints")
+#: Arrays the shards of a set drawn with ``--masks`` hold besides (:func:`belief_arrays`).
+BELIEF_KEYS = ("mask_kinds", "believed", "unknown")
 
 
 def digest_path(path: Path) -> Path:
@@ -80,21 +97,21 @@ def digest_path(path: Path) -> Path:
     return path.with_name(path.name + ".sha256")
 
 
-def read_shard(root: Path, k: int, count: int, shard_size: int) -> dict[str, np.ndarray]:
+def read_shard(root: Path, k: int, count: int, shard_size: int, masks: bool = False) -> dict[str, np.ndarray]:
     """The arrays of shard ``k``, checked (digest when recorded, keys, lengths, offsets); :class:`DatasetError`
     naming the file and how to rebuild it when it is missing, damaged or inconsistent."""
     path = shard_path(root, k)
     if not path.exists():
         raise DatasetError(f"{root} is incomplete (no {path.name}); run the same `ndrql data generate` again to finish it")
-    why = _shard_problem(path, k, count, shard_size)
+    why = _shard_problem(path, k, count, shard_size, masks)
     if isinstance(why, str):
         raise DatasetError(f"damaged shard {path} ({why}); delete it and run the same `ndrql data generate --out "
                            f"{root} ...` again to rebuild it")
     return why
 
 
-def _shard_problem(path: Path, k: int, count: int, shard_size: int) -> dict[str, np.ndarray] | str:
-    """The shard's arrays, or why they cannot be used."""
+def _shard_problem(path: Path, k: int, count: int, shard_size: int, masks: bool = False) -> dict[str, np.ndarray] | str:
+    """The shard's arrays, or why they cannot be used (``masks``: a set drawn with beliefs, :data:`BELIEF_KEYS`)."""
     try:
         recorded = digest_path(path).read_text().strip()
     except FileNotFoundError:
@@ -105,9 +122,10 @@ def _shard_problem(path: Path, k: int, count: int, shard_size: int) -> dict[str,
         return "its SHA-256 does not match the one recorded"
     try:
         with np.load(path, allow_pickle=False) as z:
-            if set(z.files) != set(SHARD_KEYS):
-                return f"arrays {sorted(z.files)[:10]}, expected {list(SHARD_KEYS)}"
-            arrays = {key: z[key] for key in SHARD_KEYS}
+            keys = SHARD_KEYS + (BELIEF_KEYS if masks else ())
+            if set(z.files) != set(keys):
+                return f"arrays {sorted(z.files)[:10]}, expected {list(keys)}"
+            arrays = {key: z[key] for key in keys}
     except Exception as exc:  # zipfile, zlib, numpy: many types for a cut or corrupt file
         return type(exc).__name__
     n = min(count, (k + 1) * shard_size) - k * shard_size
@@ -119,6 +137,9 @@ def _shard_problem(path: Path, k: int, count: int, shard_size: int) -> dict[str,
           and int(mo[-1]) == arrays["maps"].size and int(wo[-1]) == len(arrays["waypoints"])
           and bool(np.all(arrays["sizes"] > 0))
           and bool(np.all(np.diff(mo) * 8 >= arrays["sizes"].astype(np.int64) ** 2)))
+    if ok and masks:
+        ok = (arrays["mask_kinds"].shape == (n,) and arrays["believed"].shape == arrays["maps"].shape
+              and arrays["unknown"].shape == arrays["maps"].shape)
     return arrays if ok else "its arrays do not fit together"
 
 
@@ -187,6 +208,11 @@ def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bo
     from tqdm import tqdm
 
     check_purpose(spec.seed, purpose)
+    if spec.masks:
+        try:
+            check_purpose(spec.mask_seed, purpose)
+        except NdrqlError as exc:
+            raise NdrqlError(str(exc).replace("--seed", "--mask-seed", 1)) from None
     root = Path(root)
     if root.exists() and not root.is_dir():
         raise NdrqlError(f"--out {root} exists and is not a directory")
@@ -201,7 +227,8 @@ def generate_set(root: str | Path, spec: SetSpec, workers: int = 1, progress: bo
         root.mkdir(parents=True, exist_ok=True)
         write_json(root / "manifest.json", manifest, indent=1)
     todo = [k for k in range(n_shards(spec.count, shard_size))  # missing or damaged shards are (re)written
-            if not shard_path(root, k).exists() or isinstance(_shard_problem(shard_path(root, k), k, spec.count, shard_size), str)]
+            if not shard_path(root, k).exists()
+            or isinstance(_shard_problem(shard_path(root, k), k, spec.count, shard_size, bool(spec.masks)), str)]
     done = spec.count - sum(min(spec.count, (k + 1) * shard_size) - k * shard_size for k in todo)
     if log and done:
         log(f"resuming: {done} of {spec.count} samples already in {root}")
@@ -230,6 +257,12 @@ class GeneratedSet:
     maps: np.ndarray
     wp_offsets: np.ndarray
     waypoints: np.ndarray
+    mask_kinds: np.ndarray | None = None
+    """Per sample the code of its belief's kind (:data:`ndrql.synth.belief_sets.KIND_CODES`); ``None``: no beliefs."""
+    believed: np.ndarray | None = None
+    """Packed believed obstacles per sample (offsets as the maps'), with ``--masks``."""
+    unknown: np.ndarray | None = None
+    """Packed unknown pixels per sample (offsets as the maps'), with ``--masks``."""
 
     @classmethod
     def load(cls, root: str | Path) -> "GeneratedSet":
@@ -243,7 +276,7 @@ class GeneratedSet:
         shard_size = int(manifest["shard_size"])
         parts: dict[str, list[np.ndarray]] = {}
         for k in range(n_shards(spec.count, shard_size)):
-            for key, arr in read_shard(root, k, spec.count, shard_size).items():
+            for key, arr in read_shard(root, k, spec.count, shard_size, bool(spec.masks)).items():
                 parts.setdefault(key, []).append(arr)
 
         def offsets(key: str) -> np.ndarray:
@@ -256,7 +289,8 @@ class GeneratedSet:
         return cls(root=root, spec=spec, sizes=np.concatenate(parts["sizes"]), points=np.concatenate(parts["points"]),
                    families=np.concatenate(parts["families"]), map_offsets=offsets("map_offsets"),
                    maps=np.concatenate(parts["maps"]), wp_offsets=offsets("wp_offsets"),
-                   waypoints=np.concatenate(parts["waypoints"]))
+                   waypoints=np.concatenate(parts["waypoints"]),
+                   **({key: np.concatenate(parts[key]) for key in BELIEF_KEYS} if spec.masks else {}))
 
     def __len__(self) -> int:
         return len(self.sizes)
@@ -265,6 +299,18 @@ class GeneratedSet:
         s = int(self.sizes[i])
         packed = self.maps[self.map_offsets[i]:self.map_offsets[i + 1]]
         return np.unpackbits(packed, count=s * s).reshape(s, s).astype(bool)
+
+    def _bits(self, packed: np.ndarray, i: int) -> np.ndarray:
+        s = int(self.sizes[i])
+        return np.unpackbits(packed[self.map_offsets[i]:self.map_offsets[i + 1]], count=s * s).reshape(s, s).astype(bool)
+
+    def belief(self, i: int) -> Belief | None:
+        """The belief stored with sample ``i`` (a set drawn with ``--masks``), else ``None``."""
+        if self.mask_kinds is None or self.believed is None or self.unknown is None:
+            return None
+        code = int(self.mask_kinds[i])
+        kind = KIND_CODES[code] if 0 < code < len(KIND_CODES) else "known"
+        return Belief(self._bits(self.believed, i), self._bits(self.unknown, i), kind=kind)
 
     def raw(self, i: int) -> RawSample:
         sr, sc, gr, gc = (int(v) for v in self.points[i])

@@ -22,10 +22,11 @@ import numpy as np
 
 from ndrql.dataset.batches import transform_array, transform_point
 from ndrql.dataset.cache import SplitArrays, unpack
-from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.encodings import encode_input, has_unknown
 from ndrql.dataset.generated import GeneratedSet, check_training_set
-from ndrql.dataset.render import DISTANCE_UNIT, Rendered, input_side, manhattan_pixels, render
+from ndrql.dataset.render import DISTANCE_UNIT, Rendered, input_side, manhattan_pixels, render, render_belief_grid
 from ndrql.errors import NdrqlError
+from ndrql.maps.belief import Belief
 from ndrql.maps.grid import MODEL_SIDE
 from ndrql.synth.families import family_names
 from ndrql.synth.labels import dilate_region, near_optimal_path
@@ -86,8 +87,13 @@ def parse_sizes(text: str, largest: int = MAX_SIZE) -> tuple[int, ...]:
 class Source:
     """Samples of one source as raw (map, start, goal, waypoints), split into train and validation."""
 
-    def __init__(self, spec: SourceSpec, train_ids: np.ndarray, val_ids: np.ndarray, get):
+    def __init__(self, spec: SourceSpec, train_ids: np.ndarray, val_ids: np.ndarray, get, belief=None):
         self.spec, self.train_ids, self.val_ids, self._get = spec, train_ids, val_ids, get
+        self._belief = belief
+
+    def belief(self, i: int) -> Belief | None:
+        """The belief stored with sample ``i`` (a generated set drawn with ``--masks``), else ``None``."""
+        return None if self._belief is None else self._belief(i)
 
     def raw(self, i: int) -> tuple[np.ndarray, tuple[int, int], tuple[int, int], np.ndarray | None, np.ndarray | None]:
         """(obstacles, start, goal, waypoints or None, stored guideline or None) of sample ``i``."""
@@ -133,13 +139,19 @@ def generated_source(spec: SourceSpec, val_fraction: float = VAL_FRACTION, exclu
         raw = gs.raw(i)
         return raw.obstacles, raw.start, raw.goal, raw.waypoints, None
 
-    return Source(spec, train, val, get)
+    return Source(spec, train, val, get, gs.belief if gs.mask_kinds is not None else None)
 
 
 def render_source_sample(src: Source, i: int, mode: str, n: int, view=None) -> Rendered | None:
     """Render sample ``i`` of ``src`` for ``mode`` at grid ``n`` (the paper's own labels at 201 px map mode);
     ``view``: how a grid-mode model sees large grids (:class:`ndrql.dataset.views.GridView`, default native)."""
     obstacles, start, goal, waypoints, stored_guide = src.raw(i)
+    belief = src.belief(i)
+    if belief is not None:
+        if mode != "grid" or (view is not None and str(view) != "native"):
+            raise NdrqlError(f"{src.spec.name} holds beliefs (--masks): they train grid-mode models under the native "
+                             f"view (--input-mode grid, no --view)")
+        return render_belief_grid(obstacles, belief.obstacles, belief.unknown, start, goal, n)
     if mode == "map" and stored_guide is not None:
         if input_side("map", n) == obstacles.shape[0] == obstacles.shape[1]:
             return Rendered(obstacles, start, goal, stored_guide, dilate_region(stored_guide))
@@ -155,7 +167,8 @@ def augment(r: Rendered, k: int) -> Rendered:
     shape = r.obstacles.shape
     return Rendered(transform_array(r.obstacles, k), transform_point(r.start, k, shape), transform_point(r.goal, k, shape),
                     transform_array(r.guideline, k), transform_array(r.region, k),
-                    None if r.distance is None else transform_array(r.distance, k))
+                    None if r.distance is None else transform_array(r.distance, k),
+                    None if r.unknown is None else transform_array(r.unknown, k))
 
 
 def batch_size_for(side: int, batch_size: int) -> int:
@@ -168,7 +181,8 @@ def stack(items: list[Rendered], encoding: str, distance: bool = False):
     (B, 2, H, W), :func:`distance_target`."""
     import torch
 
-    x = np.stack([encode_input(r.obstacles, r.start, r.goal, encoding) for r in items])
+    keep = has_unknown(encoding)  # a model without the channel sees the belief alone
+    x = np.stack([encode_input(r.obstacles, r.start, r.goal, encoding, r.unknown if keep else None) for r in items])
     region = np.stack([r.region for r in items])[:, None].astype(np.float32)
     guide = np.stack([r.guideline for r in items])[:, None].astype(np.float32)
     out = (torch.from_numpy(x), torch.from_numpy(region), torch.from_numpy(guide))

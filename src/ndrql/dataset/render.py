@@ -27,6 +27,7 @@ import numpy as np
 
 from ndrql.errors import NdrqlError, NoPathError
 from ndrql.maps.area import whole_pixel_majority
+from ndrql.maps.belief import unknown_cells
 from ndrql.maps import sizing  # sizing.safe_grid, read at each call: the one builder
 from ndrql.maps.grid import MODEL_SIDE, area_downscale, bfs_distances, nearest_free_euclidean
 from ndrql.maps.problem import MapProblem
@@ -55,6 +56,8 @@ class Rendered(MapProblem):
     distance: np.ndarray | None = None
     """float32, each pixel's cell's distance to the goal cell in 4-connected moves (the planner's
     actions), -1 where blocked or unreachable (``grid`` mode; ``None`` in ``map`` mode)."""
+    unknown: np.ndarray | None = None
+    """bool, the pixels of the cells unknown to the planner (:func:`render_belief_grid`); ``None``: a known map."""
 
 
 def input_side(mode: str, n: int) -> int:
@@ -152,6 +155,58 @@ def render_grid(obstacles: np.ndarray, start: Point, goal: Point, n: int, view=N
     r[:region.shape[0], :region.shape[1]] = region > 0.5
     gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
     return Rendered(img, s_px, g_px, gl, r, goal_distance_pixels(blocked, g, side, px))
+
+
+def unknown_image(unknown: np.ndarray, blocked: np.ndarray, side: int, px: int = PX_PER_CELL) -> np.ndarray:
+    """The unknown channel's pixels: the planning cells ``unknown`` that ``blocked`` shows free, ``px`` px per cell,
+    padded with known pixels to ``side`` square (a cell believed blocked is known to be: only free cells can
+    hide something)."""
+    cells = np.asarray(unknown, bool) & ~np.asarray(blocked, bool)
+    out = np.zeros((side, side), bool)
+    up = np.kron(cells.astype(np.uint8), np.ones((px, px), np.uint8)).astype(bool)
+    out[:up.shape[0], :up.shape[1]] = up
+    return out
+
+
+def belief_grids(truth: np.ndarray, believed: np.ndarray, unknown_px: np.ndarray, start: Point, goal: Point,
+                 n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, Point, Point] | None:
+    """The grids of a belief at ``n`` cells as ``ndrql plan --hide`` builds them (:func:`ndrql.pipeline.belief.plan_grids`,
+    no robot radius): ``(true blocked, believed blocked, unknown cells, start cell, goal cell)``, start and goal
+    placed on the true map's safe grid and free on the belief's; ``None`` when they fall in one cell or do not
+    connect on the truth or on the belief (the plan refuses those)."""
+    try:
+        tpg = sizing.safe_grid(np.asarray(truth, bool), n, start, goal)
+        bpg = sizing.safe_grid(np.asarray(believed, bool), n, start, goal)
+    except NoPathError:
+        return None
+    s, g = tpg.start, tpg.goal
+    if s == g or tpg.blocked[s] or tpg.blocked[g] or bfs_distances(tpg.blocked, s)[g] < 0:
+        return None
+    seen = np.array(bpg.blocked, dtype=bool)
+    seen[s] = seen[g] = False
+    if bfs_distances(seen, s)[g] < 0:
+        return None
+    return np.asarray(tpg.blocked, bool), seen, unknown_cells(unknown_px, tpg), s, g
+
+
+def render_belief_grid(truth: np.ndarray, believed: np.ndarray, unknown_px: np.ndarray, start: Point, goal: Point,
+                       n: int) -> Rendered | None:
+    """``grid`` mode on a belief (:func:`belief_grids`): the input is the belief's grid (unknown counted free) with
+    its unknown cells (:attr:`Rendered.unknown`, :func:`unknown_image`); the labels are the **true** grid's: its
+    shortest path drawn as the oracle's arrays and its goal distances. ``None`` when the plan would refuse it."""
+    grids = belief_grids(truth, believed, unknown_px, start, goal, n)
+    if grids is None:
+        return None
+    true_blocked, seen, unknown, s, g = grids
+    img, s_px, g_px = grid_input(seen, s, g, max(seen.shape))
+    region, guide = oracle_prediction(true_blocked, s, g, PX_PER_CELL)
+    side = img.shape[0]
+    r = np.zeros((side, side), bool)
+    gl = np.zeros((side, side), bool)
+    r[:region.shape[0], :region.shape[1]] = region > 0.5
+    gl[:guide.shape[0], :guide.shape[1]] = guide > 0.5
+    return Rendered(img, s_px, g_px, gl, r, goal_distance_pixels(true_blocked, g, side),
+                    unknown_image(unknown, seen, side))
 
 
 def manhattan_pixels(goal_px: Point, side: int) -> np.ndarray:

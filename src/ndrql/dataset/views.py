@@ -23,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels, merged_grid
+from ndrql.dataset.render import (DISTANCE_UNIT, PX_PER_CELL, grid_input, manhattan_pixels, merge_cells, merged_grid,
+                                  unknown_image)
 from ndrql.errors import NdrqlError
 from ndrql.maps.grid import area_downscale
 
@@ -106,17 +107,28 @@ class ViewInput:
     """Planning cells per seen cell, along each side."""
     shape: tuple[int, int]
     """The planning grid's shape."""
+    unknown: np.ndarray | None = None
+    """bool (side, side): the unknown channel's pixels (:func:`~ndrql.dataset.render.unknown_image`), when the
+    planning grid's unknown cells were given."""
 
 
-def view_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, view: GridView = GridView()) -> ViewInput:
-    """The model's input for the planning grid ``blocked`` under ``view`` (``native``: :func:`grid_input` exactly)."""
+def view_input(blocked: np.ndarray, start_cell: Point, goal_cell: Point, view: GridView = GridView(),
+               unknown: np.ndarray | None = None) -> ViewInput:
+    """The model's input for the planning grid ``blocked`` under ``view`` (``native``: :func:`grid_input` exactly);
+    ``unknown``: the planning cells unknown to the planner (a merged cell is unknown when any of its cells is)."""
     n = max(np.shape(blocked))
     f = view.factor(n)
     seen = merged_grid(blocked, f, tuple(start_cell), tuple(goal_cell), view.kind == "walls")
     px = view.px_per_cell(max(seen.shape))
     s, g = (start_cell[0] // f, start_cell[1] // f), (goal_cell[0] // f, goal_cell[1] // f)
     img, s_px, g_px = grid_input(seen, s, g, max(seen.shape), px)
-    return ViewInput(img, s_px, g_px, px, f, tuple(np.shape(blocked)))
+    hidden = None
+    if unknown is not None:
+        if np.shape(unknown) != np.shape(blocked):
+            raise NdrqlError(f"unknown cells are {np.shape(unknown)}, the planning grid {np.shape(blocked)}")
+        cells = ~merge_cells(~np.asarray(unknown, bool), f) if f > 1 else np.asarray(unknown, bool)
+        hidden = unknown_image(cells[:seen.shape[0], :seen.shape[1]], seen, img.shape[0], px)
+    return ViewInput(img, s_px, g_px, px, f, tuple(np.shape(blocked)), hidden)
 
 
 def _to_grid(seen: np.ndarray, vi: ViewInput) -> np.ndarray:

@@ -82,6 +82,18 @@ def hidden(truth: np.ndarray, unknown: np.ndarray, kind: str = "given") -> Belie
     return Belief(np.asarray(truth, dtype=bool), np.asarray(unknown, dtype=bool), kind=kind)
 
 
+def unknown_cells(unknown_px: np.ndarray, grid: Any) -> np.ndarray:
+    """The cells of the planning grid ``grid`` (a :class:`~ndrql.maps.grid.PlanningGrid`) holding at least one
+    unknown pixel (a pixel belongs to the cell its centre falls in). What the model for belief maps sees as
+    unknown is this on the cells its input shows free (:func:`ndrql.dataset.render.unknown_image`)."""
+    h, w = grid.shape
+    sr, sc = grid.cell_size
+    rr, cc = np.nonzero(np.asarray(unknown_px, dtype=bool))
+    out = np.zeros((h, w), dtype=bool)
+    out[np.minimum(h - 1, (rr / sr).astype(np.int64)), np.minimum(w - 1, (cc / sc).astype(np.int64))] = True
+    return out
+
+
 def _mask_array(source: Any) -> tuple[np.ndarray, str]:
     if isinstance(source, np.ndarray):
         return source, "the mask array"
@@ -145,4 +157,4 @@ def check_belief(belief: Belief, start: Sequence[int], goal: Sequence[int]) -> N
                              "to plan with")
 
 
-__all__ = ["Belief", "MASK_SUFFIXES", "UNKNOWN_RULES", "check_belief", "hidden", "known", "read_mask"]
+__all__ = ["Belief", "MASK_SUFFIXES", "UNKNOWN_RULES", "check_belief", "hidden", "known", "read_mask", "unknown_cells"]

@@ -20,7 +20,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.encodings import encode_input, has_unknown
 from ndrql.dataset.render import DISTANCE_UNIT, PX_PER_CELL, cells_to_map, from_model_output, manhattan_pixels, to_model_input
 from ndrql.dataset.views import GridView, ViewInput, view_cells, view_distance_cells, view_input
 from ndrql.errors import TRAIN_INSTALL, CheckpointError, MissingDependency, NdrqlError, PointError, require_torch
@@ -262,20 +262,28 @@ class Predictor:
         (:meth:`predict_grid_all`)."""
         return self.predict_grid_all(blocked, start_cell, goal_cell)[:2]
 
+    @property
+    def sees_unknown(self) -> bool:
+        """Whether the model has an unknown channel (a model for belief maps, encoding ``point+unknown``)."""
+        return has_unknown(self.encoding)
+
     def predict_view(self, blocked: np.ndarray, start_cell: Point, goal_cell: Point,
-                     companion: bool = True) -> CellPrediction:
+                     companion: bool = True, unknown: np.ndarray | None = None) -> CellPrediction:
         """A grid-mode model's outputs per planning cell of ``blocked``: the input drawn through :attr:`view`
         (:func:`~ndrql.dataset.views.view_input`; ``native`` is the grid at 4 px per cell, padded with
         obstacles to a square of ``4 max(h, w)`` px), averaged over :attr:`symmetries` orientations, and
         brought back per planning cell (:func:`~ndrql.dataset.views.view_cells`,
         :func:`~ndrql.dataset.views.view_distance_cells`). A grid the view merges goes to the companion
-        (:meth:`serving`) unless ``companion`` is ``False``: then this model predicts it through its own view."""
+        (:meth:`serving`) unless ``companion`` is ``False``: then this model predicts it through its own view.
+        ``unknown``: the planning cells unknown to the planner (``blocked`` counts them free); a model with the
+        unknown channel sees them (:attr:`sees_unknown`), one without predicts on ``blocked`` alone."""
         served = self.serving(max(np.shape(blocked))) if companion else self
         if served is not self:  # a grid the view merges: the companion's
-            return served.predict_view(blocked, start_cell, goal_cell)
-        seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view)
-        r, gl, d = averaged(self._runner, encode_input(seen.image, seen.start, seen.goal, self.encoding)[None],
-                            self.symmetries)
+            return served.predict_view(blocked, start_cell, goal_cell, unknown=unknown)
+        hidden = unknown if self.sees_unknown else None
+        seen = view_input(np.asarray(blocked, bool), tuple(start_cell), tuple(goal_cell), self.view, hidden)
+        x = encode_input(seen.image, seen.start, seen.goal, self.encoding, seen.unknown)[None]
+        r, gl, d = averaged(self._runner, x, self.symmetries)
         return CellPrediction(view_cells(r[0], seen), None if gl is None else view_cells(gl[0], seen),
                               None if d is None else view_distance_cells(d[0], seen), seen)
 

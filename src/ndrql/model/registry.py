@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 from torch import nn
 
-from ndrql.dataset.encodings import ENCODINGS
+from ndrql.dataset.encodings import ENCODINGS, UNKNOWN_ENCODINGS, encoding_channels
 from ndrql.errors import brief
 from ndrql.model.backbone import STDC_DEPTHS
 from ndrql.model.ndr import DISTANCE_DECODERS, NDRConfig, NDRNet
@@ -86,8 +86,8 @@ def _check_field(name: str, value: Any, default: Any) -> None:
     if name in CHOICES and value not in CHOICES[name]:
         raise ValueError(f"unknown {name} {brief(value)} in the model config; valid: {', '.join(CHOICES[name])}")
     if name == "encoding":
-        if value not in ENCODINGS:
-            raise ValueError(f"unknown encoding {brief(value)}; valid: {', '.join(ENCODINGS)}")
+        if value not in ENCODINGS and value not in UNKNOWN_ENCODINGS:
+            raise ValueError(f"unknown encoding {brief(value)}; valid: {', '.join([*ENCODINGS, *UNKNOWN_ENCODINGS])}")
 
 
 def check_config(config: Any) -> dict:
@@ -108,6 +108,12 @@ def check_config(config: Any) -> dict:
         raise ValueError(f"unknown config fields for {arch}: {', '.join(brief(k) for k in unknown[:5])}")
     for name, value in config.items():
         _check_field(name, value, defaults[name])
+    encoding = config.get("encoding", defaults.get("encoding"))
+    if arch == "ndr":  # the input channels are the encoding's (an unknown channel makes four)
+        want = encoding_channels(str(encoding))
+        if config.get("in_channels", defaults["in_channels"]) != want:
+            raise ValueError(f"model config: encoding {brief(encoding)} takes in_channels {want}, got "
+                             f"{brief(config.get('in_channels', defaults['in_channels']))}")
     return dict(config)
 
 

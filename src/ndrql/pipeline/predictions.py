@@ -77,22 +77,27 @@ def _grid_to_map(cells: np.ndarray, grid: PlanningGrid) -> np.ndarray:
     return cells_to_map(cells, grid.source_shape, grid.cell_size)
 
 
-def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point
-                    ) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any], np.ndarray | None]:
+def predict_on_grid(predictor: Any, blocked: np.ndarray, start_cell: Point, goal_cell: Point,
+                    unknown: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None, dict[str, Any], np.ndarray | None]:
     """A grid-mode model's region, guideline and goal distance (cells; ``None`` for a model without a distance
     head) per cell of the planning grid ``blocked``, from one forward pass of the model that serves the grid
     (:meth:`~ndrql.model.predict.Predictor.predict_view`: the weights' large-grid companion on a grid the view
     merges), and what it saw: the input's side, where start and goal landed, the view and how many cells along
     each side it merged into one (``merged``). A model with a companion also names the weights file that served
     (``weights_file``) and, on ONNX Runtime, the graph that ran (``runs_file``). Whether the prediction can guide
-    planning is the judge's (:func:`ndrql.pipeline.judge.judge`), not this function's."""
-    out = predictor.predict_view(blocked, start_cell, goal_cell)
+    planning is the judge's (:func:`ndrql.pipeline.judge.judge`), not this function's. ``unknown``: the planning
+    cells unknown to the planner, for a model with the unknown channel (``info["unknown_cells"]`` counts them)."""
+    sees = unknown is not None and bool(getattr(predictor, "sees_unknown", False))
+    out = predictor.predict_view(blocked, start_cell, goal_cell, unknown=unknown) if sees else \
+        predictor.predict_view(blocked, start_cell, goal_cell)
     served = predictor.serving(max(np.shape(blocked))) if getattr(predictor, "merged_weights", None) is not None \
         else None
     seen = out.seen
     info = {"mode": "grid", "side": int(seen.image.shape[0]), "start": [int(v) for v in seen.start],
             "goal": [int(v) for v in seen.goal],
             "view": str(predictor.view), "merged": int(seen.factor)}
+    if sees:
+        info["unknown_cells"] = int((np.asarray(unknown, bool) & ~np.asarray(blocked, bool)).sum())
     if served is not None:
         info["weights_file"] = served.weights_file.name
         info["companion"] = served is not predictor
@@ -117,17 +122,19 @@ def oracle_view(grid: PlanningGrid) -> ModelView:
                     {"oracle": True, "px_per_cell": PX_PER_CELL})
 
 
-def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point) -> ModelView:
+def predict_region(predictor: Any, grid_map: GridMap, grid: PlanningGrid, start: Point, goal: Point,
+                   unknown: np.ndarray | None = None) -> ModelView:
     """Region and guideline for planning ``grid`` from ``start`` to ``goal`` (map pixels), at the map's resolution.
 
     ``predictor``: a loaded model (:func:`ndrql.model.predict.load_predictor`). What the model sees
     follows its input mode (``predictor.input_mode``, from its checkpoint): ``grid`` models see the
     planning grid itself at 4 px per cell (start and goal in their cells' centres), through the view they
     were trained under (``predictor.view``: ``coarse:128`` merges a grid above 128 cells), and predict on it;
-    ``map`` models (the paper's) see the map resized to 201 px.
+    ``map`` models (the paper's) see the map resized to 201 px. ``unknown``: the planning cells unknown to the
+    planner (a belief map), seen by a grid-mode model with the unknown channel only.
     """
     if getattr(predictor, "input_mode", "map") == "grid":
-        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal)
+        region, guide, info, distance = predict_on_grid(predictor, grid.blocked, grid.start, grid.goal, unknown)
         return _on_grid(region, guide, grid, info, distance)
     info = model_input_points(grid_map.obstacles, start, goal)
     pred = predictor.predict(grid_map.obstacles, start, goal)

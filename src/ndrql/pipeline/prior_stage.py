@@ -19,6 +19,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ndrql.errors import NdrqlError
+from ndrql.maps.belief import unknown_cells
 from ndrql.maps.grid import PlanningGrid
 from ndrql.model.predict import load_predictor
 from ndrql.pipeline.fallback import Fallback, fall_back, min_threshold
@@ -118,8 +119,9 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
     deadline = None if budget is None else time.perf_counter() + float(budget)
     with clock.stage("load"):
         sources = _sources(request, record)
-    problem = SourceInput(grid, request.grid_map, request.start, request.goal,
-                          partial=getattr(request, "belief", None) is not None, truth=truth)
+    belief = getattr(request, "belief", None)
+    problem = SourceInput(grid, request.grid_map, request.start, request.goal, partial=belief is not None, truth=truth,
+                          unknown=None if belief is None else unknown_cells(belief.unknown, grid))
     cfg = judged_config(ms, consts)
     with clock.stage("predict"):
         chosen, trials, first = consult(sources, problem, cfg, deadline)

@@ -24,6 +24,7 @@ import numpy as np
 
 from ndrql.planning.config import QLConfig
 from ndrql.errors import NdrqlError
+from ndrql.maps.belief import unknown_cells  # noqa: F401  (its home; re-exported here)
 from ndrql.maps.grid import PlanningGrid
 from ndrql.planning.methods import Method, Priors, build_priors
 from ndrql.planning.results import PlanResult
@@ -168,16 +169,6 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
             convergence_steps=out.steps if out.converged else None, path=res.path if res.converged else None,
             path_length=res.path_length if res.converged else None,
             length_ratio=res.length_ratio if res.converged else None)
-    return out
-
-
-def unknown_cells(unknown_px: np.ndarray, grid: PlanningGrid) -> np.ndarray:
-    """The planning cells holding at least one unknown pixel (a pixel belongs to the cell its centre falls in)."""
-    h, w = grid.shape
-    sr, sc = grid.cell_size
-    rr, cc = np.nonzero(np.asarray(unknown_px, dtype=bool))
-    out = np.zeros((h, w), dtype=bool)
-    out[np.minimum(h - 1, (rr / sr).astype(np.int64)), np.minimum(w - 1, (cc / sc).astype(np.int64))] = True
     return out
 
 

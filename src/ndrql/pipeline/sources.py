@@ -64,6 +64,9 @@ class SourceInput:
     truth: np.ndarray | None = field(default=None, repr=False)
     """The true planning grid's blocked cells where it differs from :attr:`grid` (part of the map unknown to the
     planner); ``None``: the planner knows the map."""
+    unknown: np.ndarray | None = field(default=None, repr=False)
+    """The cells of :attr:`grid` unknown to the planner (:func:`ndrql.maps.belief.unknown_cells`; :attr:`grid`
+    counts them free), for a model with the unknown channel; ``None``: none given."""
 
     @property
     def blocked(self) -> np.ndarray:
@@ -153,7 +156,7 @@ class ModelSource:
         p = self.predictor
         if problem.partial and not sees_unknown(p):
             raise SourceDeclined(NO_UNKNOWN_CHANNEL)
-        view = predict_region(p, problem.grid_map, problem.grid, problem.start_px, problem.goal_px)
+        view = predict_region(p, problem.grid_map, problem.grid, problem.start_px, problem.goal_px, problem.unknown)
         weights = str(p.weights_file) if getattr(p, "weights_file", None) is not None else None
         if view.info.get("companion"):
             weights = str(p.merged_weights)

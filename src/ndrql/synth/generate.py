@@ -13,6 +13,7 @@ import numpy as np
 
 from ndrql.errors import NdrqlError
 from ndrql.maps.problem import MapProblem
+from ndrql.synth.belief_sets import parse_masks
 from ndrql.synth.endpoints import sample_endpoints
 from ndrql.synth.families import family_names, generate_map
 from ndrql.synth.labels import near_optimal_path
@@ -43,6 +44,11 @@ class SetSpec:
     """Number of samples."""
     seed: int
     """Seed of the whole set; sample ``i`` draws from ``np.random.default_rng([seed, i])``."""
+    masks: str = ""
+    """Beliefs drawn beside each map (:mod:`ndrql.synth.belief_sets`, e.g. ``blobs:0.1-0.5,sensed,outdated,none:0.2``);
+    empty: none (the set holds true maps only)."""
+    mask_seed: int = 0
+    """Seed of the beliefs (with ``masks``); sample ``i``'s belief draws from ``default_rng([mask_seed, i, 54])``."""
 
     def __post_init__(self) -> None:
         known = family_names()
@@ -55,13 +61,21 @@ class SetSpec:
             raise NdrqlError(f"count must be 1..10000000, got {self.count}")
         if not 0 <= self.seed < 2**63:
             raise NdrqlError(f"seed must be 0..2^63-1, got {self.seed}")
+        if not 0 <= self.mask_seed < 2**63:
+            raise NdrqlError(f"mask seed must be 0..2^63-1, got {self.mask_seed}")
+        if self.masks:
+            object.__setattr__(self, "masks", str(parse_masks(self.masks)))  # one spelling per spec
 
     def to_dict(self) -> dict:
-        return {"families": list(self.families), "sizes": list(self.sizes), "count": self.count, "seed": self.seed}
+        """Plain form for the manifest (``masks`` and ``mask_seed`` only when the set draws beliefs, so a set
+        without them keeps the manifest it always had)."""
+        out = {"families": list(self.families), "sizes": list(self.sizes), "count": self.count, "seed": self.seed}
+        return {**out, "masks": self.masks, "mask_seed": self.mask_seed} if self.masks else out
 
     @classmethod
     def from_dict(cls, d: dict) -> "SetSpec":
-        return cls(tuple(d["families"]), tuple(int(s) for s in d["sizes"]), int(d["count"]), int(d["seed"]))
+        return cls(tuple(d["families"]), tuple(int(s) for s in d["sizes"]), int(d["count"]), int(d["seed"]),
+                   str(d.get("masks", "")), int(d.get("mask_seed", 0)))
 
 
 def generate_sample(spec: SetSpec, index: int) -> RawSample:

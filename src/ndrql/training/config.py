@@ -145,7 +145,11 @@ class TrainConfig:
 
         overrides = dict(self.model_overrides)
         if self.encoding:
+            from ndrql.dataset.encodings import encoding_channels  # lazy: the dataset layer
+
             overrides["encoding"] = self.encoding
+            if encoding_channels(self.encoding) != 3:
+                overrides["in_channels"] = encoding_channels(self.encoding)
         if self.input_mode != "map":
             overrides["input_mode"] = self.input_mode
         if self.distance_head:

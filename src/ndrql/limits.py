@@ -197,7 +197,7 @@ BOUNDS: dict[str, Bound] = {
     "--window": Bound(1, 10_000, "episodes the greedy path must repeat; each keeps a path"),
     "--reward-collision": _REWARD, "--reward-goal": _REWARD, "--reward-revisit": _REWARD,
     "--r0": Bound(-100, 100, "the base reward of a move", integer=False),
-    "--r-max": Bound(0, 100, "the largest continuous reward", integer=False),
+    "--r-max": Bound(0, 1000, "the largest continuous reward (the search goes to 200)", integer=False),
     "--g-row": Bound(0.01, 10_000, "a decay length in cells", integer=False),
     "--g-col": Bound(0.01, 10_000, "a decay length in cells", integer=False),
     "--omega-crf": _UNIT, "--omega-qi": _UNIT, "--thd-start": _UNIT,

@@ -122,3 +122,16 @@ def test_a_zero_stride_checkpoint_tensor_is_refused_before_it_is_copied(tmp_path
     assert path.stat().st_size < 10_000
     with pytest.raises(CheckpointError, match="does not fit"):
         load_checkpoint(path)
+
+
+def test_the_tuning_search_space_lies_inside_the_declared_bounds():
+    from ndrql.planning.methods import METHODS
+    from ndrql.tuning.space import search_space
+
+    for method in METHODS:
+        for p in search_space(method):
+            names = ("g_row", "g_col") if p.name == "G" else (p.name,)
+            for name in names:
+                cls = "QLConfig" if name in {f.name for f in dataclasses.fields(QLConfig)} else "PriorConfig"
+                bound = BOUNDS[field_key(cls, name)]
+                assert bound.lo <= p.low and p.high <= bound.hi, (method, name, p.low, p.high, bound)

@@ -82,4 +82,4 @@ def refusal(path: str | os.PathLike, st: os.stat_result | None) -> str | None:
     if found is None:
         return None
     what = found.get(real) or (found.get((st.st_dev, st.st_ino)) if st is not None else None)
-    return f"it is {what}, which this run reads; writing it would destroy it" if what else None
+    return f"it is one of the inputs ({what}), which this run reads; writing it would destroy it" if what else None

@@ -161,7 +161,7 @@ def average_weights(sources: list[str | Path], dst: str | Path, shares: list[flo
         raise CheckpointError("average: no weights files given")
     shares = [1.0 / len(sources)] * len(sources) if shares is None else [float(s) for s in shares]
     if len(shares) != len(sources) or any(not 0 < s <= 1e6 for s in shares):  # NaN and inf fail too
-        raise CheckpointError(f"average: need one positive, finite share (at most 1e6) per weights file, got "
+        raise CheckpointError(f"average: need one positive share per weights file (finite, at most 1e6), got "
                               f"{', '.join(f'{s:g}' for s in shares[:8])}")
     total = sum(shares)
     datas = [load_checkpoint(s) for s in sources]

@@ -186,7 +186,11 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         results, counts = [], Counter()
         for i, case in enumerate(cases, 1):
-            r = run_case(case, fixtures, package)
+            try:
+                r = run_case(case, fixtures, package)
+            except Exception as exc:  # noqa: BLE001 - the harness's own failure (a setup that needs torch): reported
+                print(f"[{i}/{len(cases)}] {case['family']}: harness error {type(exc).__name__}: {exc}", flush=True)
+                continue
             results.append(r)
             counts.update(set(r["defects"]))
             if r["defects"]:

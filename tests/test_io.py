@@ -372,3 +372,14 @@ def test_process_substitution_path_is_written_through(tmp_path):
             if fd >= 0:
                 os.close(fd)
     assert _listing(tmp_path) == []
+
+
+def test_a_closed_pipe_is_a_broken_pipe_not_an_output_error():
+    """``--json /dev/stdout | head``: the CLI stops quietly (141) on BrokenPipeError, so the writer keeps it."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        with pytest.raises(BrokenPipeError):
+            nio.write_text(f"/proc/self/fd/{write_end}", "x" * 100_000)
+    finally:
+        os.close(write_end)

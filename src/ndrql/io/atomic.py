@@ -186,6 +186,8 @@ def _write_direct(given: Path, target: Path, write_fn: Callable[[IO], Any], mode
     try:
         with open(target, mode, **_open_kwargs(mode)) as fh:
             write_fn(fh)
+    except BrokenPipeError:
+        raise  # `--json /dev/stdout | head`: the reader left, the CLI stops quietly (exit 141)
     except OSError as exc:
         raise _error(given, exc) from None
 

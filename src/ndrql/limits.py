@@ -229,7 +229,7 @@ BOUNDS: dict[str, Bound] = {
     "PlanSettings.max_map_pixels": Bound(1, 2**25, "a map's arrays take about 40 bytes a pixel: 2**25 pixels is 1.3 GB"),
     "PlanSettings.tolerance": Bound(0, 10, "a route that much longer is no route", integer=False),
     "PlanSettings.predict_budget": Bound(0.001, 3600, "seconds the model may take", integer=False),
-    "--predict-budget": Bound(0.001, 3600, "seconds the model may take to load and predict (or none)", integer=False),
+    "--predict-budget": Bound(0.001, 3600, "seconds the prediction may take once the model is loaded (or none)", integer=False),
 }
 
 #: Environment variables ndrql reads: name -> what it takes (a :class:`Bound` for numbers).

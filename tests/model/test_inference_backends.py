@@ -125,12 +125,12 @@ def test_cli_backend_flags(cache, model_weights, ndrql_exe, tmp_path):
     env = {**os.environ, "NDRQL_CACHE": str(cache)}
     m = tmp_path / "m.npy"
     np.save(m, corridor_map())
-    out = run_cli(ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "torch",
+    out = run_cli(ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "torch", "--predict-budget", "none",
                   "--json", str(tmp_path / "t.json"), env=env)
     assert out.returncode == 0, out.stderr
     assert "(torch" in out.stdout and json.loads((tmp_path / "t.json").read_text())["backend"] == "torch"
-    out = run_cli(ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190",
-                  "--json", str(tmp_path / "o.json"), env=env)
+    out = run_cli(ndrql_exe, "plan", str(m), "--start", "10,10", "--goal", "190,190", "--prior-from", "model",
+                  "--predict-budget", "none", "--json", str(tmp_path / "o.json"), env=env)
     assert out.returncode == 0, out.stderr
     assert json.loads((tmp_path / "o.json").read_text())["backend"] == "onnx"
     out = run_cli(ndrql_exe, "predict", str(m), "--start", "10,10", "--goal", "190,190", "--backend", "gpu", env=env)

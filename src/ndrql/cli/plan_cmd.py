@@ -104,7 +104,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "tuned for --weights paper)")
     method.add_argument("--prior-from", metavar="SOURCE|FILE.npz", help=PRIOR_FROM_HELP)
     method.add_argument("--predict-budget", type=budget_seconds, default=None, metavar="SECONDS|none",
-                        help="seconds the model may take to load and predict; past them the plan falls back and says so "
+                        help="seconds the prediction may take once the model is loaded; past them the plan falls back and says so "
                         f"(default: {DEFAULT_PREDICT_BUDGET:g}; none: no limit)")
     method.add_argument("--fallback", metavar="NAME|none", default=None,
                         help="plan with this method instead of the NDR one when the model's prediction is "

@@ -2,7 +2,7 @@
 
 :func:`predict_for` builds the sources a request asks for (:mod:`ndrql.pipeline.sources`: the network by default,
 ``"oracle"``/``"exact"`` or given arrays with ``plan --prior-from``), asks them in order under the request's time
-budget (``PlanSettings.predict_budget``, load and prediction together) and keeps the first the judge accepts
+budget (``PlanSettings.predict_budget``, the prediction's, counted once the model is loaded) and keeps the first the judge accepts
 (:func:`ndrql.pipeline.judge.consult`: one Eq. 7 search per prediction, whose threshold the priors then use). When
 none is accepted, each NDR method is replaced by the request's fallback (IQL-BFS on a user's map, the exact
 distance), said in the run (``requested_method``, ``fallback_reason``) and with a
@@ -116,9 +116,9 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
     settings = request.settings
     record: dict[str, Any] = {}
     budget = settings.predict_budget
-    deadline = None if budget is None else time.perf_counter() + float(budget)
     with clock.stage("load"):
         sources = _sources(request, record)
+    deadline = None if budget is None else time.perf_counter() + float(budget)  # the prediction's, after loading
     belief = getattr(request, "belief", None)
     problem = SourceInput(grid, request.grid_map, request.start, request.goal, partial=belief is not None, truth=truth,
                           unknown=None if belief is None else unknown_cells(belief.unknown, grid))

@@ -13,10 +13,10 @@ from ndrql.model.predict import BACKENDS
 from ndrql.model.symmetry import DEFAULT_COUNT as DEFAULT_SYMMETRIES, check_count as check_symmetries
 from ndrql.planning.methods import get_method
 
-#: Seconds :attr:`PlanSettings.predict_budget` gives the model's load and prediction by default: a cold load
-#: and the forward pass at 600 cells take about 0.6 s here (docs/performance.md), so this leaves room on a slower
-#: machine while keeping load + prediction + priors within 2 s.
-DEFAULT_PREDICT_BUDGET = 1.5
+#: Seconds :attr:`PlanSettings.predict_budget` gives the prediction by default, counted once the model is loaded
+#: (a first load that exports a checkpoint or imports torch is a one-off cost, not the map's): the forward pass at
+#: 256-600 cells takes 0.3-0.6 s here on an idle core, about 2 s with both cores busy (docs/results.md).
+DEFAULT_PREDICT_BUDGET = 2.0
 #: Largest :attr:`PlanSettings.predict_budget` (an hour): beyond it "no limit" (None) says what is meant.
 MAX_PREDICT_BUDGET = 3600.0
 
@@ -67,7 +67,7 @@ class PlanSettings:
     symmetries: int = DEFAULT_SYMMETRIES
     """Grid-mode models: average the prediction over this many orientations of the grid (1, 2, 4 or 8; one forward pass each, in one batch)."""
     predict_budget: float | None = DEFAULT_PREDICT_BUDGET
-    """Seconds the model may take to load and predict; past them the plan falls back and says so (None: no limit)."""
+    """Seconds the prediction may take once the model is loaded; past them the plan falls back and says so (None: no limit)."""
 
     def __post_init__(self) -> None:
         check_fields(self, tuple(n for n in NUMERIC_SETTINGS if n != "size"), strict=True)  # ndrql.limits.BOUNDS

@@ -24,7 +24,6 @@ import math
 from typing import Sequence
 
 import numpy as np
-from scipy import ndimage
 
 from ndrql.maps.astar import shortest_path8
 from ndrql.maps.belief import Belief
@@ -150,6 +149,8 @@ def sensing_routes(obstacles: np.ndarray, start: Point, rng: np.random.Generator
     """``count`` routes a robot drove from ``start``: 8-connected shortest paths (in pixels) to free pixels
     drawn at random among those it can reach, at least ``min_share`` of the map's longer side away when any is."""
     truth = np.asarray(obstacles, dtype=bool)
+    from scipy import ndimage  # lazy: scipy loads when a mask is drawn, not when plan imports the sensing
+
     labels, _ = ndimage.label(~truth)
     reach = labels == labels[start]
     rr, cc = np.nonzero(reach)

@@ -38,8 +38,9 @@ def test_cli_average_and_bad_input(ndrql_exe, tmp_path):
     a, b = shipped_weights("general"), shipped_weights("paper")
     ok = run_cli(ndrql_exe, "average-weights", str(a), str(a), "--out", str(tmp_path / "same.pt"))
     assert ok.returncode == 0, ok.stderr
-    same = load_checkpoint(tmp_path / "same.pt")["model"]
-    assert all(torch.equal(v, load_checkpoint(a)["model"][k]) for k, v in same.items())  # the mean of one model is itself
+    same, original = load_checkpoint(tmp_path / "same.pt")["model"], load_checkpoint(a)["model"]
+    assert same.keys() == original.keys()
+    assert all(torch.equal(v, original[k]) for k, v in same.items())  # the mean of one model is itself
     # paper and general differ in input mode: another architecture config
     assert_one_line_error(run_cli(ndrql_exe, "average-weights", str(a), str(b), "--out", str(tmp_path / "x.pt")),
                           "has another architecture")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -77,8 +79,22 @@ def test_epoch_order_is_seeded():
     assert np.array_equal(a, b) and np.array_equal(ka, kb) and not np.array_equal(a, c)
 
 
+#: ``NDRQL_CACHE`` as this module was collected: ``tiny_dataset`` points it at a folder of its own for the whole module.
+SESSION_CACHE = os.environ.get("NDRQL_CACHE")
+
+
+@pytest.fixture()
+def session_cache(monkeypatch):
+    """ndrql's cache as the session has it, where the real dataset is decoded once for every test (in
+    ``tiny_dataset``'s folder the 12,000 training samples would be decoded again, 20-50 s, and thrown away)."""
+    if SESSION_CACHE is None:
+        monkeypatch.delenv("NDRQL_CACHE", raising=False)
+    else:
+        monkeypatch.setenv("NDRQL_CACHE", SESSION_CACHE)
+
+
 @pytest.mark.slow
-def test_real_split_holds_out_whole_maps_and_no_seen_map(dataset_root):
+def test_real_split_holds_out_whole_maps_and_no_seen_map(dataset_root, session_cache):
     train = cache_mod.load_split(dataset_root, "train", progress=False)
     seen = cache_mod.load_split(dataset_root, "seen", progress=False)
     tr, va = train_val_split(train, seen, 0.05, seed=0)

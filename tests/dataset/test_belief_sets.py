@@ -146,3 +146,19 @@ def test_encode_input_of_a_view_with_unknown_cells_matches_the_render():
     vi = view_input(seen, s, g, unknown=unknown)
     np.testing.assert_array_equal(encode_input(vi.image, vi.start, vi.goal, "point+unknown", vi.unknown),
                                   encode_input(r.obstacles, r.start, r.goal, "point+unknown", r.unknown))
+
+
+def test_data_cli_generates_beliefs_and_refuses_bad_ones(tmp_path, ndrql_exe):
+    from helpers.cli import assert_one_line_error, run_cli
+
+    base = ("data", "generate", "--family", "office", "--count", "2", "--size", "64", "--seed", "5", "--no-progress")
+    res = run_cli(ndrql_exe, *base, "--masks", "blobs:0.2-0.3", "--mask-seed", "9", "--out", tmp_path / "ok")
+    assert res.returncode == 0, res.stderr
+    assert "beliefs blobs:0.2-0.3,none:0.2 (mask seed 9)" in res.stdout
+    assert GeneratedSet.load(tmp_path / "ok").belief(0) is not None
+    for extra, needle in ((("--masks", "fog"), "lists kinds"), (("--masks", "blobs:0.2-x"), "must be a number"),
+                          (("--mask-seed", "3"), "give --masks too"),
+                          (("--masks", "blobs", "--mask-seed", "900001"), "--mask-seed 900001 is not a training seed")):
+        res = run_cli(ndrql_exe, *base, *extra, "--out", tmp_path / "bad")
+        assert_one_line_error(res, needle)
+        assert not (tmp_path / "bad").exists()

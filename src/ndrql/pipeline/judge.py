@@ -168,13 +168,15 @@ def _timed_call(fn: Any, seconds: float | None) -> tuple[Any, BaseException | No
 
 
 def consult(sources: Any, problem: Any, cfg: PriorConfig, deadline: float | None = None,
-            clock: Any = time.perf_counter) -> tuple[Any, tuple[Trial, ...], Any]:
+            clock: Any = time.perf_counter, max_route_ratio: float | None = None) -> tuple[Any, tuple[Trial, ...], Any]:
     """Ask ``sources`` (each a :class:`~ndrql.pipeline.sources.PriorSource`) in order on ``problem`` (a
     :class:`~ndrql.pipeline.sources.SourceInput`) and judge each (:func:`judge` with ``cfg``) until one is accepted.
 
     ``deadline``: a ``clock()`` time after which no bounded source (``src.bounded``: the networks) is asked and a
     running one is abandoned (said in its trial: "over the time budget"); the others run inline. Returns ``(accepted priors or None, the trials, the first priors given)``; the
-    last lets a plan without fallback still use a rejected prediction. An :class:`~ndrql.errors.NdrqlError` raised
+    last lets a plan without fallback still use a rejected prediction. ``max_route_ratio``: the route test's cut
+    (default :data:`MAX_ROUTE_RATIO`; on a belief map none, ``inf``: the belief's shortest route is an optimist's,
+    and a prediction that knows a hidden wall's detour must not be rejected for it). An :class:`~ndrql.errors.NdrqlError` raised
     by a source propagates; any other failure is a rejected trial with its message.
     """
     trials: list[Trial] = []
@@ -203,7 +205,8 @@ def consult(sources: Any, problem: Any, cfg: PriorConfig, deadline: float | None
             continue
         if shortest is None:
             shortest = int(bfs_distances(g.blocked, g.goal)[tuple(g.start)])
-        verdict = judge(value.region, value.guideline, g.blocked, g.start, g.goal, cfg, shortest)
+        verdict = judge(value.region, value.guideline, g.blocked, g.start, g.goal, cfg, shortest,
+                        MAX_ROUTE_RATIO if max_route_ratio is None else max_route_ratio)
         first = first if first is not None else (value, verdict)
         trials.append(Trial(src.name, clock() - t0, verdict, verdict.reason))
         if verdict.accepted:

@@ -124,7 +124,8 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
                           unknown=None if belief is None else unknown_cells(belief.unknown, grid))
     cfg = judged_config(ms, consts)
     with clock.stage("predict"):
-        chosen, trials, first = consult(sources, problem, cfg, deadline)
+        chosen, trials, first = consult(sources, problem, cfg, deadline,
+                                        max_route_ratio=float("inf") if problem.partial else None)
     record["sources"] = [t.to_dict() for t in trials]
     used = chosen if chosen is not None else first
     priors, verdict = used if used is not None else (None, None)

@@ -271,3 +271,29 @@ def test_an_unbounded_source_runs_inline_whatever_the_budget():
                                     deadline=time.perf_counter() - 1.0)
     assert inline.calls == 1 and net.calls == 0 and chosen is None and first[0].source == "exact"
     assert trials[0].reason.startswith("no region threshold") and trials[1].reason == "not asked: the time budget was spent"
+
+
+def test_on_a_belief_map_the_route_test_is_off():
+    """consult with the belief's cut (inf, prior_stage on a belief map) accepts the detour a hidden wall forces;
+    with the default cut the same prediction is rejected."""
+    from types import SimpleNamespace
+
+    from ndrql.pipeline.judge import consult
+    from ndrql.pipeline.sources import GridPriors
+
+    b = np.zeros((30, 30), dtype=bool)
+    s, g = (15, 2), (15, 27)
+    detour = corridor([s, (2, 2), (2, 27), g])
+
+    class Fixed:
+        name, bounded = "fixed", False
+
+        def give(self, problem):
+            return GridPriors("fixed", detour, None, None)
+
+    grid = SimpleNamespace(blocked=b, start=s, goal=g)
+    problem = SimpleNamespace(grid=grid)
+    chosen, trials, _ = consult([Fixed()], problem, PriorConfig())
+    assert chosen is None and "route" in trials[0].reason
+    chosen, trials, _ = consult([Fixed()], problem, PriorConfig(), max_route_ratio=float("inf"))
+    assert chosen is not None and trials[0].accepted and trials[0].verdict.route_ratio == pytest.approx(51 / 25)

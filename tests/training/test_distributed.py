@@ -271,14 +271,17 @@ def test_ddp_two_processes_match_single_process_and_resume_in_one(synthetic, tmp
     assert len(rows) == 3 and rows[0].startswith("epoch,global_step")
 
 
-# --- the real console script ----------------------------------------------------------------------
+# --- the command line (refusals run through main(); torchrun launches the real console script) ---------------
+
+def _rankless_env() -> dict[str, str]:
+    """This environment without a launcher's rank variables (a refused flag trains nothing: the command runs in
+    the test process unless a launcher set them, see ``helpers.cli``)."""
+    return {k: v for k, v in os.environ.items() if k not in ("RANK", "WORLD_SIZE", "LOCAL_RANK")}
+
 
 def _train_env() -> dict[str, str]:
     """This environment without a launcher's rank variables, with one OpenMP thread."""
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    for var in ("RANK", "WORLD_SIZE", "LOCAL_RANK"):
-        env.pop(var, None)
-    return env
+    return {**_rankless_env(), "OMP_NUM_THREADS": "1"}
 
 
 @pytest.mark.parametrize(("flags", "message"), [
@@ -288,7 +291,7 @@ def _train_env() -> dict[str, str]:
 ])
 def test_cli_rejects_bad_device_flags_in_one_line(ndrql_exe, synthetic, tmp_path, flags, message):
     r = run_cli(ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), *flags,
-                env=_train_env())
+                env=_rankless_env())
     assert_one_line_error(r, message)
     assert not (tmp_path / "run").exists()
 
@@ -303,7 +306,7 @@ def test_sync_bn_needs_cuda(synthetic, tmp_path):
 @pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message on a machine without CUDA")
 def test_cli_device_cuda_without_gpu_says_so(ndrql_exe, synthetic, tmp_path):
     r = run_cli(ndrql_exe, "train", "--data", str(synthetic), "--run-dir", str(tmp_path / "run"), "--device", "cuda",
-                env=_train_env())
+                env=_rankless_env())
     assert_one_line_error(r, "no CUDA device is visible")
 
 

@@ -5,8 +5,8 @@ beyond it costs); :data:`ENV_VARS` lists the environment variables. The CLI chec
 it before the command runs (:func:`ndrql.cli.options.check_flags`), the config classes their fields
 (:func:`check_fields`), and a test fails for a numeric flag, field or variable the table lacks.
 
-Each check raises :class:`~ndrql.errors.BoundError` (an ``NdrqlError`` and a ``ValueError``) with one line naming the flag and the allowed range; the CLI prints
-it as ``ndrql: error: ...`` with exit code 2. The bounds keep memory and time in proportion to what
+Each check raises :class:`~ndrql.errors.BoundError` (an ``NdrqlError`` and a ``ValueError``) with one line
+naming the flag and the allowed range; the CLI prints it as ``ndrql: error: ...`` with exit code 2. The bounds keep memory and time in proportion to what
 was asked for: no billion-element seed list, no 20,000 x 20,000 planning grid, no 10^5 processes.
 
 Layering: standard library and :mod:`ndrql.errors` only; any layer may use it.
@@ -152,10 +152,12 @@ class Bound:
     integer: bool = True
     off: float | None = None
     """A value outside ``lo..hi`` that means "off" or "default" (``0`` threads: all cores)."""
+    note: str = ""
+    """Said in the message after the range (where the range depends on the machine)."""
 
     def rule(self) -> str:
         span = f"an integer in {self.lo:.0f}..{self.hi:,.0f}" if self.integer else f"a finite number in [{self.lo:g}, {self.hi:g}]"
-        return span + ("" if self.off is None else f" (or {self.off:g})")
+        return span + ("" if self.off is None else f" (or {self.off:g})") + (f" ({self.note})" if self.note else "")
 
 
 def _workers_cap() -> int:
@@ -167,17 +169,18 @@ _CELLS = Bound(MIN_GRID_SIZE, MAX_GRID_SIZE, "cells on a side: memory and Q-lear
 _UNIT = Bound(0, 1, "a weight or a probability", integer=False)
 _REWARD = Bound(-1000, 1000, "rewards beyond this only rescale the Q-table", integer=False)
 _SWITCH = Bound(0, 1, "a switch: 0 off, 1 on")
-_CORES = Bound(1, MAX_THREADS, "more threads than cores only slow a run down")
+_CORES_NOTE = "the CPU cores this process may use"
+_CORES = Bound(1, MAX_THREADS, "more threads than cores only slow a run down", note=_CORES_NOTE)
 
 #: Every numeric command-line flag (key ``--flag``, or ``COMMAND --flag`` where a command differs) and config field
 #: (key ``Class.field``). :func:`check_flags` checks the flags where the arguments are parsed, the config classes
 #: check their fields in ``__post_init__`` (the API's requests), :data:`ENV_VARS` lists the environment.
 BOUNDS: dict[str, Bound] = {
-    "--seed": _SEED, "--order-seed": _SEED,
+    "--seed": _SEED, "--order-seed": _SEED, "--mask-seed": _SEED,
     "--seeds": Bound(1, MAX_RUNS, "runs per method; each is a Q-learning run"),
     "--workers": Bound(1, _workers_cap(), "processes beyond the cores only cost memory (each loads the planners)"),
-    "--threads": _CORES, "train --threads": Bound(1, MAX_THREADS, "more threads than cores only slow a run down", off=0),
-    "eval --threads": Bound(1, MAX_THREADS, "more threads than cores only slow a run down", off=0),
+    "--threads": _CORES, "train --threads": Bound(1, MAX_THREADS, "more threads than cores only slow a run down", off=0, note=_CORES_NOTE),
+    "eval --threads": Bound(1, MAX_THREADS, "more threads than cores only slow a run down", off=0, note=_CORES_NOTE),
     "--dpi": Bound(30, 600, "figure pixels grow with the square of the resolution"),
     "--threshold": Bound(0, 256, "a gray value of an 8-bit image", integer=False),
     "--max-pixels": Bound(1, 2**25, "a map's arrays take about 40 bytes a pixel: 2**25 pixels is 1.3 GB"),
@@ -194,7 +197,7 @@ BOUNDS: dict[str, Bound] = {
     "train --max-steps": Bound(1, 10**9, "optimisation steps", off=0),
     "--max-episodes": Bound(1, 10**7, "episodes of one run; time grows with them"),
     "tune --max-episodes": Bound(1, 1_000_000, "episodes of one run during a search"),
-    "--window": Bound(1, 10_000, "episodes the greedy path must repeat; each keeps a path"),
+    "--window": Bound(1, 10**9, "episodes the greedy path must repeat; it allocates nothing (--max-episodes bounds the run)"),
     "--reward-collision": _REWARD, "--reward-goal": _REWARD, "--reward-revisit": _REWARD,
     "--r0": Bound(-100, 100, "the base reward of a move", integer=False),
     "--r-max": Bound(0, 1000, "the largest continuous reward (the search goes to 200)", integer=False),

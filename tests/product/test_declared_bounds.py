@@ -80,7 +80,7 @@ def test_every_environment_variable_is_declared():
 @pytest.mark.parametrize("argv", [
     ["plan", "--example", "--thd-step", "1e-300"],
     ["plan", "--example", "--path-spacing", "1e-6"],
-    ["plan", "--example", "--records", "--window", "1000000000"],
+    ["plan", "--example", "--records", "--window", "10000000000"],
     ["plan", "--example", "--max-steps", "99999999999"],
     ["plan", "--example", "--g-row", "1e-30"],
     ["plan", "--example", "--alpha", "nan"],
@@ -105,7 +105,7 @@ def test_a_value_beyond_its_range_is_one_line_before_any_work(argv, capsys, tmp_
 
 
 def test_the_api_raises_the_same_bounds_as_ndrql_errors():
-    for build in (lambda: PriorConfig(thd_step=1e-300), lambda: QLConfig(window=10**9), lambda: PriorConfig(g_row=1e9),
+    for build in (lambda: PriorConfig(thd_step=1e-300), lambda: QLConfig(window=10**10), lambda: PriorConfig(g_row=1e9),
                   lambda: PlanSettings(robot_radius=1e9)):
         with pytest.raises(NdrqlError, match="must be"):
             build()

@@ -62,7 +62,7 @@ def test_a_huge_episode_cap_runs_in_little_memory(ndrql_exe, work):
             "1000000000", "--size", "8", cap=True)  # never converges: all 10^7 episodes' records, still under the cap
     assert r.returncode == 0 and "NOT converged in 10,000,000 episodes" in r.stdout, r.stderr[-2000:]
     assert_one_line_error(run(ndrql_exe, work, "plan", "block.png", *POINTS, "--method", "QL", "--max-episodes",
-                              "100000000"), "max_episodes must be an integer in 1..10,000,000")
+                              "100000000"), "--max-episodes must be an integer in 1..10,000,000")
 
 
 def test_a_big_ros_yaml_is_refused_before_parsing(ndrql_exe, work):

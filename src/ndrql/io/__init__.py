@@ -29,8 +29,8 @@ only (numpy and matplotlib objects are only handled when passed in), so any laye
 """
 
 from ndrql.errors import OutputError
-from ndrql.io.atomic import (atomic_path, atomic_write, check_writable, folder_lock, make_folder, open_log, write_bytes,
-                             write_text)
+from ndrql.io.atomic import atomic_path, atomic_write, check_writable, make_folder, open_log, write_bytes, write_text
+from ndrql.io.locks import folder_lock
 from ndrql.io.readset import note_input, run_inputs
 from ndrql.io.formats import cache_dir, data_digest, file_digest, json_text, save_figure, save_npz, to_jsonable, write_json
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import os
 import stat
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -102,6 +103,8 @@ def _check_one(out: Output) -> None:
     if out.path == "-":
         if not out.stdout:
             raise OutputError(f"{out.flag} cannot write to standard output ('-'); give a file name")
+        if sys.stdout is None:  # closed (`>&-`): said now, not after the work
+            raise OutputError(f"standard output is closed; give {out.flag} a file name")
         return
     if not out.path:
         raise OutputError(f"{out.flag} needs a file name, got an empty one")

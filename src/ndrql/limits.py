@@ -292,3 +292,16 @@ def env_number(name: str, default: int) -> int:
     except ValueError:
         value = text
     return int(check_bound(value, bound, f"the environment variable {name}"))
+
+
+#: Most episodes ``--records`` keeps in one command, over all runs: each is about 500 bytes by the time it is JSON
+#: (2 million episodes took 1 GB), so this keeps a run with records near 500 MB.
+MAX_RECORDED_EPISODES = 1_000_000
+
+
+def check_records(runs: int, episodes: int) -> None:
+    """``--records`` keeps every episode of every run: ``BoundError`` when ``runs x episodes`` could exceed
+    :data:`MAX_RECORDED_EPISODES`."""
+    if runs * episodes > MAX_RECORDED_EPISODES:
+        raise BoundError(f"--records keeps every episode: {runs:,} run(s) x {episodes:,} episodes is more than "
+                         f"{MAX_RECORDED_EPISODES:,} (about 500 MB); lower --max-episodes or --seeds, or drop --records")

@@ -135,3 +135,13 @@ def test_the_tuning_search_space_lies_inside_the_declared_bounds():
                 cls = "QLConfig" if name in {f.name for f in dataclasses.fields(QLConfig)} else "PriorConfig"
                 bound = BOUNDS[field_key(cls, name)]
                 assert bound.lo <= p.low and p.high <= bound.hi, (method, name, p.low, p.high, bound)
+
+
+def test_records_are_bounded_by_what_they_keep(capsys, tmp_path, monkeypatch):
+    """--records keeps every episode of every run (2 million took 1 GB): runs x episodes at most 10^6."""
+    monkeypatch.chdir(tmp_path)
+    for extra in (["--max-episodes", "2000000"], ["--seeds", "60"]):
+        assert main(["plan", "--example", "--method", "QL", "--records", "--json", "r.json", *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("ndrql: error: --records keeps every episode") and err.count("\n") == 1, err
+    assert not (tmp_path / "r.json").exists()

@@ -18,7 +18,7 @@ from ndrql.cli.plan_report import summary_lines
 from ndrql.dataset.views import view_note
 from ndrql.errors import FallbackWarning, NdrqlError
 from ndrql.io import save_figure, write_json as io_write_json, write_text
-from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_seeds
+from ndrql.limits import MAX_WORKERS, check_finite, check_int, check_records, check_seeds
 from ndrql.maps.problem import GridMapProblem
 from ndrql.maps.world import has_world_frame, nav_path, parse_world_point
 from ndrql.model.predict import BACKENDS
@@ -26,7 +26,7 @@ from ndrql.pipeline.predictions import load_predictions
 from ndrql.pipeline.request import DEFAULT_FALLBACK, PRIOR_FIELDS, QL_FIELDS
 from ndrql.pipeline.settings import DEFAULT_PREDICT_BUDGET, GRID_RULES
 from ndrql.pipeline.sources import SOURCE_NAMES
-from ndrql.planning.config import field_docs
+from ndrql.planning.config import QLConfig, field_docs
 from ndrql.planning.methods import get_method
 from ndrql.viz.plan import compare_figure, plan_figure
 
@@ -313,6 +313,8 @@ def run(args: argparse.Namespace) -> int:
     if not names:
         raise NdrqlError("--compare needs at least one method name")
     methods = [get_method(n).name for n in names]
+    if args.records:  # every episode is kept: bounded by what it costs (ndrql.limits)
+        check_records(len(seeds) * len(methods), getattr(args, "cfg_max_episodes", None) or QLConfig().max_episodes)
     if args.all or (args.index is not None and ":" in str(args.index)):
         return _batch(args, methods)
     if args.jsonl:

@@ -138,11 +138,12 @@ def test_one_run_folder_is_held_by_one_training_at_a_time(tmp_path):
     from ndrql.io import folder_lock
 
     with folder_lock(tmp_path / "run", "run folder"):
-        with pytest.raises(OutputError, match=r"in use by another ndrql run \(process \d+\)"):
+        with pytest.raises(OutputError, match=r"in use by another ndrql run"):
             with folder_lock(tmp_path / "run", "run folder"):
                 pass
     with folder_lock(tmp_path / "run", "run folder"):  # released: the next run may go
         pass
+    assert list((tmp_path / "run").iterdir()) == []  # no lock file left in the run folder
 
 
 def test_ros_yaml_numbers_are_read_as_map_server_reads_them(tmp_path):

@@ -224,3 +224,15 @@ def test_a_missing_scenario_file_is_called_a_scenario(capsys, tmp_path, monkeypa
     monkeypatch.chdir(tmp_path)
     (tmp_path / "a.map").write_text("type octile\nheight 4\nwidth 4\nmap\n" + "....\n" * 4)
     one_line(capsys, ["plan", "a.map", "--scen", "nope.scen:1", "--method", "IQL"], "MovingAI scenario file not found")
+
+
+def test_a_second_training_on_a_run_folder_in_use_is_refused_before_any_work(tmp_path):
+    pytest.importorskip("torch")
+    from ndrql.io import folder_lock
+    from ndrql.training.config import TrainConfig
+    from ndrql.training.loop import run_training
+
+    with folder_lock(tmp_path / "run", "run folder"):  # the first training, still running
+        with pytest.raises(OutputError, match="run folder .* is in use by another ndrql run"):
+            run_training(TrainConfig(), tmp_path / "run", progress=False, log=lambda *_: None)
+    assert list((tmp_path / "run").iterdir()) == []

@@ -156,7 +156,8 @@ class Bound:
     """Said in the message after the range (where the range depends on the machine)."""
 
     def rule(self) -> str:
-        span = f"an integer in {self.lo:.0f}..{self.hi:,.0f}" if self.integer else f"a finite number in [{self.lo:g}, {self.hi:g}]"
+        hi = "2**63 - 1" if self.hi == SEED_LIMIT - 1 else f"{int(self.hi):,}"
+        span = f"an integer in {int(self.lo)}..{hi}" if self.integer else f"a finite number in [{self.lo:g}, {self.hi:g}]"
         return span + ("" if self.off is None else f" (or {self.off:g})") + (f" ({self.note})" if self.note else "")
 
 

@@ -275,16 +275,16 @@ def test_largest_seed_runs(ndrql_exe, work):
 
 
 @pytest.mark.parametrize("args, pattern", [
-    (("--batch-size", "0"), r"--batch-size must be in 1\.\."),
+    (("--batch-size", "0"), r"--batch-size must be an integer in 1\.\."),
     (("--model", "nope"), r"unknown model 'nope'; valid: ndr-stdc1"),
-    (("--val-fraction", "1.5"), r"--val-fraction must be between 0 and 1"),
-    (("--epochs", "0"), r"--epochs must be in 1\.\."),
+    (("--val-fraction", "1.5"), r"--val-fraction must be a finite number in"),
+    (("--epochs", "0"), r"--epochs must be an integer in 1\.\."),
     (("--model-overrides", '{"width": -1}'), r"'width' must be in"),
     (("--model-overrides", '{"unet_base": 100000}'), r"'unet_base' must be in"),
     (("--lr", "nan"), r"--lr must be a finite number"),
-    (("--seed", str(2**63)), r"--seed must be in 0\.\."),
+    (("--seed", str(2**63)), r"--seed must be an integer in 0\.\.2\*\*63 - 1"),
     (("--resume", "--run-dir", "norun"), r"--resume: there is no norun/last\.pt to continue"),
-    (("--threads", "-3"), r"--threads must be in 0\.\."),
+    (("--threads", "-3"), r"--threads must be an integer in 1\.\.\d+ \(or 0\)"),
 ])
 def test_train_flags_are_validated_at_the_boundary(ndrql_exe, work, args, pattern):
     one_error(run(ndrql_exe, "train", "--data", str(work / "no-dataset"), *args, cwd=work), pattern)
@@ -380,7 +380,7 @@ def test_scenario_index_errors(ndrql_exe, work):
 @pytest.mark.parametrize("args, pattern", [
     (("astar", "small.png", "--start", "1,1", "--goal", "90,100", "--threshold", "nan"), r"--threshold must be a finite"),
     (("astar", "small.png", "--start", "1" * 5000 + ",1", "--goal", "90,100"), r"--start must be ROW,COL"),
-    (("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--threads", "0"), r"threads \(--threads\) must be an integer in 1\.\."),
+    (("predict", "small.png", "--start", "1,1", "--goal", "90,100", "--threads", "0"), r"--threads must be an integer in 1\.\."),
     (("eval", "--batch-size", "0"), r"--batch-size must be"),
     (("export-onnx", "--out", "x.onnx", "--size", "100000"), r"--size must be"),
 ])

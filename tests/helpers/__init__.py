@@ -1,6 +1,8 @@
 """Code shared by the tests (importable from every test folder: ``pythonpath = ["tests"]`` in pyproject.toml).
 
-``cli``: run the console script, check the one-line error (hand-drawn maps: ``ndrql.synth.drawn``);
+``cli``: run an ``ndrql`` command (through ``main()`` in this process when that equals a fresh one, else the console
+script in a child), check the one-line error (hand-drawn maps: ``ndrql.synth.drawn``); ``child``: one child process
+that runs many commands (under a memory cap);
 ``synthetic_dataset``: a tiny dataset in the original layout; ``sweep_tasks`` and ``tuning_problems``:
 work for the kill-and-resume tests, imported by their child processes too.
 """

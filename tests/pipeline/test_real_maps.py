@@ -156,7 +156,7 @@ def test_settings_are_checked():
         PlanSettings(grid="fine")
     with pytest.raises(NdrqlError, match="larger than the limit"):
         PlanSettings(size=600)
-    with pytest.raises(NdrqlError, match="robot radius"):
+    with pytest.raises(NdrqlError, match="robot.radius"):
         PlanSettings(robot_radius=-1)
     assert PlanSettings(size="64").grid_size == 64 and PlanSettings().grid_size == "auto"
     assert PlanSettings.paper().grid_size == 50 and not PlanSettings.paper().smoothing and PlanSettings().smoothing

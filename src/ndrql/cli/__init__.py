@@ -209,7 +209,7 @@ def _door(exc: BaseException, parser: argparse.ArgumentParser | None, args: argp
         return _error(exc)
     if isinstance(exc, RecursionError):
         return _error("the input is nested too deeply to read")
-    if isinstance(exc, ImportError) and (exc.name or "").split(".")[0] == "torch":  # a light install: what to install
+    if isinstance(exc, ImportError) and (exc.name or "torch").split(".")[0] == "torch":  # a light install: what to install
         target = getattr(args, "target", None)  # reproduce TARGET
         what = _chosen_parser(parser, args).prog if parser is not None and args is not None else "this command"
         return _error(torch_missing(what + (f" {target}" if isinstance(target, str) else "")))

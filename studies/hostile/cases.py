@@ -311,10 +311,16 @@ def input_cases() -> list[dict]:
 
 
 def _bomb() -> Path:
-    """A tiny PNG whose header says 60000 x 60000 pixels."""
+    """A 45-byte PNG whose header says 60000 x 60000 pixels (written by hand: Pillow would build the image)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
     path = Path(os.environ.get("TMPDIR", "/tmp")) / "ndrql-hostile-bomb.png"
-    if not path.exists():
-        Image.new("1", (60000, 60000)).save(path, optimize=True)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 60000, 60000, 1, 0, 0, 0, 0))
+                     + chunk(b"IEND", b""))
     return path
 
 

@@ -11,9 +11,9 @@ import time
 import warnings
 from typing import Any
 
-from ndrql.cli.common import (add_dpi_argument, add_max_pixels_argument, add_problem_arguments, check_dpi,
-                              check_outputs, load_sample_problem, map_info, parse_point, parse_scen, save_figure,
-                              use_example, warnings_to_stderr, write_json)
+from ndrql.cli.common import (add_batch_group, add_dpi_argument, add_max_pixels_argument, add_path_out_arguments,
+                              add_problem_arguments, check_dpi, check_outputs, load_sample_problem, map_info,
+                              parse_point, parse_scen, save_figure, use_example, warnings_to_stderr, write_json)
 from ndrql.cli.plan_batch import run_batch
 from ndrql.cli.plan_cmd import request_points, scenario_fields, write_path
 from ndrql.cli.options import add_command, grid_size
@@ -74,18 +74,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ros = p.add_argument_group("ROS maps (map_server .yaml: metres in the map frame)")
     ros.add_argument("--start-world", metavar="X,Y[,YAW]", help="start in metres (yaw in radians), instead of --start")
     ros.add_argument("--goal-world", metavar="X,Y[,YAW]", help="goal in metres, instead of --goal")
-    ros.add_argument("--path-out", metavar="FILE", help="write the path as a nav_msgs/Path (frame map, poses with "
-                     "quaternions): YAML for .yaml/.yml, else JSON; the writer plan uses")
-    ros.add_argument("--path-spacing", type=float, default=None, metavar="M",
-                     help="--path-out: at most M metres between poses (default: the map's resolution; 0: the path's "
-                     "corners)")
-    batch = p.add_argument_group("batch: every scenario of a .scen")
-    batch.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B "
-                       "searches scenarios A..B-1 in a batch")
-    batch.add_argument("--all", action="store_true", help="search every scenario of --scen: one line each and a "
-                       "summary against the .scen optimal lengths")
-    batch.add_argument("--jsonl", metavar="FILE", help="batch: append one JSON record per scenario (fields: "
-                       "docs/cli.md); scenarios already in FILE are skipped (resume)")
+    add_path_out_arguments(ros)
+
+    add_batch_group(p, "search")
     p.set_defaults(func=run)
 
 

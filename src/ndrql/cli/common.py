@@ -265,3 +265,23 @@ def warnings_to_stderr() -> Iterator[None]:
                 if msg not in seen and (ours or not failed):  # a failed command: only ndrql's own warnings
                     seen.add(msg)
                     print(f"ndrql: warning: {msg}", file=sys.stderr)
+
+
+def add_path_out_arguments(group: Any) -> None:
+    """``--path-out`` and ``--path-spacing`` (plan and astar: the one nav_msgs/Path writer)."""
+    group.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses "
+                       "with quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
+    group.add_argument("--path-spacing", type=float, default=None, metavar="M",
+                       help="--path-out: at most M metres between poses (default: the map's resolution, a pose per map "
+                            "cell as Nav2's planners publish; 0: only the path's corners)")
+
+
+def add_batch_group(parser: Any, verb: str) -> None:
+    """The scenario batch's flags (plan and astar; ``verb``: what is done to a scenario, "run" or "search")."""
+    batch = parser.add_argument_group("batch: every scenario of a .scen")
+    batch.add_argument("--index", default=None, metavar="K|A:B", help=f"scenario number in --scen (0-based); A:B "
+                       f"{verb}s scenarios A..B-1 in a batch")
+    batch.add_argument("--all", action="store_true", help=f"{verb} every scenario of --scen: one line each and a "
+                       "summary against the .scen optimal lengths")
+    batch.add_argument("--jsonl", metavar="FILE", help="batch (--all, --index A:B): append one JSON record per scenario "
+                       "(fields: docs/cli.md); scenarios already in FILE are skipped (resume)")

@@ -8,9 +8,10 @@ from pathlib import Path
 from typing import Any
 
 from ndrql.api import PlanSettings, build_request, run_request
-from ndrql.cli.common import (add_dpi_argument, add_problem_arguments, add_symmetries_argument, add_weights_argument,
-                              check_dpi, check_outputs, load_sample_problem, parse_point, parse_scen, use_example,
-                              warnings_to_stderr, write_json)
+from ndrql.cli.common import (add_batch_group, add_dpi_argument, add_path_out_arguments, add_problem_arguments,
+                              add_symmetries_argument, add_weights_argument, check_dpi, check_outputs,
+                              load_sample_problem, parse_point, parse_scen, use_example, warnings_to_stderr,
+                              write_json)
 from ndrql.cli.options import add_command, add_seed_options, budget_seconds, grid_size
 from ndrql.cli.plan_help import PLAIN_METHOD, PRIOR_FROM_HELP, add_constant_groups, plain_preset
 from ndrql.cli.plan_batch import run_batch
@@ -143,19 +144,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     help="ROS maps: how unknown space counts: obstacle (map_server's reading; default) or free "
                     "(Nav2's allow_unknown: unknown to the planner and free for the learning environment, whose "
                     "truth is not known)")
-    ros.add_argument("--path-out", metavar="FILE", help="write the final path as a nav_msgs/Path (frame map, poses with "
-                     "quaternions): YAML for .yaml/.yml, else JSON (ROS maps)")
-    ros.add_argument("--path-spacing", type=float, default=None, metavar="M",
-                     help="--path-out: at most M metres between poses (default: the map's resolution, a pose per map "
-                          "cell as Nav2's planners publish; 0: only the path's corners)")
+    add_path_out_arguments(ros)
 
-    batch = p.add_argument_group("batch: every scenario of a .scen")
-    batch.add_argument("--index", default=None, metavar="K|A:B", help="scenario number in --scen (0-based); A:B runs "
-                       "scenarios A..B-1 in a batch")
-    batch.add_argument("--all", action="store_true", help="run every scenario of --scen: one line each and a summary "
-                       "against the .scen optimal lengths")
-    batch.add_argument("--jsonl", metavar="FILE", help="batch (--all, --index A:B): append one JSON record per scenario "
-                       "(fields: docs/cli.md); scenarios already in FILE are skipped (resume)")
+    add_batch_group(p, "run")
 
     adv = p.add_argument_group("advanced: model and speed")
     adv.add_argument("--threads", type=int, default=settings.threads, metavar="N",

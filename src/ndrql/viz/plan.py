@@ -51,6 +51,7 @@ def plot_plan(
     legend: bool = True,
     cell_size: Sequence[float] | None = None,
     route: Any = None,
+    prior_source: str = "NDR",
 ) -> list[Any]:
     """The map, the planning grid's blocked cells, region (green) and guideline (orange) probabilities,
     the A* path (blue, dashed) and the learned path; returns every artist drawn.
@@ -59,7 +60,8 @@ def plot_plan(
     paths on the planning grid (``(row, col)`` cells). ``cell_size``: cell side (rows, cols) in map
     pixels (default: the map's size over the grid's, the area grid). ``route``: the learned path on
     the map (:class:`~ndrql.pipeline.route.Route`): its final path is drawn solid over a thin grid
-    path, and every collision with an obstacle as a red cross.
+    path, and every collision with an obstacle as a red cross. ``prior_source``: what made region and guideline,
+    for the legend ("NDR" for the network, "exact" for the exact prior, ...).
     """
     from matplotlib.patches import Patch
 
@@ -75,10 +77,10 @@ def plot_plan(
     keys = [Patch(color="black", label="obstacle"), Patch(color=BLOCKED_COLOR, alpha=BLOCKED_ALPHA, label="blocked cell")]
     if region is not None:
         artists.append(plot_probability(ax, region, REGION_RGB, max_alpha=0.45))
-        keys.append(Patch(color=REGION_RGB, alpha=0.45, label="NDR region"))
+        keys.append(Patch(color=REGION_RGB, alpha=0.45, label=f"{prior_source} region"))
     if guideline is not None:
         artists.append(plot_probability(ax, guideline, GUIDELINE_RGB, max_alpha=0.85))
-        keys.append(Patch(color=GUIDELINE_RGB, alpha=0.85, label="NDR guideline"))
+        keys.append(Patch(color=GUIDELINE_RGB, alpha=0.85, label=f"{prior_source} guideline"))
 
     def px(cells: Sequence[Sequence[int]]) -> list[tuple[float, float]]:
         if cell_size is None:
@@ -161,6 +163,12 @@ def _grid_kw(report: Any, r: Any) -> dict[str, Any]:
     return kw
 
 
+def _source(report: Any) -> str:
+    """The legend's name of what made the report's region: "NDR" for the network, else the source's name."""
+    src = ((report.info or {}).get("prediction_quality") or {}).get("source")
+    return "NDR" if src in (None, "model", "file") else str(src)
+
+
 def plan_figure(report: Any, method: str | None = None, seed: int | None = None, dpi: int = 110,
                 ax: Any = None) -> Any:
     """One run of a :class:`~ndrql.api.PlanReport` over the map, with the NDR overlay if predicted; drawn
@@ -172,7 +180,7 @@ def plan_figure(report: Any, method: str | None = None, seed: int | None = None,
         fig = new_figure(figsize=(5.2, min(9.0, max(2.5, 5.2 * h / w)) + 1.3), dpi=dpi)  # room for title and legend
         ax = fig.add_subplot(1, 1, 1)
     plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
-              path=r.path, astar_path=_astar(report), region=report.region, guideline=report.guideline,
+              path=r.path, astar_path=_astar(report), region=report.region, guideline=report.guideline, prior_source=_source(report),
               label=r.method, color=method_color(r.method), title=_run_title(r), **_grid_kw(report, r))
     if own:
         ax.figure.tight_layout()
@@ -196,7 +204,7 @@ def compare_figure(report: Any, dpi: int = 110, fig: Any = None) -> Any:
         r = report.runs(name)[0]
         ndr = get_method(name).needs_ndr
         plot_plan(ax, report.grid_map.obstacles, report.grid.blocked, report.grid.source_start, report.grid.source_goal,
-                  path=r.path, astar_path=best, region=report.region if ndr else None,
+                  path=r.path, astar_path=best, region=report.region if ndr else None, prior_source=_source(report),
                   guideline=report.guideline if ndr else None, label=name, color=method_color(name, i),
                   title=_run_title(r), **_grid_kw(report, r))
     if with_steps:

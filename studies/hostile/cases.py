@@ -336,7 +336,7 @@ def api_cases() -> list[dict]:
            "size=10**9", "grid=5", "threads='a'", "threads=10**6", "symmetries=3", "fallback=5", "backend=5",
            "max_size=10**9", "tolerance=float('nan')", "max_map_pixels='many'", "ql={'alpha': {}}",
            "ql={'thd_step': 1e-300}", "priors={'thd_step': 1e-300}", "priors={'g_row': float('inf')}",
-           "ql={'window': 10**9}", "ql={'max_episodes': 10**12}", "priors={'nonsense': 1}", "info=5", "hide=5",
+           "ql={'window': 10**10}", "ql={'max_episodes': 10**12}", "priors={'nonsense': 1}", "info=5", "hide=5",
            "unknown=5", "sense=-1", "sense_every=0", "predictions=5", "invert='x'", "threshold='x'", "crop=[]"]
     out = [case("api", api=API_PLAN.format(kw=kw if kw.startswith("methods") else f"methods=['IQL'], {kw}"),
                 expect="refuse") for kw in bad]

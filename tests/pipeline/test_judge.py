@@ -297,3 +297,14 @@ def test_on_a_belief_map_the_route_test_is_off():
     assert chosen is None and "route" in trials[0].reason
     chosen, trials, _ = consult([Fixed()], problem, PriorConfig(), max_route_ratio=float("inf"))
     assert chosen is not None and trials[0].accepted and trials[0].verdict.route_ratio == pytest.approx(51 / 25)
+
+
+def test_a_constant_region_is_rejected_at_any_size():
+    """A constant prediction (a broken graph) joins start and goal at any threshold below its value and holds the
+    shortest route, but says nothing: rejected, with its reason."""
+    b = np.zeros((30, 30), dtype=bool)
+    v = judge(np.full((30, 30), 0.7), None, b, (2, 2), (27, 27), PriorConfig())
+    assert not v.accepted and "same on every free cell" in v.reason
+    bumpy = np.full((30, 30), 0.7)
+    bumpy[5, 5] = 0.71
+    assert judge(bumpy, None, b, (2, 2), (27, 27), PriorConfig()).accepted

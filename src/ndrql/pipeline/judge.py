@@ -10,6 +10,7 @@ Q-table is built with. A prediction is rejected when
 - above 128 cells, the region covers more than half of the free cells at its threshold (it does not say where the
   path runs);
 - more than half of the guideline's mass lies on obstacles (the model draws its path through walls);
+- the region is the same on every free cell (a constant output says nothing of where the path runs);
 - the route the region allows (the fewest 4-connected moves from start to goal through the free cells above the
   threshold) is longer than :data:`MAX_ROUTE_RATIO` times the shortest route of the planner's grid: Eq. 6's mask
   then steers the agent along a detour, which the exact distance never does.
@@ -106,6 +107,8 @@ def judge(region: np.ndarray, guideline: np.ndarray | None, blocked: np.ndarray,
     why = region_reason(thd, cover, max(blocked.shape))
     if why:
         reasons.append(why)
+    elif free.any() and np.ptp(widened[free]) == 0:  # a constant graph, an empty head: it joins at any threshold
+        reasons.append("the region is the same on every free cell (it says nothing of where the path runs)")
     if guideline is not None and on_obstacles is None:
         reasons.append("the guideline is empty")
     elif on_obstacles is not None and on_obstacles > MAX_GUIDE_ON_OBSTACLES:

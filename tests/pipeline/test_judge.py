@@ -37,6 +37,14 @@ def line_guide(shape: tuple[int, int], col: int, rows: slice) -> np.ndarray:
     return g
 
 
+
+def nearly_flat(shape: tuple[int, int], value: float) -> np.ndarray:
+    """``value`` everywhere but one corner cell a hair above: flat for Eq. 7, not constant (a constant region is
+    rejected for that alone, test_a_constant_region_is_rejected_at_any_size)."""
+    out = np.full(shape, value)
+    out[0, 0] += 0.001
+    return out
+
 def test_a_good_prediction_is_accepted_with_its_threshold_and_a_straight_route():
     b, s, g = wall_grid()
     v = judge(band(b.shape, slice(30, 50)), line_guide(b.shape, 42, slice(5, 46)), b, s, g, PriorConfig())
@@ -50,7 +58,7 @@ def test_a_good_prediction_is_accepted_with_its_threshold_and_a_straight_route()
 def test_a_low_threshold_is_no_reason_up_to_128_cells_and_no_threshold_is():
     b, s, g = wall_grid()
     guide = line_guide(b.shape, 42, slice(5, 46))
-    low = judge(np.full(b.shape, 0.3), guide, b, s, g, PriorConfig())
+    low = judge(nearly_flat(b.shape, 0.3), guide, b, s, g, PriorConfig())
     assert low.accepted and low.threshold == pytest.approx(0.29)
     none = judge(np.zeros(b.shape), guide, b, s, g, PriorConfig())
     assert not none.accepted and none.threshold is None and none.cover is None and none.route_ratio is None
@@ -89,7 +97,7 @@ def test_above_128_cells_a_threshold_below_the_cut_is_rejected():
     flat = LARGE_MIN_THRESHOLD / 2 + 0.01
     for n, accepted in ((100, True), (200, False)):
         b = np.zeros((n, n), dtype=bool)
-        v = judge(np.full(b.shape, flat), None, b, (5, n // 2), (n - 5, n // 2), PriorConfig())
+        v = judge(nearly_flat(b.shape, flat), None, b, (5, n // 2), (n - 5, n // 2), PriorConfig())
         assert v.accepted is accepted and v.threshold < LARGE_MIN_THRESHOLD
     assert n > LARGE_GRID
     assert v.reason == (f"no region threshold >= {LARGE_MIN_THRESHOLD} connects start and goal "
@@ -101,7 +109,7 @@ def test_above_128_cells_a_region_over_most_free_cells_is_rejected_and_a_band_is
         b = np.zeros((n, n), dtype=bool)
         b[n // 2:n // 2 + 4, :int(0.7 * n)] = True  # a wall with a gap on the right
         s, g = (5, int(0.9 * n)), (n - 5, int(0.9 * n))
-        everywhere = judge(np.full(b.shape, 0.9), None, b, s, g, PriorConfig())
+        everywhere = judge(nearly_flat(b.shape, 0.9), None, b, s, g, PriorConfig())
         assert everywhere.accepted is accepted and everywhere.threshold == pytest.approx(0.89)
         assert everywhere.cover == pytest.approx(1.0)
         right = judge(band(b.shape, slice(int(0.8 * n), n)), None, b, s, g, PriorConfig())

@@ -53,7 +53,9 @@ def test_the_judge_on_hand_made_predictions_given_at_the_maps_resolution():
     v = given_verdict(m, region, guide, (20, 170), (180, 170))
     assert v.accepted and v.threshold == pytest.approx(0.89) and v.guideline_on_obstacles == 0.0
     assert v.route_ratio == pytest.approx(1.0)
-    v = given_verdict(m, np.full(m.shape, 0.3), guide, (20, 170), (180, 170))  # never above 0.3: a low threshold
+    low = np.full(m.shape, 0.3)
+    low[0, 0] = 0.301  # flat for Eq. 7 but not constant (a constant region is rejected for that alone)
+    v = given_verdict(m, low, guide, (20, 170), (180, 170))  # never above 0.3: a low threshold
     assert v.accepted and v.threshold == pytest.approx(0.29)  # is no reason (studies/plan_defaults)
     v = given_verdict(m, np.zeros(m.shape), guide, (20, 170), (180, 170))  # joins start and goal at no threshold
     assert not v.accepted and v.threshold is None

@@ -11,7 +11,7 @@ import time
 import warnings
 from typing import Any
 
-from ndrql.cli.common import (add_batch_group, add_dpi_argument, add_max_pixels_argument, add_path_out_arguments,
+from ndrql.cli.common import (map_or_sample, add_batch_group, add_dpi_argument, add_max_pixels_argument, add_path_out_arguments,
                               add_problem_arguments, check_dpi, check_outputs, load_sample_problem, map_info,
                               parse_point, parse_scen, save_figure, use_example, warnings_to_stderr, write_json)
 from ndrql.cli.plan_batch import run_batch
@@ -136,15 +136,7 @@ def _given(args: argparse.Namespace) -> dict[str, Any]:
 
 def astar_request(args: argparse.Namespace) -> Any:
     """The :class:`~ndrql.pipeline.request.PlanRequest` of astar's flags, built as ``plan`` builds its own."""
-    if args.example:
-        use_example(args, bool(args.sample))
-    if args.sample and args.map:
-        raise NdrqlError("give either MAP or --sample, not both")
-    sample = load_sample_problem(args.sample) if args.sample else None
-    if sample is not None and args.scen:
-        raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
-    if sample is None and not args.map:
-        raise NdrqlError("no map given: pass MAP, --example (the bundled map) or --sample DATASET_DIR:SPLIT:INDEX")
+    sample = map_or_sample(args)
     if sample is not None:
         return build_request(sample.grid_map, **request_points(args, sample), sample=sample.info, **_given(args))
     return build_request(args.map, **request_points(args, None), **scenario_fields(args), invert=args.invert,

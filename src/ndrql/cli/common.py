@@ -285,3 +285,18 @@ def add_batch_group(parser: Any, verb: str) -> None:
                        "summary against the .scen optimal lengths")
     batch.add_argument("--jsonl", metavar="FILE", help="batch (--all, --index A:B): append one JSON record per scenario "
                        "(fields: docs/cli.md); scenarios already in FILE are skipped (resume)")
+
+
+def map_or_sample(args: Any) -> Any:
+    """The dataset sample of ``--sample`` (``None`` for a map file), after the checks plan and astar share: MAP
+    and ``--sample`` not both, ``--scen`` only with a map file, some map given (``--example`` fills MAP)."""
+    if args.example:
+        use_example(args, bool(args.sample))
+    if args.sample and args.map:
+        raise NdrqlError("give either MAP or --sample, not both")
+    sample = load_sample_problem(args.sample) if args.sample else None
+    if sample is not None and args.scen:
+        raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
+    if sample is None and not args.map:
+        raise NdrqlError("no map given: pass MAP, --example (the bundled map) or --sample DATASET_DIR:SPLIT:INDEX")
+    return sample

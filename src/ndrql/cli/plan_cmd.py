@@ -9,9 +9,8 @@ from typing import Any
 
 from ndrql.api import PlanSettings, build_request, run_request
 from ndrql.cli.common import (add_batch_group, add_dpi_argument, add_path_out_arguments, add_problem_arguments,
-                              add_symmetries_argument, add_weights_argument, check_dpi, check_outputs,
-                              load_sample_problem, parse_point, parse_scen, use_example, warnings_to_stderr,
-                              write_json)
+                              add_symmetries_argument, add_weights_argument, check_dpi, check_outputs, map_or_sample,
+                              parse_point, parse_scen, warnings_to_stderr, write_json)
 from ndrql.cli.options import add_command, add_seed_options, budget_seconds, grid_size
 from ndrql.cli.plan_help import PLAIN_METHOD, PRIOR_FROM_HELP, add_constant_groups, plain_preset
 from ndrql.cli.plan_batch import run_batch
@@ -225,15 +224,7 @@ def request_fields(args: argparse.Namespace, methods: list[str], seeds: Any) -> 
 
 def build_from_args(args: argparse.Namespace, methods: list[str], seeds: Any) -> Any:
     """The :class:`~ndrql.pipeline.request.PlanRequest` of ``ndrql plan``'s flags (one scenario, not a batch)."""
-    if args.example:
-        use_example(args, bool(args.sample))
-    if args.sample and args.map:
-        raise NdrqlError("give either MAP or --sample, not both")
-    sample = load_sample_problem(args.sample) if args.sample else None
-    if sample is not None and args.scen:
-        raise NdrqlError("--scen needs a map file (MovingAI .map), not --sample")
-    if sample is None and not args.map:
-        raise NdrqlError("no map given: pass MAP, --example (the bundled map) or --sample DATASET_DIR:SPLIT:INDEX")
+    sample = map_or_sample(args)
     fields = request_fields(args, methods, seeds)
     if sample is not None:
         for flag, value in (("--invert", args.invert), ("--crop", args.crop), ("--threshold", args.threshold != 128)):

@@ -1,6 +1,6 @@
 """Regenerate the shipped ONNX graphs from the shipped checkpoints (run after new weights land).
 
-    python tools/export_shipped_onnx.py            # both: paper and general
+    python tools/export_shipped_onnx.py            # every installed one: paper, general, belief (when its .pt is there)
     python tools/export_shipped_onnx.py general    # one
     python tools/export_shipped_onnx.py ndr_general_large   # a companion: its file stem in src/ndrql/data
 
@@ -22,16 +22,20 @@ import sys
 from ndrql.errors import NdrqlError
 from ndrql.model.export import export_shipped
 from ndrql.model.shipped import SHIPPED_BUDGET, record_path, shipped_bytes, shipped_file
-from ndrql.model.weights import SHIPPED_WEIGHTS
+from ndrql.model.weights import SHIPPED_WEIGHTS, installed
 
 
 def main(argv: list[str]) -> int:
     os.environ["NDRQL_WRITE_PACKAGE"] = "1"  # this tool refreshes files the package ships (ndrql.io.readset)
-    names = argv or list(SHIPPED_WEIGHTS)
+    names = argv or [n for n in SHIPPED_WEIGHTS if installed(n)]  # belief ships once trained
     unknown = [n for n in names if n not in SHIPPED_WEIGHTS and not _companion_file(n)]
     if unknown:
         print(f"unknown model {unknown[0]!r}; valid: {', '.join(SHIPPED_WEIGHTS)}, or the file stem of a "
               f"companion checkpoint in src/ndrql/data", file=sys.stderr)
+        return 2
+    missing = [n for n in names if n in SHIPPED_WEIGHTS and not installed(n)]
+    if missing:
+        print(f"no checkpoint {shipped_file(missing[0])} to export", file=sys.stderr)
         return 2
     for name in names:
         record = export_shipped(name)

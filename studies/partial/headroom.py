@@ -17,6 +17,7 @@ the truth's; the size: the first of the ladder from ``n`` on which the truth con
   what is hidden;
 - ``IQL-BFS (truth)``: IQL-BFS on the true map: what full knowledge gives the model-free reference.
 
+The cases, the masks and the rows' runs are :mod:`ndrql.experiments.partial`'s (``ndrql reproduce partial``).
 Steps are convergence steps (total steps of a run that did not converge). Results go to a JSON-lines
 file, one line per case (resumable); ``--report FILE...`` prints per-family geometric means and the
 headroom ``1 - oracle / IQL-BFS (belief)`` with a 95% bootstrap interval over maps.
@@ -35,83 +36,39 @@ import json
 import math
 import sys
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ndrql.experiments.ceiling import GridCase, grid_case, larger_sizes, oracle_priors
 from ndrql.experiments.eval_sets import eval_set, eval_spec
+from ndrql.experiments.partial import (BeliefSetting, oracle_job, partial_cases, plain_priors,
+                                       run_rows)
 from ndrql.experiments.stats import geomean_ratio, outcomes
-from ndrql.maps.safe import conservative_grid
 from ndrql.maps.sizing import connected4
-from ndrql.planning.methods import build_priors
 from ndrql.planning.preset import load_preset
-from ndrql.planning.priors import ThresholdWarning
-from ndrql.planning.runner import astar_length, run_plan
-from ndrql.synth.masks import KINDS, draw_belief
+from ndrql.synth.masks import KINDS
 
 ROWS = ("IQL", "IQL-BFS (belief)", "NDR-QL (belief)", "NDR-QL (oracle)", "IQL-BFS (truth)")
-#: The seed of every mask: map ``i``'s belief draws from ``default_rng([MASK_SEED, i, kind, percent])``.
-MASK_SEED = 54
 
 
-def belief_case(case: GridCase, belief_obstacles: np.ndarray) -> GridCase:
-    """The belief's safe grid at the case's size, start and goal on the truth's cells (kept free)."""
-    blocked = conservative_grid(belief_obstacles, case.n)
-    blocked[case.start_cell] = blocked[case.goal_cell] = False
-    return GridCase(belief_obstacles, case.start, case.goal, name=case.name, group=case.group, n=case.n,
-                    blocked=blocked, start_cell=case.start_cell, goal_cell=case.goal_cell)
-
-
-def steps_of(r) -> int:
-    return int(r.convergence_steps if r.converged else r.total_steps)
-
-
-def run_case(case: GridCase, bcase: GridCase, preset, seeds: list[int]) -> dict:
-    """Every row with every seed: steps, path / A*, converged, and the seconds of each row."""
-    n = max(case.blocked.shape)
-    opt = astar_length(case.blocked, case.start_cell, case.goal_cell)
-    args = (case.start_cell, case.goal_cell)
-    pri: dict = {}
-    pri["IQL"] = build_priors("IQL", case.blocked, *args, cfg=preset.configs("IQL", grid=n)[1])
-    pri["IQL-BFS (belief)"] = build_priors("IQL-BFS", bcase.blocked, *args, cfg=preset.configs("IQL-BFS", grid=n)[1])
-    pri["IQL-BFS (truth)"] = build_priors("IQL-BFS", case.blocked, *args, cfg=preset.configs("IQL-BFS", grid=n)[1])
-    cfg = preset.configs("NDR-QL", grid=n)[1]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ThresholdWarning)
-        region, guide, dist = oracle_priors(case, distance=True)
-        pri["NDR-QL (oracle)"] = build_priors("NDR-QL", case.blocked, *args, region, guide, cfg, dist)
-        if connected4(bcase.blocked, *args):
-            region, guide, dist = oracle_priors(bcase, distance=True)
-            pri["NDR-QL (belief)"] = build_priors("NDR-QL", bcase.blocked, *args, region, guide, cfg, dist)
-    out: dict = {"astar": opt, "rows": {}}
-    for row in ROWS:
-        if row not in pri:
-            continue
-        method = row.split(" ")[0]
-        ql = preset.configs(method, grid=n)[0]
-        t0 = time.perf_counter()
-        runs = [run_plan(case.blocked, *args, method, s, ql, priors=pri[row], astar=opt) for s in seeds]
-        out["rows"][row] = {"steps": [steps_of(r) for r in runs], "converged": [bool(r.converged) for r in runs],
-                            "ratio": [r.length_ratio for r in runs], "seconds": (time.perf_counter() - t0) / len(seeds)}
-    return out
+def run_case(case, bcase, preset, seeds: list[int]) -> dict:
+    """Every row with every seed: steps, path / A*, converged, and the seconds of each row's priors
+    (:func:`ndrql.experiments.partial.run_rows`; ``NDR-QL (belief)``: the oracle's priors of the belief's grid)."""
+    jobs = {"IQL": ("IQL", plain_priors("IQL", case, preset), 0.0),
+            "IQL-BFS (belief)": ("IQL-BFS", plain_priors("IQL-BFS", bcase, preset), 0.0),
+            "NDR-QL (oracle)": oracle_job(case, preset),
+            "IQL-BFS (truth)": ("IQL-BFS", plain_priors("IQL-BFS", case, preset), 0.0)}
+    if connected4(bcase.blocked, bcase.start_cell, bcase.goal_cell):
+        jobs["NDR-QL (belief)"] = oracle_job(bcase, preset)
+    return run_rows(case, {row: jobs[row] for row in ROWS if row in jobs}, preset, seeds)
 
 
 def cases(set_name: str, grid: int, kind: str, fraction: float, limit: int | None):
-    """``(index, family, case, belief case, unknown share)`` of every map that connects at ``grid`` or a larger
-    ladder size."""
+    """``(index, family, case, belief case, unknown share)`` of every map (:func:`ndrql.experiments.partial.partial_cases`;
+    case and belief case ``None`` when no ladder size from ``grid`` connects the map)."""
     gs = eval_set(eval_spec(set_name), False)
-    for i in range(len(gs) if limit is None else min(limit, len(gs))):
-        raw = gs.raw(i)
-        fam = str(gs.families[i])
-        rng = np.random.default_rng([MASK_SEED, i, KINDS.index(kind), int(round(100 * fraction))])
-        belief = draw_belief(kind, raw.obstacles, raw.start, raw.goal, rng, fraction=fraction)
-        case = grid_case(f"{fam}-{i}-g{grid}", fam, raw.obstacles, raw.start, raw.goal, grid, larger_sizes(grid))
-        if case is None:
-            yield i, fam, None, None, belief.unknown_share(raw.obstacles)
-            continue
-        yield i, fam, case, belief_case(case, belief.planner_obstacles("free")), belief.unknown_share(raw.obstacles)
+    for pc in partial_cases(gs, grid, BeliefSetting(kind, fraction), limit):
+        yield pc.index, pc.family, pc.case, pc.bcase, pc.unknown_share
 
 
 def measure(args: argparse.Namespace) -> int:

@@ -7,7 +7,9 @@ For each weights file given (``--weights A.pt,B.pt``; a row per file, named by i
 region, guideline and goal distance on the **belief's** grid, seeing the planning cells that hold an unknown
 pixel (:func:`ndrql.maps.belief.unknown_cells`, what ``plan --hide`` gives it) when its encoding has the
 channel; NDR-QL then learns on the true grid with those priors (no judge, no fallback: the model's own
-priors). ``IQL-BFS (belief)`` is run again as the reference.
+priors; :func:`ndrql.experiments.partial.model_job`, the row ``NDR-QL (model)`` of ``ndrql reproduce partial``).
+``IQL-BFS (belief)`` is run again as the reference. ``ndrql reproduce partial`` runs the plan's own request
+(judge and fallback included) as well.
 
     PYTHONPATH=src python studies/partial/model_eval.py --weights $NDRQL_CACHE/runs/belief-short-a/best.pt \\
         --grids 50,100 --kind blobs --fraction 0.3 --out results/partial/model-blobs30.jsonl
@@ -25,54 +27,26 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
-import warnings
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import headroom  # noqa: E402  (the cases and rows of the headroom study)
-
-from ndrql.experiments.stats import geomean_ratio, outcomes  # noqa: E402
-from ndrql.maps.belief import unknown_cells  # noqa: E402
-from ndrql.model.predict import Predictor  # noqa: E402
-from ndrql.planning.methods import build_priors  # noqa: E402
-from ndrql.planning.preset import load_preset  # noqa: E402
-from ndrql.planning.priors import ThresholdWarning  # noqa: E402
-from ndrql.planning.runner import astar_length, run_plan  # noqa: E402
-
-REF = "IQL-BFS (belief)"
+from ndrql.experiments.partial import REF, BeliefSetting, model_job, partial_cases, plain_priors, run_rows
+from ndrql.experiments.stats import geomean_ratio, outcomes
+from ndrql.model.predict import Predictor
+from ndrql.planning.preset import load_preset
 
 
-def case_unknown(case, belief_unknown: np.ndarray) -> np.ndarray:
-    """The case's planning cells holding an unknown pixel (the safe grid's square cells of max(H, W) / n px)."""
-    side = max(case.obstacles.shape) / case.n
-    return unknown_cells(belief_unknown, SimpleNamespace(shape=case.blocked.shape, cell_size=(side, side)))
-
-
-def run_models(case, bcase, unknown: np.ndarray, models: dict[str, Predictor], preset, seeds: list[int]) -> dict:
-    n = max(case.blocked.shape)
-    args = (case.start_cell, case.goal_cell)
-    opt = astar_length(case.blocked, *args)
-    rows: dict = {}
-    jobs = {REF: ("IQL-BFS", build_priors("IQL-BFS", bcase.blocked, *args, cfg=preset.configs("IQL-BFS", grid=n)[1]), 0.0)}
-    cfg = preset.configs("NDR-QL", grid=n)[1]
+def run_models(pc, models: dict[str, Predictor], preset, seeds: list[int]) -> dict:
+    """IQL-BFS (belief) and, per model, NDR-QL with its own priors on the belief's grid
+    (:func:`ndrql.experiments.partial.model_job`: what ``plan --hide``'s model source predicts, no judge)."""
+    jobs = {REF: ("IQL-BFS", plain_priors("IQL-BFS", pc.bcase, preset), 0.0)}
     for name, p in models.items():
-        t0 = time.perf_counter()
-        out = p.predict_view(bcase.blocked, *args, unknown=unknown if p.sees_unknown else None)
-        seconds = time.perf_counter() - t0
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ThresholdWarning)
-            jobs[name] = ("NDR-QL", build_priors("NDR-QL", bcase.blocked, *args, out.region, out.guideline, cfg,
-                                                 out.distance), seconds)
-    for row, (method, pri, predict_s) in jobs.items():
-        ql = preset.configs(method, grid=n)[0]
-        runs = [run_plan(case.blocked, *args, method, s, ql, priors=pri, astar=opt) for s in seeds]
-        rows[row] = {"steps": [headroom.steps_of(r) for r in runs], "converged": [bool(r.converged) for r in runs],
-                     "ratio": [r.length_ratio for r in runs], "predict_seconds": round(predict_s, 4)}
-    return {"astar": opt, "rows": rows}
+        jobs[name] = model_job(p, pc, preset)[0]
+    out = run_rows(pc.case, jobs, preset, seeds)
+    for row in out["rows"].values():  # the seconds of the prediction and priors, under this study's old name
+        row["predict_seconds"] = row.pop("seconds")
+    return out
 
 
 def measure(args: argparse.Namespace) -> int:
@@ -86,28 +60,22 @@ def measure(args: argparse.Namespace) -> int:
     preset, seeds = load_preset(args.preset), list(range(args.seeds))
     with out.open("a") as f:
         for grid in [int(g) for g in args.grids.split(",")]:
-            for i, fam, case, bcase, share, unknown_px in cases(args, grid):
-                if (i, grid) in done or case is None:
+            for pc in cases(args, grid):
+                if (pc.index, grid) in done or pc.case is None:
                     continue
-                rec = {"index": i, "family": fam, "grid": grid, "kind": args.kind, "fraction": args.fraction,
-                       "unknown_share": round(share, 4), "set": args.set, "seeds": seeds, "weights": args.weights,
-                       "n": case.n, **run_models(case, bcase, case_unknown(case, unknown_px), models, preset, seeds)}
+                rec = {"index": pc.index, "family": pc.family, "grid": grid, "kind": args.kind, "fraction": args.fraction,
+                       "unknown_share": round(pc.unknown_share, 4), "set": args.set, "seeds": seeds,
+                       "weights": args.weights, "n": pc.case.n, **run_models(pc, models, preset, seeds)}
                 f.write(json.dumps(rec) + "\n")
                 f.flush()
     return 0
 
 
 def cases(args: argparse.Namespace, grid: int):
-    """headroom's cases with the belief's unknown pixels (drawn again from the same generator state)."""
+    """headroom's cases (:func:`ndrql.experiments.partial.partial_cases`: the same set, masks and grids)."""
     from ndrql.experiments.eval_sets import eval_set, eval_spec
-    from ndrql.synth.masks import KINDS, draw_belief
 
-    gs = eval_set(eval_spec(args.set), False)
-    for i, fam, case, bcase, share in headroom.cases(args.set, grid, args.kind, args.fraction, args.limit):
-        raw = gs.raw(i)
-        rng = np.random.default_rng([headroom.MASK_SEED, i, KINDS.index(args.kind), int(round(100 * args.fraction))])
-        belief = draw_belief(args.kind, raw.obstacles, raw.start, raw.goal, rng, fraction=args.fraction)
-        yield i, fam, case, bcase, share, belief.unknown
+    yield from partial_cases(eval_set(eval_spec(args.set), False), grid, BeliefSetting(args.kind, args.fraction), args.limit)
 
 
 def _mean(rec: dict, row: str) -> float:

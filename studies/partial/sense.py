@@ -35,9 +35,7 @@ from ndrql.pipeline.sensing import SenseConfig, run_sensed
 from ndrql.planning.methods import build_priors
 from ndrql.planning.preset import load_preset
 from ndrql.planning.runner import run_plan
-from ndrql.synth.masks import KINDS, draw_belief
-
-MASK_SEED = 54  # as headroom.py: the same masks
+from ndrql.experiments.partial import BeliefSetting  # the masks of headroom.py and ndrql reproduce partial
 
 
 def measure(args: argparse.Namespace) -> int:
@@ -54,8 +52,7 @@ def measure(args: argparse.Namespace) -> int:
                 if (i, grid) in done:
                     continue
                 raw, fam = gs.raw(i), str(gs.families[i])
-                rng = np.random.default_rng([MASK_SEED, i, KINDS.index("blobs"), int(round(100 * args.fraction))])
-                belief = draw_belief("blobs", raw.obstacles, raw.start, raw.goal, rng, fraction=args.fraction)
+                belief = BeliefSetting("blobs", args.fraction).draw(raw.obstacles, raw.start, raw.goal, i)
                 case = grid_case(f"{fam}-{i}", fam, raw.obstacles, raw.start, raw.goal, grid, larger_sizes(grid))
                 rec = {"index": i, "family": fam, "grid": grid, "fraction": args.fraction, "radius": args.radius,
                        "seeds": seeds}

@@ -106,10 +106,11 @@ def add_map_arguments(parser: argparse.ArgumentParser, *, map_required: bool = F
 
 
 def add_weights_argument(parser: argparse.ArgumentParser, default: str | None = None) -> None:
-    """``--weights paper|general|FILE``; ``default`` names the shipped weights used without it."""
+    """``--weights paper|general|belief|FILE``; ``default`` names the shipped weights used without it."""
     names = "|".join(SHIPPED_WEIGHTS)
     parser.add_argument("--weights", metavar=f"{names}|FILE",
-                        help=f"NDR model weights: shipped {' or '.join(SHIPPED_WEIGHTS)}, or a checkpoint file (planning "
+                        help=f"NDR model weights: shipped {', '.join(list(SHIPPED_WEIGHTS)[:-1])} or "
+                             f"{list(SHIPPED_WEIGHTS)[-1]}, or a checkpoint file (planning "
                              "also takes an .onnx graph from export-onnx) "
                              f"(default: $NDRQL_WEIGHTS, else {default or DEFAULT_WEIGHTS})")
 

@@ -51,7 +51,7 @@ EXAMPLES = """examples:
 
 methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL (the paper's), and IQL-BFS (IQL
 with Eq. 5 on the exact BFS distance: a reference that needs no model); N-C, N-Q and NDR-QL use the
-NDR model (shipped paper or general weights, or --weights FILE, or $NDRQL_WEIGHTS) where their prior source is the
+NDR model (shipped paper, general or belief weights, or --weights FILE, or $NDRQL_WEIGHTS) where their prior source is the
 model; on a map the planner fully knows their priors come from the exact BFS distance (--prior-from says which). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
 seed gives the same run on any machine load and any number of workers. Time per stage: load (model
 weights), predict, priors, learn; start-up (torch import, loading the compiled kernel) is per process.
@@ -87,7 +87,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     help="with --sense: episodes between rebuilds while the map keeps changing (default: 1)")
     inp.add_argument("--hide", metavar="MASK", help="a mask of the map's size (.npy, or an image: non-zero / "
                     "not black = unknown): the planner's priors see the map with these pixels unknown (counted "
-                    "free) while the agent learns on the true map; the JSON's belief gives the true optimum")
+                    "free) while the agent learns on the true map; the JSON's belief gives the true optimum; with no "
+                    "--weights, the model is the shipped belief weights when installed (else IQL-BFS runs)")
     inp.add_argument("--scen", metavar="FILE[:K]", help="MovingAI .scen file: start and goal from scenario K (or --index K; default 0)")
     inp.add_argument("--max-pixels", type=int, default=settings.max_map_pixels, metavar="N",
                      help=f"{docs['max_map_pixels']} (default: {settings.max_map_pixels:,})")

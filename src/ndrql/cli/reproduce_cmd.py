@@ -20,7 +20,8 @@ from ndrql.planning.preset import builtin_path, load_preset
 from ndrql.synth.oracle import PRIOR_SOURCES
 from ndrql.workers import ray_available
 
-TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "release", "all")
+TARGETS = ("table1", "table2", "table3", "table4", "dynamic", "scale", "sizing", "labels", "transfer", "release", "partial",
+           "all")
 
 EXAMPLES = """examples:
   ndrql reproduce table3                       # 8 fixed maps x QL, O-QL, IQL, NDR-QL x 10 seeds -> results/table3/
@@ -34,6 +35,8 @@ EXAMPLES = """examples:
   ndrql reproduce transfer --preset spec --no-learned-distance   # the paper's Eq. 6 (straight line) with the general weights
   ndrql reproduce release                      # the sealed set at grids 50 and 100, once per release (counted in the ledger)
   ndrql reproduce release --eval-set sealed-large-256 --seeds 3   # a large sealed set, at its own grid (256); no QL rows above 100 cells
+  ndrql reproduce partial --grids 50 --limit 4 --seeds 1 --beliefs blobs:0.3 --sense off   # belief maps: a quick look
+  ndrql reproduce partial --seeds 3            # partial-dev: blobs 10/30/50%, sensed, outdated x sensing off/on
   ndrql reproduce scale --grids 50,100         # also on the 100x100 grid -> results/scale-g100/
   ndrql reproduce table3 --prior-from oracle   # NDR-QL with the oracle's priors (a diagnostic) -> results/table3-oracle/
   ndrql reproduce dynamic
@@ -77,7 +80,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "$NDRQL_CACHE/runs; table4 uses DIR/table4/<variant>)")
     p.add_argument("--rgp-weights", metavar="FILE", help="table1: RGP peer weights (default: $NDRQL_RGP_WEIGHTS or "
                    "the best checkpoint of $NDRQL_CACHE/runs/rgp)")
-    p.add_argument("--grids", metavar="LIST", help="transfer: planning grid sizes, safe grid (default: 50,100); scale: "
+    p.add_argument("--grids", metavar="LIST", help="transfer, partial: planning grid sizes, safe grid (default: 50,100); scale: "
                    "the paper's grid, sizes other than 50 into results/scale-g<N> (default: 50)")
     p.add_argument("--prior-from", choices=PRIOR_SOURCES, default="model",
                    help="table3/scale: priors of the NDR-QL row, from the model (--weights; the table adds a row with "
@@ -88,7 +91,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--eval-set", default=None, metavar="NAME",
                    help="transfer: a development set of transfer_sets.json (default: transfer, the development report; sealed "
                    "sets are refused: only the release target reads them); release: sealed sets, comma-separated "
-                   "(default: sealed; a large sealed set is evaluated at its own grid unless --grids is given)")
+                   "(default: sealed; a large sealed set is evaluated at its own grid unless --grids is given); partial: "
+                   "partial-dev (default) or the sealed sealed-partial (counted in the ledger, as release)")
+    p.add_argument("--beliefs", metavar="LIST", default=None,
+                   help="partial: the beliefs, comma-separated: blobs:FRACTION (share of the free space hidden), sensed "
+                   "(what a robot sensed along routes), outdated (doors closed and opened) (default: "
+                   "blobs:0.1,blobs:0.3,blobs:0.5,sensed,outdated)")
+    p.add_argument("--sense", metavar="LIST", default="off,on",
+                   help="partial: sensing off, on (plan --sense R, R = 8%% of the grid's side) or both (default: off,on)")
     p.add_argument("--rows", metavar="LIST", default=None,
                    help="transfer/release: the report's rows, comma-separated (IQL and NDR-QL (model) required), or all "
                    "(default: every row up to 100 cells; above, every row but QL and QL (tuned): ~10^7 steps per run)")
@@ -96,13 +106,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="transfer: Eq. 6 on the model's learned distance when the weights have a distance head; "
                    "--no-learned-distance: the straight line, the paper's Eq. 6 (default: on)")
     p.add_argument("--ledger", metavar="FILE", default="docs/release/ledger.json",
-                   help="release: the ledger that counts every evaluation of a sealed set, updated before the sets "
+                   help="release, partial: the ledger that counts every evaluation of a sealed set, updated before the sets "
                    "are read (default: the ledger of the checkout it runs in, under its docs folder: release/ledger.json)")
     p.add_argument("--allow-dirty", action="store_true",
-                   help="release: run with uncommitted changes (the ledger records the commit as -dirty)")
+                   help="release, partial: run with uncommitted changes (the ledger records the commit as -dirty)")
     add_symmetries_argument(p, "a grid-mode model's prediction (--weights general) is averaged over N orientations of "
                             "the grid, as ndrql plan does (1, 2, 4, 8; the paper's model is never averaged)", DEFAULT_COUNT)
     p.add_argument("--limit", type=int, default=None, metavar="N", help="table1/table4/sizing: evaluate on the first N samples per split; "
+                   "partial: the first N maps of a development set; "
                    "labels: N TEST/SEEN samples spread over the split (default: all 1,200)")
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
                    "separated by commas, each run into its own folder and compared side by side (default: spec,tuned "
@@ -154,7 +165,7 @@ def _presets(args: argparse.Namespace, target: str) -> list:
     names = args.preset
     if names is None:
         names = "spec,tuned" if target in ("table2", "table3", "scale") and builtin_path("tuned").is_file() else "spec"
-        names = "general" if target == "release" else names
+        names = "general" if target in ("release", "partial") else names
     ql = {n: getattr(args, f"cfg_{n}") for n in _QL_FLAGS if getattr(args, f"cfg_{n}") is not None}
     pri = {n: getattr(args, f"cfg_{n}") for n in _PRIOR_FLAGS if getattr(args, f"cfg_{n}") is not None}
     out = [load_preset(n.strip()).with_overrides(ql, pri) for n in names.split(",") if n.strip()]
@@ -181,6 +192,34 @@ def _release(args: argparse.Namespace, opts, out: Path, log) -> str:
                     workers=args.workers, executor=args.executor, progress=not args.no_progress,
                     command=opts.command, log=log)
     return ", ".join(str(x) for x in paths)
+
+
+def _partial(args: argparse.Namespace, opts, out: Path, log) -> str:
+    """``reproduce partial``: belief maps (:mod:`ndrql.experiments.partial_run`), one preset by name."""
+    from ndrql.dataset.mixture import parse_sizes  # lazy: loads torch and scipy
+    from ndrql.experiments.partial import DEFAULT_BELIEFS, parse_beliefs, parse_sense
+    from ndrql.api import run_request  # lazy: loads the pipeline
+    from ndrql.experiments.partial_run import partial  # lazy: loads scipy
+
+    for flag, given in (("--per-family", args.per_family is not None), ("--rows", args.rows is not None)):
+        if given:
+            raise NdrqlError(f"{flag} does not apply to partial (its rows are fixed; --limit N takes the first N maps)")
+    changed = [n for n in (*_QL_FLAGS, *_PRIOR_FLAGS) if getattr(args, f"cfg_{n}") is not None]
+    if changed:
+        raise NdrqlError(f"partial runs a preset's constants as plan does; --{changed[0].replace('_', '-')} does not "
+                         f"apply (give --preset FILE)")
+    preset = args.preset or "general"
+    if "," in preset:
+        raise NdrqlError("partial takes one --preset")
+    load_preset(preset)
+    beliefs = args.beliefs or DEFAULT_BELIEFS
+    parse_beliefs(beliefs)
+    path = partial(out, runner=run_request, set_name=args.eval_set or "partial-dev", grids=tuple(parse_sizes(args.grids or "50,100")),
+                   beliefs=beliefs, senses=parse_sense(args.sense), seeds=args.seeds, seed0=args.seed,
+                   weights=args.weights, preset=preset, workers=args.workers, executor=args.executor, limit=args.limit,
+                   ledger=args.ledger, allow_dirty=args.allow_dirty, command=opts.command, progress=not args.no_progress,
+                   log=log)
+    return str(path)
 
 
 #: Targets that need torch (the model's predictions run on torch for the tables, training, the dataset's mixture):
@@ -247,6 +286,8 @@ def run(args: argparse.Namespace) -> int:
             path = ", ".join(str(x) for x in paths)
         elif target == "release":
             path = _release(args, opts, out, log)
+        elif target == "partial":
+            path = _partial(args, opts, out, log)
         elif target == "sizing":
             from ndrql.experiments.sizing import sizing  # lazy: loads torch
 

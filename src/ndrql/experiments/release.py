@@ -94,12 +94,14 @@ def keep_records(summary: Path, folder: Path, run_id: int, name: str) -> dict:
     return {"records": target.as_posix(), "records_sha256": file_digest(target)}
 
 
-def attempt_line(book: dict, grid: int, run_id: int) -> str:
+def attempt_line(book: dict, grid: int, run_id: int, name: str | None = None) -> str:
     """``- grid N: sealed read k at this size (runs ...)``: how many runs of the ledger up to ``run_id`` read a sealed
-    set at ``grid``, so that a held-out figure names its attempt."""
-    runs = [r["run"] for r in book["runs"] if grid in r.get("grids", []) and r["run"] <= run_id]
+    set (``name``: that set) at ``grid``, so that a held-out figure names its attempt."""
+    runs = [r["run"] for r in book["runs"] if grid in r.get("grids", []) and r["run"] <= run_id
+            and (name is None or name in r["sets"])]
     earlier = ", ".join(map(str, runs[:-1])) or "none"
-    return (f"- grid {grid}: sealed read {len(runs)} at this size (earlier runs at this size: {earlier}; "
+    what = "sealed read" if name is None else f"read of {name}"
+    return (f"- grid {grid}: {what} {len(runs)} at this size (earlier runs at this size: {earlier}; "
             f"what each showed: docs/results.md)\n")
 
 
@@ -128,23 +130,10 @@ def release(out: str | Path, sets: list[str], *, ledger: str | Path = DEFAULT_LE
     ``rows``: the report's rows (``None``: :func:`~ndrql.experiments.transfer_report.default_rows` per grid)."""
     names = check_sealed_names(list(dict.fromkeys(sets)))
     ledger = Path(ledger)
-    if not ledger.parent.is_dir():
-        raise NdrqlError(f"--ledger {ledger}: its folder does not exist (run from the source checkout, or give --ledger)")
-    commit, dirty = git_commit(Path(repo))
-    if dirty and not allow_dirty:
-        raise NdrqlError("the working tree has uncommitted changes: commit them first, so that the report names "
-                         "everything it ran (or --allow-dirty, recorded as such)")
-    for name in names:  # every set matches its seal before any is evaluated
-        verify_seal(name, eval_set(eval_spec(name, release=True), progress, release=True))
-    book = read_ledger(ledger)
-    run_id = len(book["runs"]) + 1
-    entry = {"run": run_id, "commit": commit + ("-dirty" if dirty else ""),
-             "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), "sets": names,
-             "grids": list(grids), "seeds": [seed0, seed0 + seeds - 1],
-             "rows": {str(n): list(rows_at(n, rows)) for n in grids}, "preset": preset.name if preset else "spec",
-             "command": command, "finished": None, "reports": {}}
-    book["runs"].append(entry)
-    write_json(ledger, book)  # counted before a single map is read
+    book, entry = open_read(ledger, names, grids, repo=repo, allow_dirty=allow_dirty, progress=progress,
+                            seeds=[seed0, seed0 + seeds - 1], rows={str(n): list(rows_at(n, rows)) for n in grids},
+                            preset=preset.name if preset else "spec", command=command)
+    run_id = entry["run"]
     paths = []
     for name in names:
         prior = [r["commit"] for r in book["runs"] if name in r["sets"]]
@@ -158,6 +147,33 @@ def release(out: str | Path, sets: list[str], *, ledger: str | Path = DEFAULT_LE
         entry["reports"][name] = {"path": path.as_posix(), "sha256": file_digest(path),
                                   **keep_records(path.parent / "summary.json", ledger.parent, run_id, name)}
         paths.append(path)
+    close_read(ledger, book, entry)
+    return paths
+
+
+def open_read(ledger: Path, names: list[str], grids: tuple[int, ...] | list[int], *, repo: str | Path = ".",
+              allow_dirty: bool = False, progress: bool = True, **fields: object) -> tuple[dict, dict]:
+    """Steps 1-3 of the module docstring for the sealed sets ``names`` at ``grids``: the seal checked, a dirty tree
+    refused, the run appended to the ledger (with ``fields``: seeds, rows, preset, command, ...) and written before a
+    single map is read. Returns the ledger and the run's entry (``entry["run"]``: its number)."""
+    if not ledger.parent.is_dir():
+        raise NdrqlError(f"--ledger {ledger}: its folder does not exist (run from the source checkout, or give --ledger)")
+    commit, dirty = git_commit(Path(repo))
+    if dirty and not allow_dirty:
+        raise NdrqlError("the working tree has uncommitted changes: commit them first, so that the report names "
+                         "everything it ran (or --allow-dirty, recorded as such)")
+    for name in names:  # every set matches its seal before any is evaluated
+        verify_seal(name, eval_set(eval_spec(name, release=True), progress, release=True))
+    book = read_ledger(ledger)
+    entry = {"run": len(book["runs"]) + 1, "commit": commit + ("-dirty" if dirty else ""),
+             "started": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), "sets": list(names),
+             "grids": list(grids), **fields, "finished": None, "reports": {}}
+    book["runs"].append(entry)
+    write_json(ledger, book)  # counted before a single map is read
+    return book, entry
+
+
+def close_read(ledger: Path, book: dict, entry: dict) -> None:
+    """The run's end time in the ledger (its reports already in ``entry["reports"]``)."""
     entry["finished"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     write_json(ledger, book)
-    return paths

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ndrql.dataset.encodings import encode_input
+from ndrql.dataset.encodings import encode_input, has_unknown
 from ndrql.errors import NdrqlError, require_torch
 from ndrql.io import atomic_path, file_digest, write_json
 from ndrql.maps.grid import MODEL_SIDE
@@ -115,14 +115,16 @@ def store_half(model) -> int:
 
 
 def sample_inputs(side: int, channels: int, encoding: str, count: int, seed: int) -> np.ndarray:
-    """``count`` encoded inputs of ``side`` px: random obstacles (20 %), a free start and goal (deterministic per seed)."""
+    """``count`` encoded inputs of ``side`` px: random obstacles (20 %), a free start and goal, and for an encoding with
+    the unknown channel 30 % of the pixels unknown, so the channel is measured too (deterministic per seed)."""
     rng = np.random.default_rng(seed)
     batch = []
     for _ in range(count):
         obstacles = rng.random((side, side)) < 0.2
         free = np.argwhere(~obstacles)
         s, g = free[rng.choice(len(free), 2, replace=False)]
-        batch.append(encode_input(obstacles, tuple(map(int, s)), tuple(map(int, g)), encoding))
+        unknown = rng.random((side, side)) < 0.3 if has_unknown(encoding) else None
+        batch.append(encode_input(obstacles, tuple(map(int, s)), tuple(map(int, g)), encoding, unknown))
     x = np.stack(batch).astype(np.float32)
     if x.shape[1] != channels:
         raise ValueError(f"encoding {encoding!r} gives {x.shape[1]} channels, the model takes {channels}")

@@ -15,6 +15,8 @@ What :func:`build_request` decides, once:
   unset): grid ``safe`` with ``size auto``, smoothing on and the ``IQL`` fallback for one method on a
   user's map; the paper's ``area`` 50x50 grid, no smoothing and no fallback on a dataset sample; no
   fallback when several methods are compared;
+- the weights: as named, else ``$NDRQL_WEIGHTS`` or ``general``; on a belief map with none named, the shipped
+  ``belief`` weights when installed (:func:`~ndrql.model.weights.plan_weights`);
 - the constants: the preset (default :func:`~ndrql.planning.preset.plan_default_preset` of the file
   the weights resolve to, ``$NDRQL_WEIGHTS`` included), with the fields the caller set explicitly
   (``ql={...}``, ``priors={...}``) on top of every method's entry. A field set to its default value is
@@ -33,7 +35,7 @@ from ndrql.errors import NdrqlError, PointError, brief
 from ndrql.limits import check_finite
 from ndrql.maps.grid import GridMap
 from ndrql.maps.readers import IMAGE_SUFFIXES, YAML_SUFFIXES
-from ndrql.model.weights import resolve_weights, weights_label
+from ndrql.model.weights import plan_weights, resolve_weights, weights_label
 from ndrql.maps.belief import Belief
 from ndrql.pipeline.belief import check_points_known, read_belief
 from ndrql.pipeline.sensing import SenseConfig, sense_config
@@ -344,7 +346,8 @@ def build_request(
     sources = request_sources(predictions, weights, kind, belief is not None, s)
     predictions = None if predictions == "model" else predictions
     uses_model = "model" in sources
-    weights_file = str(resolve_weights(weights)) if uses_model or preset is None else None
+    asked = plan_weights(weights, belief is not None) if uses_model else weights  # a belief map: the belief weights
+    weights_file = str(resolve_weights(asked)) if uses_model or preset is None else None
     preset_obj, _, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file)
     record["preset"] = preset_obj.name
     return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, sensing=sensing, sources=sources, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,

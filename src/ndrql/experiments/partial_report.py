@@ -89,7 +89,7 @@ def floors(summary: dict[str, Any]) -> list[str]:
     h = summary["headroom"]
     if h < MIN_HEADROOM:
         return [f"- the oracle's headroom over IQL-BFS is {h:.1%}, under {MIN_HEADROOM:.0%}: the issue asks to say so "
-                f"and ship the feature; the floors below do not apply"]
+                f"and ship the feature; the floors do not apply here"]
     r, share, (fam, worst) = summary["ndr"]["ratio"], summary["share"], summary["worst"]
     verdict = lambda ok: "**PASS**" if ok else "**MISS**"  # noqa: E731
     return [f"- NDR-QL / IQL-BFS (belief) <= {MAX_RATIO:.2f} (geometric mean): {r:.3f} "

@@ -124,3 +124,32 @@ def test_a_sealed_set_is_refused_on_a_dirty_tree_and_counted_in_the_ledger(seale
     assert rel.attempt_line(book, 32, 1, "sealed-tiny").startswith("- grid 32: read of sealed-tiny 1")
     recs = [json.loads(x) for x in (tmp_path / "out" / RECORDS).read_text().splitlines()]
     assert any("NDR-QL" in r.get("rows", {}) for r in recs), recs
+
+
+def _records(ref: float, ndr: float, oracle: float, maps: int = 4) -> list[dict]:
+    """Synthetic records of ``maps`` maps (truth and belief records), three seeds each, with these mean steps."""
+    out = []
+    for i in range(maps):
+        seeds = lambda m: [m - 1.0, m, m + 1.0]  # noqa: E731
+        out.append({"index": i, "grid": 50, "belief": None, "rows": {"IQL": {"steps": seeds(ref), "ratio": [1.0] * 3},
+                                                                     "NDR-QL (oracle)": {"steps": seeds(oracle),
+                                                                                         "ratio": [1.0] * 3}}})
+        out.append({"index": i, "grid": 50, "belief": "blobs:0.3", "sense": False, "family": f"f{i % 2}",
+                    "unknown_share": 0.3, "rows": {REF: {"steps": seeds(ref), "ratio": [1.0] * 3},
+                                                   "NDR-QL": {"steps": seeds(ndr), "ratio": [1.0] * 3, "seconds": 0.1}}})
+    return out
+
+
+def test_the_floors_are_judged_on_geometric_means_and_the_oracles_share():
+    from ndrql.experiments.partial_report import floors, group_summary, joined, report_text
+
+    ok = group_summary(joined(_records(1000, 790, 500)))
+    assert ok["ndr"]["ratio"] == pytest.approx(0.79) and ok["headroom"] == pytest.approx(0.5)
+    assert ok["share"] == pytest.approx(0.42) and ok["ndr_outcomes"]["wins"] == 4
+    assert [line.count("**PASS**") for line in floors(ok)] == [1, 1, 1]
+    miss = floors(group_summary(joined(_records(1000, 1100, 500))))
+    assert [line.count("**MISS**") for line in miss] == [1, 1, 1]
+    flat = floors(group_summary(joined(_records(1000, 1000, 950))))
+    assert len(flat) == 1 and "under 15%" in flat[0]
+    text = report_text(_records(1000, 790, 500), "# r\n", (50,), ["blobs:0.3"], (False,))
+    assert text.count("**PASS**") == 3 and "| **all** | 4 | 1.00 | 0.79 | 0.50 | 1,000 |" in text

@@ -1,4 +1,4 @@
-"""The exact source's drawing (pipeline/sources.py) against plain reference loops: the window and the cell means
+"""The exact source's drawing (pipeline/sources.py, maps/route_cells.py) against plain reference loops: the window and the cell means
 that make its region and guideline, and the region against the oracle's OpenCV-style drawing."""
 
 from __future__ import annotations
@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ndrql.dataset.render import cell_means
+from ndrql.maps import route_cells
 from ndrql.maps.grid import bfs_distances
 from ndrql.pipeline import sources as S
 from ndrql.synth.oracle import oracle_prediction
@@ -26,10 +27,10 @@ def test_window_and_cell_means_equal_plain_loops():
         h, w = (int(v) for v in rng.integers(1, 40, 2))
         a = rng.random((h, w)) < rng.random() * 0.3
         before, after, axis = int(rng.integers(0, 16)), int(rng.integers(0, 16)), int(rng.integers(0, 2))
-        assert np.array_equal(S._window_any(a, before, after, axis), _window_ref(a, before, after, axis))
+        assert np.array_equal(route_cells.window_any(a, before, after, axis), _window_ref(a, before, after, axis))
         img = rng.random((4 * int(rng.integers(1, 12)), 4 * int(rng.integers(1, 12)))) < 0.5
         ref = img.reshape(img.shape[0] // 4, 4, img.shape[1] // 4, 4).mean(axis=(1, 3))
-        assert np.array_equal(S._cell_means(img, 4), ref)
+        assert np.array_equal(route_cells.cell_means(img, 4), ref)
 
 
 def test_exact_region_is_the_labels_drawing_to_a_pixel():

@@ -11,6 +11,10 @@
  *               ndrql.maps.lines_kernel._first_blocked, _shortcut, _supercover
  *   bfs4, bottleneck4
  *               ndrql.maps.fields_kernel.bfs4_kernel, bottleneck4_kernel
+ *   route_cells ndrql.maps.route_cells.route_cells_numpy (the exact source's drawing; numpy is its reference)
+ *   gauss_blur  ndrql.planning.priors.gaussian_blur's numpy loop (scipy's gaussian_filter, bit for bit)
+ *   far_field   ndrql.pipeline.sources.exact_distance_field's numpy version (bfs4, then the far cells' values)
+ *   snapped     ndrql.planning.priors.snapped_distance's numpy version
  *
  * Results are bit-identical to numba's: the same IEEE double operations in the same order (compile
  * with -ffp-contract=off and without -ffast-math, so no fused multiply-add or reassociation), the same
@@ -909,6 +913,364 @@ static PyObject *py_bottleneck4(PyObject *self, PyObject *args) {
     return PyFloat_FromDouble(out);
 }
 
+/* ---------------------------------------------------------------- the exact source's drawing (maps.route_cells) */
+
+/* GCC vectorizes the byte loops below only when asked at -O2 (no floating point in them: the results cannot differ). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define VECTORIZE __attribute__((optimize("tree-vectorize")))
+#else
+#define VECTORIZE
+#endif
+
+/* Adds each `px`-pixel block of a line of pixel counts (pixels x0 .. x0 + n - 1 of an image row, x0 and n multiples
+ * of px) to its cell, then clears the line. */
+VECTORIZE static void flush_blocks(uint16_t *line, int64_t x0, int64_t n, int64_t px, int64_t *cells) {
+    for (int64_t x = 0; x < n; x += px) {
+        int64_t sum = 0;
+        for (int64_t i = x; i < x + px; i++) sum += line[i];
+        cells[(x0 + x) / px] += sum;
+    }
+    memset(line, 0, (size_t)n * sizeof(uint16_t));
+}
+
+/* floor(v) as an integer, for |v| < 2^53 (what numpy's floor then astype(int64) gives). */
+static inline int64_t floor_int(double v) {
+    int64_t t = (int64_t)v;
+    return t - ((double)t > v);
+}
+
+/* The route of sources.drawn_priors at pixel level: the samples of each waypoint segment (numpy.linspace's
+ * values: i * (1 / (n - 1)), the last exactly 1), a `guide_px` square stamped at floor(p - half) of each (clipped
+ * to the image), the region every pixel with a stamped pixel from `before` before it to `after` after it in both
+ * axes, then per cell of `px` x `px` pixels the share of region and guide pixels. Works inside the guide's bounding
+ * box widened by the window (to whole cells): along the rows by ORs of each row with itself shifted by 1, 2, 4, ...,
+ * down the columns by a sliding count of rows, a cell row's pixel counts summed per column before they are added
+ * per cell; 0, or -1 out of memory. */
+VECTORIZE static int route_cells_run(const double *wp, int64_t k, const int64_t *counts, int64_t rows, int64_t cols,
+                                     int64_t px, int64_t guide_px, double half, int64_t before, int64_t after,
+                                     double *region, double *guide) {
+    int64_t h = rows * px, w = cols * px, ncell = rows * cols;
+    for (int64_t i = 0; i < ncell; i++) region[i] = guide[i] = 0.0;
+    if (k < 1) return 0;
+    int64_t total = 1;
+    for (int64_t j = 0; j + 1 < k; j++) total += counts[j];
+    int64_t *top = malloc((size_t)total * 2 * sizeof(int64_t));
+    if (!top) return -1;
+    top[0] = floor_int(wp[0] - half);
+    top[1] = floor_int(wp[1] - half);
+    int64_t m = 1;
+    for (int64_t j = 0; j + 1 < k; j++) {
+        const double *a = wp + 2 * j, *b = wp + 2 * j + 2;
+        double d0 = b[0] - a[0], d1 = b[1] - a[1];
+        int64_t n = counts[j];
+        double step = n > 1 ? 1.0 / (double)(n - 1) : 0.0;
+        for (int64_t i = 0; i < n; i++) {
+            double t = n > 1 ? (i == n - 1 ? 1.0 : (double)i * step + 0.0) : 0.0;
+            top[2 * m] = floor_int((a[0] + d0 * t) - half);
+            top[2 * m + 1] = floor_int((a[1] + d1 * t) - half);
+            m++;
+        }
+    }
+    int64_t r0 = h, r1 = -1, c0 = w, c1 = -1; /* the stamped pixels' bounding box (after clipping) */
+    for (int64_t i = 0; i < m; i++) {
+        for (int64_t d = 0; d < guide_px; d += guide_px - 1 > 0 ? guide_px - 1 : 1) { /* the square's corners */
+            int64_t r = top[2 * i] + d, c = top[2 * i + 1] + d;
+            r = r < 0 ? 0 : (r > h - 1 ? h - 1 : r);
+            c = c < 0 ? 0 : (c > w - 1 ? w - 1 : c);
+            if (r < r0) r0 = r;
+            if (r > r1) r1 = r;
+            if (c < c0) c0 = c;
+            if (c > c1) c1 = c;
+        }
+    }
+    int64_t win = before + after + 1;
+    int64_t y0 = r0 - after > 0 ? r0 - after : 0, y1 = r1 + before < h - 1 ? r1 + before : h - 1;
+    int64_t x0 = c0 - after > 0 ? c0 - after : 0, x1 = c1 + before < w - 1 ? c1 + before : w - 1;
+    x0 = x0 / px * px; /* whole cells */
+    x1 = (x1 / px + 1) * px - 1;
+    int64_t gh = r1 - r0 + 1, vw = x1 - x0 + 1, sw = vw + win; /* sw: a row padded for the window */
+    /* g: the guide rows r0..r1 on columns x0 - before .. x1 + after (zero outside the image and the box), dilated
+     * along the rows in place (g[x] then covers columns x0 + x - before .. x0 + x + after: column x0 + x's window) */
+    uint8_t *g = calloc((size_t)(gh * sw), 1), *tmp = malloc((size_t)sw);
+    uint16_t *cnt = calloc((size_t)vw, sizeof(uint16_t)), *band = calloc((size_t)vw, sizeof(uint16_t));
+    int64_t *cells = calloc((size_t)ncell, sizeof(int64_t));
+    int status = -1;
+    if (!g || !tmp || !cnt || !band || !cells) goto done;
+    for (int64_t i = 0; i < m; i++) {
+        for (int64_t dr = 0; dr < guide_px; dr++) {
+            int64_t r = top[2 * i] + dr;
+            r = r < 0 ? 0 : (r > h - 1 ? h - 1 : r);
+            for (int64_t dc = 0; dc < guide_px; dc++) {
+                int64_t c = top[2 * i + 1] + dc;
+                c = c < 0 ? 0 : (c > w - 1 ? w - 1 : c);
+                g[(r - r0) * sw + (c - x0 + before)] = 1;
+            }
+        }
+    }
+    for (int64_t r = 0; r < gh; r++) { /* the guide per cell, then each row dilated along it */
+        uint8_t *s = g + r * sw;
+        for (int64_t x = 0; x < vw; x++) band[x] += s[x + before];
+        if ((r + r0 + 1) % px == 0 || r == gh - 1) flush_blocks(band, x0, vw, px, cells + ((r + r0) / px) * cols);
+        uint8_t *restrict from = s, *restrict to = tmp;
+        for (int64_t span = 1; span < win;) { /* from[x] = any of s[x .. x + span - 1] */
+            int64_t step = span < win - span ? span : win - span;
+            for (int64_t x = 0; x < sw - step; x++) to[x] = from[x] | from[x + step];
+            for (int64_t x = sw - step; x < sw; x++) to[x] = from[x];
+            uint8_t *swap = from;
+            from = to;
+            to = swap;
+            span += step;
+        }
+        if (from != s) memcpy(s, from, (size_t)sw);
+    }
+    for (int64_t i = 0; i < ncell; i++) guide[i] = (double)cells[i] / (double)(px * px);
+    memset(cells, 0, (size_t)ncell * sizeof(int64_t));
+    /* down the columns: the window of row y holds rows y - before .. y + after of g (zero outside r0..r1) */
+    for (int64_t r = (y0 - before > r0 ? y0 - before : r0); r <= (y0 + after < r1 ? y0 + after : r1); r++)
+        for (int64_t x = 0; x < vw; x++) cnt[x] += g[(r - r0) * sw + x];
+    for (int64_t y = y0; y <= y1; y++) {
+        for (int64_t x = 0; x < vw; x++) band[x] += cnt[x] > 0;
+        if ((y + 1) % px == 0 || y == y1) flush_blocks(band, x0, vw, px, cells + (y / px) * cols);
+        int64_t drop = y - before, add = y + after + 1;
+        if (drop >= r0 && drop <= r1) {
+            const uint8_t *s = g + (drop - r0) * sw;
+            for (int64_t x = 0; x < vw; x++) cnt[x] -= s[x];
+        }
+        if (add >= r0 && add <= r1) {
+            const uint8_t *s = g + (add - r0) * sw;
+            for (int64_t x = 0; x < vw; x++) cnt[x] += s[x];
+        }
+    }
+    for (int64_t i = 0; i < ncell; i++) region[i] = (double)cells[i] / (double)(px * px);
+    status = 0;
+done:
+    free(top);
+    free(g);
+    free(tmp);
+    free(cnt);
+    free(band);
+    free(cells);
+    return status;
+}
+
+static PyObject *py_route_cells(PyObject *self, PyObject *args) {
+    PyObject *o_wp, *o_counts;
+    long long rows, cols, px, guide_px, before, after;
+    double half;
+    if (!PyArg_ParseTuple(args, "OOLLLLdLL", &o_wp, &o_counts, &rows, &cols, &px, &guide_px, &half, &before, &after))
+        return NULL;
+    if (rows < 1 || cols < 1 || px < 1 || guide_px < 1 || before < 0 || after < 0 || before + after >= 65535)
+        return PyErr_Format(PyExc_ValueError, "bad grid %lldx%lld, px %lld, guide %lld or window %lld, %lld", rows,
+                            cols, px, guide_px, before, after);
+    Py_buffer bw, bc;
+    if (get_buffer(o_wp, &bw, 8, 0, 0, "waypoints") != 0) return NULL;
+    int64_t k = bw.len / 16;
+    if (get_buffer(o_counts, &bc, 8, k > 0 ? k - 1 : 0, 0, "counts") != 0) {
+        PyBuffer_Release(&bw);
+        return NULL;
+    }
+    PyObject *o_region = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(rows * cols * 8));
+    PyObject *o_guide = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(rows * cols * 8));
+    int status = -1;
+    if (o_region && o_guide) {
+        double *region = (double *)PyByteArray_AS_STRING(o_region), *guide = (double *)PyByteArray_AS_STRING(o_guide);
+        Py_BEGIN_ALLOW_THREADS
+        status = route_cells_run((const double *)bw.buf, k, (const int64_t *)bc.buf, rows, cols, px, guide_px, half,
+                                 before, after, region, guide);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&bw);
+    PyBuffer_Release(&bc);
+    if (status < 0) {
+        Py_XDECREF(o_region);
+        Py_XDECREF(o_guide);
+        return PyErr_Occurred() ? NULL : PyErr_NoMemory();
+    }
+    return Py_BuildValue("NN", o_region, o_guide);
+}
+
+/* scipy.ndimage.gaussian_filter of an h x w double array as planning.priors.gaussian_blur computes it: down the
+ * columns, then along the rows, `reflect` border (repeated for lines shorter than the kernel), each value
+ * w[r] * centre, then + (left_j + right_j) * w[r - j] for j = r .. 1 (whole rows at a time, so the inner loops run
+ * over contiguous memory; each value sees the same operations in the same order). 0, or -1 out of memory. */
+VECTORIZE static int gauss_blur_run(const double *src, int64_t h, int64_t w, const double *wt, int64_t radius,
+                                    double *out) {
+    int64_t longest = h > w ? h : w;
+    int64_t *idx = malloc((size_t)(longest + 2 * radius) * sizeof(int64_t));
+    double *mid = malloc((size_t)(h * w) * sizeof(double)), *pad = malloc((size_t)(w + 2 * radius) * sizeof(double));
+    if (!idx || !mid || !pad) {
+        free(idx);
+        free(mid);
+        free(pad);
+        return -1;
+    }
+    for (int64_t i = 0; i < h + 2 * radius; i++) { /* numpy.mod(i - radius, 2h), then reflect */
+        int64_t q = (i - radius) % (2 * h);
+        if (q < 0) q += 2 * h;
+        idx[i] = q >= h ? 2 * h - 1 - q : q;
+    }
+    for (int64_t i = 0; i < h; i++) { /* down the columns: row i of mid from rows idx[i .. i + 2r] of src */
+        double *restrict acc = mid + i * w;
+        const double *centre = src + idx[i + radius] * w;
+        for (int64_t x = 0; x < w; x++) acc[x] = centre[x] * wt[radius];
+        for (int64_t j = radius; j > 0; j--) {
+            const double *restrict lo = src + idx[i + radius - j] * w, *restrict hi = src + idx[i + radius + j] * w;
+            double c = wt[radius - j];
+            for (int64_t x = 0; x < w; x++) acc[x] = acc[x] + (lo[x] + hi[x]) * c;
+        }
+    }
+    for (int64_t i = 0; i < w + 2 * radius; i++) {
+        int64_t q = (i - radius) % (2 * w);
+        if (q < 0) q += 2 * w;
+        idx[i] = q >= w ? 2 * w - 1 - q : q;
+    }
+    for (int64_t r = 0; r < h; r++) { /* along the rows: the row reflected into pad, then the same sums */
+        const double *row = mid + r * w;
+        double *restrict acc = out + r * w;
+        for (int64_t i = 0; i < w + 2 * radius; i++) pad[i] = row[idx[i]];
+        for (int64_t x = 0; x < w; x++) acc[x] = pad[x + radius] * wt[radius];
+        for (int64_t j = radius; j > 0; j--) {
+            const double *restrict lo = pad + radius - j, *restrict hi = pad + radius + j;
+            double c = wt[radius - j];
+            for (int64_t x = 0; x < w; x++) acc[x] = acc[x] + (lo[x] + hi[x]) * c;
+        }
+    }
+    free(idx);
+    free(mid);
+    free(pad);
+    return 0;
+}
+
+static PyObject *py_gauss_blur(PyObject *self, PyObject *args) {
+    PyObject *o_values, *o_weights;
+    long long h, w, radius;
+    if (!PyArg_ParseTuple(args, "OLLOL", &o_values, &h, &w, &o_weights, &radius)) return NULL;
+    if (h < 1 || w < 1 || radius < 0)
+        return PyErr_Format(PyExc_ValueError, "bad array %lldx%lld or radius %lld", h, w, radius);
+    Py_buffer bv, bw;
+    if (get_buffer(o_values, &bv, 8, (Py_ssize_t)(h * w), 0, "values") != 0) return NULL;
+    if (get_buffer(o_weights, &bw, 8, (Py_ssize_t)(2 * radius + 1), 0, "weights") != 0) {
+        PyBuffer_Release(&bv);
+        return NULL;
+    }
+    PyObject *out = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(h * w * 8));
+    int status = -1;
+    if (out) {
+        double *dst = (double *)PyByteArray_AS_STRING(out);
+        Py_BEGIN_ALLOW_THREADS
+        status = gauss_blur_run((const double *)bv.buf, h, w, (const double *)bw.buf, radius, dst);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&bv);
+    PyBuffer_Release(&bw);
+    if (status < 0) {
+        Py_XDECREF(out);
+        return PyErr_Occurred() ? NULL : PyErr_NoMemory();
+    }
+    return out;
+}
+
+/* ---------------------------------------------------------------- Eq. 6's distance (planning.priors) */
+
+/* sources.exact_distance_field: 4-connected moves to `src` as doubles; where a cell cannot reach it (blocked cells
+ * included), (the largest finite distance, 0 when none) + |row - src row| + |col - src col|, summed in that order.
+ * 0, or -1 out of memory. */
+static int far_field_run(const uint8_t *blocked, int64_t h, int64_t w, int64_t src, double *out) {
+    int64_t n = h * w, top = -1;
+    int64_t *dist = malloc((size_t)n * sizeof(int64_t));
+    if (!dist || bfs4_run(blocked, h, w, src, dist) != 0) {
+        free(dist);
+        return -1;
+    }
+    for (int64_t i = 0; i < n; i++)
+        if (dist[i] > top) top = dist[i];
+    double far = top >= 0 ? (double)top : 0.0;
+    int64_t gr = src / w, gc = src % w;
+    for (int64_t r = 0; r < h; r++) {
+        double base = far + (double)(r > gr ? r - gr : gr - r);
+        for (int64_t c = 0; c < w; c++) {
+            int64_t i = r * w + c;
+            out[i] = dist[i] >= 0 ? (double)dist[i] : base + (double)(c > gc ? c - gc : gc - c);
+        }
+    }
+    free(dist);
+    return 0;
+}
+
+static PyObject *py_far_field(PyObject *self, PyObject *args) {
+    PyObject *o_blocked;
+    long long h, w, src;
+    if (!PyArg_ParseTuple(args, "OLLL", &o_blocked, &h, &w, &src)) return NULL;
+    if (h < 1 || w < 1 || h > INT32_MAX || w > INT32_MAX || src < 0 || src >= h * w)
+        return PyErr_Format(PyExc_ValueError, "bad grid %lldx%lld or source cell %lld", h, w, src);
+    Py_buffer b;
+    if (get_buffer(o_blocked, &b, 1, (Py_ssize_t)(h * w), 0, "blocked") != 0) return NULL;
+    PyObject *out = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(h * w * 8));
+    int status = -1;
+    if (out) {
+        double *dst = (double *)PyByteArray_AS_STRING(out);
+        Py_BEGIN_ALLOW_THREADS
+        status = far_field_run((const uint8_t *)b.buf, h, w, src, dst);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&b);
+    if (status < 0) {
+        Py_XDECREF(out);
+        return PyErr_Occurred() ? NULL : PyErr_NoMemory();
+    }
+    return out;
+}
+
+/* planning.priors.snapped_distance: per cell, with m = |row - g0| + |col - g1| and x = max(d - m, 0),
+ * (m + 2 * rint(x / 2)) + ties, ties = tie * straight [+ weight * (1 - near)] (straight: numpy's hypot of the
+ * cell's offsets, given): numpy's operations in numpy's order (np.round is rint, half to even). `near` may be NULL. */
+static void snapped_run(const double *d, const double *near, const double *straight, int64_t h, int64_t w, int64_t g0,
+                        int64_t g1, double tie, double weight, double *out) {
+    for (int64_t r = 0; r < h; r++) {
+        for (int64_t c = 0; c < w; c++) {
+            int64_t i = r * w + c, dr = r - g0, dc = c - g1;
+            double m = (double)((dr < 0 ? -dr : dr) + (dc < 0 ? -dc : dc));
+            double x = d[i] - m;
+            x = x > 0.0 ? x : 0.0;
+            double ties = tie * straight[i];
+            if (near) ties = ties + weight * (1.0 - near[i]);
+            out[i] = (m + 2.0 * rint(x / 2.0)) + ties;
+        }
+    }
+}
+
+static PyObject *py_snapped(PyObject *self, PyObject *args) {
+    PyObject *o_d, *o_near, *o_straight;
+    long long h, w, g0, g1;
+    double tie, weight;
+    if (!PyArg_ParseTuple(args, "OOOLLLLdd", &o_d, &o_near, &o_straight, &h, &w, &g0, &g1, &tie, &weight)) return NULL;
+    if (h < 1 || w < 1) return PyErr_Format(PyExc_ValueError, "bad grid %lldx%lld", h, w);
+    Py_buffer bd, bn, bs;
+    int has_near = o_near != Py_None;
+    if (get_buffer(o_d, &bd, 8, (Py_ssize_t)(h * w), 0, "distance") != 0) return NULL;
+    if (get_buffer(o_straight, &bs, 8, (Py_ssize_t)(h * w), 0, "straight") != 0) {
+        PyBuffer_Release(&bd);
+        return NULL;
+    }
+    if (has_near && get_buffer(o_near, &bn, 8, (Py_ssize_t)(h * w), 0, "nearness") != 0) {
+        PyBuffer_Release(&bd);
+        PyBuffer_Release(&bs);
+        return NULL;
+    }
+    PyObject *out = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)(h * w * 8));
+    if (out) {
+        double *dst = (double *)PyByteArray_AS_STRING(out);
+        const double *near = has_near ? (const double *)bn.buf : NULL;
+        Py_BEGIN_ALLOW_THREADS
+        snapped_run((const double *)bd.buf, near, (const double *)bs.buf, h, w, g0, g1, tie, weight, dst);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&bd);
+    PyBuffer_Release(&bs);
+    if (has_near) PyBuffer_Release(&bn);
+    return out;
+}
+
 /* ---------------------------------------------------------------- the module */
 
 static PyMethodDef methods[] = {
@@ -927,6 +1289,16 @@ static PyMethodDef methods[] = {
      "bfs4(blocked, h, w, src) -> bytearray of h*w int64 4-connected move counts from src (-1: unreachable/blocked)."},
     {"bottleneck4", py_bottleneck4, METH_VARARGS,
      "bottleneck4(values, blocked, h, w, s, g) -> the widest 4-connected path's smallest value (-inf: none)."},
+    {"route_cells", py_route_cells, METH_VARARGS,
+     "route_cells(waypoints, counts, rows, cols, px, guide_px, half, before, after) -> (region, guide) bytearrays of "
+     "rows*cols float64: the exact source's drawing per cell."},
+    {"far_field", py_far_field, METH_VARARGS,
+     "far_field(blocked, h, w, src) -> bytearray of h*w float64: pipeline.sources.exact_distance_field."},
+    {"snapped", py_snapped, METH_VARARGS,
+     "snapped(distance, nearness or None, straight, h, w, g0, g1, tie, weight) -> bytearray of h*w float64: "
+     "planning.priors.snapped_distance."},
+    {"gauss_blur", py_gauss_blur, METH_VARARGS,
+     "gauss_blur(values, h, w, weights, radius) -> bytearray of h*w float64: planning.priors.gaussian_blur."},
     {NULL, NULL, 0, NULL},
 };
 

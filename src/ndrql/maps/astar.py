@@ -119,7 +119,22 @@ def shortest_path8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int
     return _search8(blocked, start, goal, corner_cutting=False)
 
 
+def shortest_path8_cells(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> np.ndarray:
+    """:func:`shortest_path8`'s path as an ``(K, 2)`` int64 array of ``(row, col)`` (no Python list in between:
+    the exact source asks for one per plan)."""
+    path, _, _, w = _search8_flat(blocked, start, goal, corner_cutting=False)
+    return np.stack(np.divmod(path, w), axis=1)
+
+
 def _search8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], corner_cutting: bool) -> AStarResult:
+    path, cost, expanded, w = _search8_flat(blocked, start, goal, corner_cutting)
+    rows, cols = np.divmod(path, w)
+    return AStarResult(list(zip(rows.tolist(), cols.tolist())), float(cost), int(expanded))
+
+
+def _search8_flat(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int],
+                  corner_cutting: bool) -> tuple[np.ndarray, float, int, int]:
+    """The compiled search: the path's flat cell indices (int64), its cost, the expansions and the grid's width."""
     blocked = kernel_map(blocked)
     h, w = blocked.shape
     s = _check_point(blocked, start, "start")
@@ -134,8 +149,7 @@ def _search8(blocked: np.ndarray, start: Sequence[int], goal: Sequence[int], cor
         path, cost, expanded = astar8_kernel(blocked, s[0] * w + s[1], g[0] * w + g[1], bool(corner_cutting))
     if len(path) == 0:
         raise NoPathError(f"no 8-connected path from start {s} to goal {g}")
-    rows, cols = np.divmod(path, w)
-    return AStarResult(list(zip(rows.tolist(), cols.tolist())), float(cost), int(expanded))
+    return np.asarray(path, dtype=np.int64), cost, expanded, w
 
 
 def astar8(

@@ -1,14 +1,15 @@
-"""Two compiled fields over the 4-connected grid: move counts from a cell, and the widest path between two cells.
+"""Compiled fields over the 4-connected grid: move counts from a cell, and the widest path between two cells.
 
 - :func:`bfs4`: the number of 4-connected moves from a source to every cell (what
-  :func:`ndrql.maps.grid.bfs_distances` returns); O(cells).
+  :func:`ndrql.maps.grid.bfs_distances` returns); O(cells). :func:`bfs4_filled`: the same as float64, with a
+  value for every cell that cannot reach the source (the exact source's goal distance).
 - :func:`bottleneck4`: the largest, over 4-connected paths through free cells from ``start`` to ``goal``, of the
   smallest value on the path (its ends included), the "widest path". The free cells with ``values > t`` join
   ``start`` and ``goal`` exactly when ``t < bottleneck4(...)``, so one call answers the question for every ``t`` at
   once (Eq. 7's threshold, :func:`ndrql.planning.priors.adaptive_threshold`); O(cells log cells).
 
-Both run the C extension when it is built, else numba's twins (:mod:`ndrql.maps.fields_kernel`); the choice is
-:mod:`ndrql.maps.native`'s, and both give the same answers.
+They run the C extension when it is built, else numba's twins (:mod:`ndrql.maps.fields_kernel`; numpy on top of
+:func:`bfs4` for :func:`bfs4_filled`); the choice is :mod:`ndrql.maps.native`'s, and both give the same answers.
 """
 
 from __future__ import annotations
@@ -51,6 +52,25 @@ def bfs4(blocked: np.ndarray, source: Sequence[int]) -> np.ndarray:
 
         return bfs4_kernel(flags, src).reshape(h, w)
     return np.frombuffer(ck.bfs4(flags, h, w, src), dtype=np.int64).reshape(h, w)
+
+
+def bfs4_filled(blocked: np.ndarray, source: Sequence[int]) -> np.ndarray:
+    """:func:`bfs4`'s move counts as float64, where every cell that cannot reach ``source`` (blocked ones included)
+    takes the largest finite count (0 without one) plus its Manhattan distance to ``source``, added in that order:
+    a goal distance that still orders the far cells sensibly. :class:`IndexError` when ``source`` is off the grid."""
+    flags = _flags(blocked)
+    h, w = flags.shape
+    src = _cell((h, w), source, "source")
+    kernel = getattr(c_kernels(), "far_field", None)  # None: no extension, or one built before this kernel
+    if kernel is not None:
+        return np.frombuffer(kernel(flags, h, w, src), dtype=np.float64).reshape(h, w)
+    d = bfs4(flags, source).astype(np.float64)
+    unreached = d < 0
+    if unreached.any():
+        rows = np.abs(np.arange(h, dtype=np.int64) - src // w)[:, None]
+        cols = np.abs(np.arange(w, dtype=np.int64) - src % w)[None, :]
+        d = np.where(unreached, (d.max() if not unreached.all() else 0.0) + rows + cols, d)
+    return d
 
 
 def bottleneck4(values: np.ndarray, blocked: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> float:

@@ -18,12 +18,14 @@ grid's resolution (see :func:`ndrql.planning.methods.downscale_priors`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import warnings
 
 import numpy as np
 
 from ndrql.maps.fields import bottleneck4
 from ndrql.maps.grid import bfs_distances
+from ndrql.maps.native import c_kernels
 from ndrql.maps.sizing import connected4  # the compiled A*: no scipy import (~0.15 s)
 from ndrql.planning import rules
 from ndrql.planning.config import PriorConfig
@@ -74,10 +76,18 @@ def _at_next(per_cell: np.ndarray, nxt: np.ndarray) -> np.ndarray:
 
 
 def _straight(shape: tuple[int, int], goal: tuple[int, int]) -> np.ndarray:
-    """The straight-line distance (cells) from every cell to ``goal``, ``(H, W)`` float64."""
-    rows = np.arange(shape[0], dtype=np.int64)[:, None]
-    cols = np.arange(shape[1], dtype=np.int64)[None, :]
-    return np.hypot(rows - goal[0], cols - goal[1])
+    """The straight-line distance (cells) from every cell to ``goal``, ``(H, W)`` float64, read-only (the last few
+    are kept: every seed's run on a grid builds its priors again, and ``hypot`` is most of Eq. 6's tie-break)."""
+    return _straight_field(int(shape[0]), int(shape[1]), int(goal[0]), int(goal[1]))
+
+
+@functools.lru_cache(maxsize=4)
+def _straight_field(h: int, w: int, g0: int, g1: int) -> np.ndarray:
+    rows = np.arange(h, dtype=np.int64)[:, None]
+    cols = np.arange(w, dtype=np.int64)[None, :]
+    out = np.hypot(rows - g0, cols - g1)
+    out.setflags(write=False)
+    return out
 
 
 def d_qi(blocked: np.ndarray, goal: tuple[int, int], distance: np.ndarray | None = None) -> np.ndarray:
@@ -116,12 +126,18 @@ def threshold_schedule(cfg: PriorConfig = PriorConfig()) -> list[float]:
     """The thresholds Eq. 7's search tries, highest first: ``thd_start`` down by ``thd_step`` while at least 0
     (rounded to 1e-9; the paper's 0.99, 0.98, ..., 0); with ``thd_tail`` 1 a schedule that ends above 0 goes on
     at the multiples of 0.01 below its end, down to 0."""
-    n = int(np.floor(cfg.thd_start / cfg.thd_step + 1e-9))
-    sched = [t + 0.0 for t in (round(cfg.thd_start - i * cfg.thd_step, 9) for i in range(n + 1)) if t >= 0]  # no -0.0
-    if cfg.thd_tail and sched[-1] > 0:
+    return list(_schedule(float(cfg.thd_start), float(cfg.thd_step), int(cfg.thd_tail)))
+
+
+@functools.lru_cache(maxsize=32)
+def _schedule(thd_start: float, thd_step: float, thd_tail: int) -> tuple[float, ...]:
+    """:func:`threshold_schedule` of these constants, computed once (two Eq. 7 searches a plan ask for it)."""
+    n = int(np.floor(thd_start / thd_step + 1e-9))
+    sched = [t + 0.0 for t in (round(thd_start - i * thd_step, 9) for i in range(n + 1)) if t >= 0]  # no -0.0
+    if thd_tail and sched[-1] > 0:
         below = int(np.ceil(sched[-1] / PAPER_STEP - 1e-9)) - 1  # the largest multiple of 0.01 below the end
         sched += [round(k * PAPER_STEP, 9) for k in range(below, -1, -1)]
-    return sched
+    return tuple(sched)
 
 
 def schedule_text(cfg: PriorConfig = PriorConfig()) -> str:
@@ -284,13 +300,16 @@ def gaussian_blur(values: np.ndarray, sigma: float) -> np.ndarray:
     The same kernel (radius ``int(4 * sigma + 0.5)``, normalised by its sum), the same ``reflect``
     border (``d c b a | a b c d | d c b a``), rows then columns, and the same order of sums as scipy's
     symmetric correlation (centre first, then each pair of cells from the outermost in), so that the
-    floating-point result is identical; importing ``scipy.ndimage`` would cost a plan ~0.15 s.
+    floating-point result is identical; importing ``scipy.ndimage`` would cost a plan ~0.15 s. The C extension
+    runs the same loop when it is built (:mod:`ndrql.maps.native`), else numpy.
     """
-    radius = int(4.0 * float(sigma) + 0.5)
-    x = np.arange(-radius, radius + 1)
-    weights = np.exp(-0.5 / (sigma * sigma) * x**2)
-    weights = weights / weights.sum()
+    radius, weights = _gauss_weights(float(sigma))
     out = np.asarray(values, dtype=np.float64)
+    kernel = getattr(c_kernels(), "gauss_blur", None)  # the same loop compiled, when built
+    if kernel is not None and out.ndim == 2 and out.size:
+        h, w = out.shape
+        flat = kernel(np.ascontiguousarray(out), h, w, np.ascontiguousarray(weights), radius)
+        return np.frombuffer(flat, dtype=np.float64).reshape(h, w)
     for axis in (0, 1):
         line = np.moveaxis(out, axis, 0)
         n = line.shape[0]
@@ -301,6 +320,17 @@ def gaussian_blur(values: np.ndarray, sigma: float) -> np.ndarray:
             acc = acc + (padded[radius - j:radius - j + n] + padded[radius + j:radius + j + n]) * weights[radius - j]
         out = np.moveaxis(acc, 0, axis)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _gauss_weights(sigma: float) -> tuple[int, np.ndarray]:
+    """The radius and normalised weights of :func:`gaussian_blur`'s kernel (read-only), computed once per sigma."""
+    radius = int(4.0 * sigma + 0.5)
+    x = np.arange(-radius, radius + 1)
+    weights = np.exp(-0.5 / (sigma * sigma) * x**2)
+    weights = weights / weights.sum()
+    weights.setflags(write=False)
+    return radius, weights
 
 
 def route_nearness(guideline: np.ndarray) -> np.ndarray:
@@ -334,6 +364,14 @@ def snapped_distance(distance: np.ndarray, goal: tuple[int, int], nearness: np.n
     unequal distances never changes.
     """
     d = np.asarray(distance, dtype=np.float64)
+    kernel = getattr(c_kernels(), "snapped", None)  # the same operations compiled, when built
+    if kernel is not None and d.ndim == 2 and d.size:
+        near = np.ascontiguousarray(nearness, np.float64) if nearness is not None and weight > 0 else None
+        if near is None or near.shape == d.shape:
+            h, w = d.shape
+            flat = kernel(np.ascontiguousarray(d), near, _straight(d.shape, goal), h, w, int(goal[0]), int(goal[1]),
+                              TIE_BREAK, float(weight))
+            return np.frombuffer(flat, dtype=np.float64).reshape(h, w)
     rows = np.arange(d.shape[0], dtype=np.int64)[:, None]
     cols = np.arange(d.shape[1], dtype=np.int64)[None, :]
     manhattan = np.abs(rows - goal[0]) + np.abs(cols - goal[1])

@@ -27,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ndrql.maps.astar import shortest_path8
+from ndrql.maps.astar import shortest_path8_cells
 
 #: Guideline width of the dataset's labels (``cv2.line`` thickness), in pixels.
 GUIDE_PX = 2
@@ -58,8 +58,7 @@ def near_optimal_path(obstacles: np.ndarray, start: Sequence[int], goal: Sequenc
     from ndrql.maps.lines import shortcut  # lazy: loads numba
 
     obstacles = np.asarray(obstacles, dtype=bool)
-    path = np.asarray(shortest_path8(obstacles, start, goal).path, dtype=np.int64).reshape(-1, 2)
-    return shortcut(obstacles, path)
+    return shortcut(obstacles, shortest_path8_cells(obstacles, start, goal))
 
 
 def draw_guideline(shape: Sequence[int], waypoints: np.ndarray, thickness: int = GUIDE_PX) -> np.ndarray:

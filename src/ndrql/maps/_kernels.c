@@ -377,56 +377,57 @@ static const int64_t DR[8] = {-1, 1, 0, 0, -1, -1, 1, 1};
 static const int64_t DC[8] = {0, 0, -1, 1, -1, 1, -1, 1};
 static const double STEP[8] = {1.0, 1.0, 1.0, 1.0, SQRT2, SQRT2, SQRT2, SQRT2};
 
+/* The open list: a binary heap of (f, insertion count) keys, one 32-byte entry per push (the entries together, and
+ * sifted by moving a hole, not by swaps). The order is total (counts are unique), so any correct heap pops the same
+ * entries in the same order as numba's. */
 typedef struct {
-    double *f, *g;
-    int64_t *cnt, *node;
+    double f, g;
+    int64_t cnt, node;
+} Entry;
+
+typedef struct {
+    Entry *e;
     int64_t cap;
 } Heap;
 
-static inline int heap_less(const Heap *h, int64_t i, int64_t j) {
-    return h->f[i] < h->f[j] || (h->f[i] == h->f[j] && h->cnt[i] < h->cnt[j]);
+static inline int entry_less(const Entry *a, const Entry *b) {
+    return a->f < b->f || (a->f == b->f && a->cnt < b->cnt);
 }
 
-static inline void heap_swap(Heap *h, int64_t i, int64_t j) {
-    double tf = h->f[i]; h->f[i] = h->f[j]; h->f[j] = tf;
-    int64_t tc = h->cnt[i]; h->cnt[i] = h->cnt[j]; h->cnt[j] = tc;
-    double tg = h->g[i]; h->g[i] = h->g[j]; h->g[j] = tg;
-    int64_t tn = h->node[i]; h->node[i] = h->node[j]; h->node[j] = tn;
-}
-
-static void sift_up(Heap *h, int64_t i) {
+/* Puts `x` at slot i (the new last slot) and moves it up. */
+static void sift_up(Heap *h, int64_t i, Entry x) {
+    Entry *e = h->e;
     while (i > 0) {
         int64_t parent = (i - 1) >> 1;
-        if (!heap_less(h, i, parent)) break;
-        heap_swap(h, i, parent);
+        if (!entry_less(&x, &e[parent])) break;
+        e[i] = e[parent];
         i = parent;
     }
+    e[i] = x;
 }
 
+/* Moves the last entry (slot `size`, already out of the heap) down from the root. */
 static void sift_down(Heap *h, int64_t size) {
+    Entry *e = h->e;
+    Entry x = e[size];
     int64_t i = 0;
     for (;;) {
         int64_t left = 2 * i + 1;
         if (left >= size) break;
         int64_t child = left;
-        if (left + 1 < size && heap_less(h, left + 1, left)) child = left + 1;
-        if (!heap_less(h, child, i)) break;
-        heap_swap(h, i, child);
+        if (left + 1 < size && entry_less(&e[left + 1], &e[left])) child = left + 1;
+        if (!entry_less(&e[child], &x)) break;
+        e[i] = e[child];
         i = child;
     }
+    e[i] = x;
 }
 
 static int heap_grow(Heap *h) {
     int64_t cap = 2 * h->cap;
-    double *f = realloc(h->f, (size_t)cap * sizeof(double));
-    if (f) h->f = f;
-    double *g = realloc(h->g, (size_t)cap * sizeof(double));
-    if (g) h->g = g;
-    int64_t *cnt = realloc(h->cnt, (size_t)cap * sizeof(int64_t));
-    if (cnt) h->cnt = cnt;
-    int64_t *node = realloc(h->node, (size_t)cap * sizeof(int64_t));
-    if (node) h->node = node;
-    if (!f || !g || !cnt || !node) return -1;
+    Entry *e = realloc(h->e, (size_t)cap * sizeof(Entry));
+    if (!e) return -1;
+    h->e = e;
     h->cap = cap;
     return 0;
 }
@@ -442,32 +443,28 @@ static int astar8_run(const uint8_t *flat, int64_t h, int64_t w, int64_t s_idx, 
     double *best = malloc((size_t)(n ? n : 1) * sizeof(double));
     int64_t *parent = malloc((size_t)(n ? n : 1) * sizeof(int64_t));
     uint8_t *closed = calloc((size_t)(n ? n : 1), 1);
-    Heap hp = {malloc(1024 * sizeof(double)), malloc(1024 * sizeof(double)), malloc(1024 * sizeof(int64_t)),
-               malloc(1024 * sizeof(int64_t)), 1024};
+    Heap hp = {malloc(1024 * sizeof(Entry)), 1024};
     int status = -1;
     int64_t expanded = 0;
-    if (!best || !parent || !closed || !hp.f || !hp.g || !hp.cnt || !hp.node) goto done;
+    if (!best || !parent || !closed || !hp.e) goto done;
     for (int64_t i = 0; i < n; i++) {
         best[i] = INFINITY;
         parent[i] = -1;
     }
     int64_t gr = g_idx / w, gc = g_idx % w, sr = s_idx / w, sc = s_idx % w;
     int64_t dh = iabs(sr - gr), dw = iabs(sc - gc);
-    hp.f[0] = (SQRT2 - 1.0) * (double)imin(dh, dw) + (double)imax(dh, dw);
-    hp.cnt[0] = 0;
-    hp.g[0] = 0.0;
-    hp.node[0] = s_idx;
+    hp.e[0].f = (SQRT2 - 1.0) * (double)imin(dh, dw) + (double)imax(dh, dw);
+    hp.e[0].cnt = 0;
+    hp.e[0].g = 0.0;
+    hp.e[0].node = s_idx;
     int64_t size = 1, counter = 0;
     best[s_idx] = 0.0;
     status = 1;
     while (size > 0) {
-        double gcost = hp.g[0];
-        int64_t idx = hp.node[0];
+        double gcost = hp.e[0].g;
+        int64_t idx = hp.e[0].node;
         size -= 1;
-        if (size > 0) {
-            heap_swap(&hp, 0, size);
-            sift_down(&hp, size);
-        }
+        if (size > 0) sift_down(&hp, size);
         if (closed[idx]) continue;
         closed[idx] = 1;
         expanded += 1;
@@ -509,11 +506,8 @@ static int astar8_run(const uint8_t *flat, int64_t h, int64_t w, int64_t s_idx, 
                 }
                 dh = iabs(nr - gr);
                 dw = iabs(nc - gc);
-                hp.f[size] = ng + (SQRT2 - 1.0) * (double)imin(dh, dw) + (double)imax(dh, dw);
-                hp.cnt[size] = counter;
-                hp.g[size] = ng;
-                hp.node[size] = nidx;
-                sift_up(&hp, size);
+                Entry x = {ng + (SQRT2 - 1.0) * (double)imin(dh, dw) + (double)imax(dh, dw), ng, counter, nidx};
+                sift_up(&hp, size, x);
                 size += 1;
             }
         }
@@ -524,10 +518,7 @@ done:
     free(best);
     free(parent);
     free(closed);
-    free(hp.f);
-    free(hp.g);
-    free(hp.cnt);
-    free(hp.node);
+    free(hp.e);
     return status;
 }
 

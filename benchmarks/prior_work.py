@@ -5,9 +5,8 @@ Per case, as :func:`ndrql.experiments.transfer.collect` and :func:`ndrql.experim
 measure it: NDR-QL's work is plan's exact source (:func:`ndrql.pipeline.sources.drawn_priors`, least of three calls)
 plus the judge's verdict on it plus the NDR-QL row's run (priors and learning, mean over seeds); IQL-BFS's is its
 row's run. Each row takes the constants of the ``general`` preset at the case's grid, as ``reproduce release`` does.
-The reference path swaps in the numpy versions that the C kernels replaced (``route_cells_numpy``, the numpy
-Gaussian blur, the full-grid far field) for the same cases, interleaved with today's, so both see the same load;
-the priors of both are checked to be the same bits. Development maps only (a set's maps are generated in memory
+The reference path swaps back what issue 53 replaced (:func:`reference_path`) for the same cases, interleaved with
+today's, so both see the same load; the priors of both are checked to be the same bits. Development maps only (a set's maps are generated in memory
 from its registered spec; sealed sets are refused).
 
     python benchmarks/prior_work.py --grids 50,100 --maps 24
@@ -27,12 +26,14 @@ from ndrql.experiments.ceiling import grid_case, larger_sizes
 from ndrql.experiments.eval_sets import eval_spec
 from ndrql.experiments.transfer import BFS_ROW, row_configs
 from ndrql.maps import route_cells
+from ndrql.maps.astar import shortest_path8
 from ndrql.maps.grid import bfs_distances
 from ndrql.pipeline import sources
 from ndrql.pipeline.judge import judge
 from ndrql.planning import priors
 from ndrql.planning.preset import load_preset
 from ndrql.planning.runner import astar_length, run_plan
+from ndrql.synth import labels
 from ndrql.synth.generate import generate_sample
 
 ORACLE = "NDR-QL (oracle)"
@@ -48,16 +49,29 @@ def _far_field(blocked: np.ndarray, goal: tuple[int, int]) -> np.ndarray:
     return d
 
 
+def _path_cells(blocked, start, goal) -> np.ndarray:
+    """The A*'s path as it reached the drawing before: a list of tuples, then an array."""
+    return np.asarray(shortest_path8(blocked, start, goal).path, dtype=np.int64).reshape(-1, 2)
+
+
 @contextlib.contextmanager
 def reference_path():
-    """The exact source and Eq. 6's blur as they ran before their C kernels (numpy)."""
-    saved = sources.route_cells, sources.exact_distance_field, priors.c_kernels
-    sources.route_cells, sources.exact_distance_field = route_cells.route_cells_numpy, _far_field
-    priors.c_kernels = lambda: None
+    """The exact source and Eq. 6's priors as they ran before issue 53's kernels: the numpy drawing, far field, blur
+    and tie-break, the A*'s path through a list, and the schedule, straight line and blur weights computed per call
+    (the C A*'s open list stays today's)."""
+    names = ((sources, "route_cells", route_cells.route_cells_numpy), (sources, "exact_distance_field", _far_field),
+             (priors, "c_kernels", lambda: None), (labels, "shortest_path8_cells", _path_cells),
+             (priors, "_schedule", priors._schedule.__wrapped__),
+             (priors, "_straight_field", priors._straight_field.__wrapped__),
+             (priors, "_gauss_weights", priors._gauss_weights.__wrapped__))
+    saved = [(mod, name, getattr(mod, name)) for mod, name, _ in names]
+    for mod, name, value in names:
+        setattr(mod, name, value)
     try:
         yield
     finally:
-        sources.route_cells, sources.exact_distance_field, priors.c_kernels = saved
+        for mod, name, value in saved:
+            setattr(mod, name, value)
 
 
 def ndr_work(case, cfgs, seeds: list[int], opt: int) -> tuple[float, object]:

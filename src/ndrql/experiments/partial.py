@@ -41,11 +41,11 @@ from ndrql.experiments.ceiling import GridCase, grid_case, larger_sizes, oracle_
 from ndrql.experiments.eval_sets import eval_set, eval_spec
 from ndrql.maps.belief import Belief, unknown_cells
 from ndrql.maps.grid import GridMap, SnapWarning
-from ndrql.maps.safe import conservative_grid
 from ndrql.maps.sizing import safe_grid
 from ndrql.model.predict import load_predictor
 from ndrql.model.weights import weights_label
-from ndrql.pipeline.request import build_request
+from ndrql.pipeline.problem import map_grid
+from ndrql.pipeline.request import build_request, request_settings
 from ndrql.pipeline.sources import ModelSource, SourceInput
 from ndrql.planning.methods import Priors, build_priors
 from ndrql.planning.preset import load_preset
@@ -155,7 +155,7 @@ class PartialCase:
 
 def belief_case(case: GridCase, belief_obstacles: np.ndarray) -> GridCase:
     """The belief's safe grid at the case's size, start and goal on the truth's cells (kept free)."""
-    blocked = conservative_grid(belief_obstacles, case.n)
+    blocked = map_grid(GridMap(belief_obstacles), request_settings(grid="safe", size=case.n))[0]
     blocked[case.start_cell] = blocked[case.goal_cell] = False
     return GridCase(belief_obstacles, case.start, case.goal, name=case.name, group=case.group, n=case.n,
                     blocked=blocked, start_cell=case.start_cell, goal_cell=case.goal_cell)

@@ -12,6 +12,7 @@ import pytest
 pytest.importorskip("torch")
 
 import ndrql  # noqa: E402
+from ndrql.pipeline.prior_stage import BELIEF_MASK  # noqa: E402
 from ndrql.errors import FallbackWarning, NdrqlError  # noqa: E402
 from ndrql.model import weights as w  # noqa: E402
 from ndrql.pipeline.sources import NO_UNKNOWN_CHANNEL  # noqa: E402
@@ -66,7 +67,7 @@ def test_a_hidden_map_uses_the_installed_belief_weights_and_says_so(monkeypatch,
                     "--json", str(tmp_path / "r.json")])
     assert out.returncode == 0, out.stderr
     cli = json.loads((tmp_path / "r.json").read_text())
-    assert Path(cli["weights"]) == belief_file and "ndr_belief.pt" in out.stdout
+    assert Path(cli["weights"]) == belief_file and "ndr_belief.pt" in out.stdout, out.stdout
     assert cli["runs"][0]["path"] == info["runs"][0]["path"]
     assert cli["runs"][0]["convergence_steps"] == info["runs"][0]["convergence_steps"]
 
@@ -82,14 +83,24 @@ def test_named_weights_without_the_channel_still_decline(monkeypatch, belief_fil
     assert w.plan_weights(None, partial=True) is None
 
 
-def test_without_the_belief_weights_a_hidden_map_runs_iql_bfs(monkeypatch):
+def test_without_the_belief_weights_a_hidden_map_takes_the_exact_prior_of_the_belief(monkeypatch):
+    """No model with an unknown input: the exact prior of the belief (unknown counted free), Eq. 6's mask off."""
     _install(monkeypatch, None)
     assert not w.installed("belief") and w.plan_weights(None, partial=True) is None
-    with pytest.warns(FallbackWarning, match="no input for unknown cells"):
-        info = _plan(hide=_hidden()).to_dict()
-    assert Path(info["request"]["weights"]).name == "ndr_general.pt" and info["runs"][0]["method"] == "IQL-BFS"
+    info = _plan(hide=_hidden()).to_dict()
+    assert [t["source"] for t in info["sources"]] == ["exact"] and info["sources"][0]["accepted"]
+    assert info["runs"][0]["method"] == "NDR-QL" and info["weights"] == "exact BFS priors"
+    assert info["ndr_qi_threshold"]["NDR-QL"] is None and info["qi_mask"] == BELIEF_MASK
+    assert info["ndr_qi_threshold_reason"]["NDR-QL"] == BELIEF_MASK
     with pytest.raises(NdrqlError, match="'belief' weights are not installed"):
         w.resolve_weights("belief")
+
+
+def test_the_installed_belief_model_is_asked_before_the_exact_prior(monkeypatch, belief_file):
+    _install(monkeypatch, belief_file)
+    info = _plan(hide=_hidden()).to_dict()
+    assert info["policy"] == ["model", "exact"] and info["sources"][0]["source"] == "model"
+    assert info["ndr_qi_threshold"]["NDR-QL"] is None  # whichever source serves, no mask on a belief map
 
 
 def test_a_known_map_keeps_its_exact_prior(monkeypatch, belief_file):

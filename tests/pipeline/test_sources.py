@@ -140,10 +140,11 @@ def test_digests_say_what_the_predictions_depend_on():
 
 def test_the_default_policy_and_the_sources_a_request_names():
     assert default_policy() == default_policy("map") == ("exact",)
-    assert default_policy("sample") == ("model",) and default_policy("map", partial=True) == ("model",)
+    assert default_policy("sample") == ("model",) and default_policy("map", partial=True) == ("exact",)
+    assert default_policy("map", partial=True, belief_model=True) == ("model", "exact")
     assert request_sources(None, None, "map", False) == ("exact",)
     assert request_sources(None, None, "sample", False) == ("model",)
-    assert request_sources(None, None, "map", True) == ("model",)
+    assert request_sources(None, None, "map", True) == ("exact",)  # no belief weights installed in the checkout
     assert request_sources(None, "paper", "map", False) == ("model",)  # weights name the model
     assert request_sources("oracle", None, "map", False) == ("oracle",)
     assert request_sources(given_arrays(), None, "map", False) == ("file",)

@@ -12,8 +12,8 @@ the ladder on which the truth connects start and goal, as ``reproduce transfer``
   distance of the belief, unknown counted free): the reference;
 - ``NDR-QL``: what ``ndrql plan MAP --hide MASK --size n`` runs: the same request and pipeline, the model source,
   the judge and the IQL-BFS fallback included (the record says which source served, or why it fell back);
-- ``NDR-QL (model)``: the model's own priors on the belief's grid, no judge (when the judge accepted them they are
-  the ``NDR-QL`` row's; with sensing on the row is not run);
+- ``NDR-QL (model)``: the model's own priors on the belief's grid (Eq. 6's mask off, as ``plan`` on a belief map),
+  no judge (when the judge accepted them they are the ``NDR-QL`` row's; with sensing on the row is not run);
 - ``NDR-QL (oracle)``: the oracle's priors of the true grid (:func:`~ndrql.experiments.ceiling.oracle_priors`): the
   ceiling, a prediction that knows what is hidden.
 
@@ -216,12 +216,16 @@ def plain_priors(method: str, case: GridCase, preset: Any) -> Priors:
     return build_priors(method, case.blocked, case.start_cell, case.goal_cell, cfg=preset.configs(method, grid=n)[1])
 
 
-def ndr_priors(case: GridCase, region: np.ndarray, guide: np.ndarray, dist: np.ndarray | None, preset: Any) -> Priors:
-    """NDR-QL's priors (Eqs. 2-7) from region, guideline and goal distance on ``case``'s grid."""
+def ndr_priors(case: GridCase, region: np.ndarray, guide: np.ndarray, dist: np.ndarray | None, preset: Any,
+               mask: bool = True) -> Priors:
+    """NDR-QL's priors (Eqs. 2-7) from region, guideline and goal distance on ``case``'s grid; ``mask=False``:
+    Eq. 6 without its mask term, as ``plan`` builds them on a belief map
+    (:data:`ndrql.pipeline.prior_stage.BELIEF_MASK`)."""
     cfg = preset.configs("NDR-QL", grid=max(case.blocked.shape))[1]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ThresholdWarning)
-        return build_priors("NDR-QL", case.blocked, case.start_cell, case.goal_cell, region, guide, cfg, dist)
+        return build_priors("NDR-QL", case.blocked, case.start_cell, case.goal_cell, region, guide, cfg, dist,
+                            ... if mask else None)
 
 
 def oracle_job(case: GridCase, preset: Any) -> tuple[str, Priors, float]:
@@ -239,7 +243,7 @@ def model_job(predictor: Any, pc: PartialCase, preset: Any) -> tuple[tuple[str, 
     t0 = time.perf_counter()
     out = ModelSource(predictor).give(SourceInput(bgrid, GridMap(pc.belief.planner_obstacles("free")), pc.start, pc.goal,
                                                   unknown=pc.unknown))
-    pri = ndr_priors(pc.bcase, out.region, out.guideline, out.distance, preset)
+    pri = ndr_priors(pc.bcase, out.region, out.guideline, out.distance, preset, mask=False)
     return ("NDR-QL", pri, time.perf_counter() - t0), out
 
 

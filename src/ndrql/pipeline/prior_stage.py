@@ -65,6 +65,13 @@ class Predicted:
     """What the JSON says about them: sources, model input, backend, prediction quality, fallback."""
 
 
+#: Why Eq. 6's mask term is off on a belief map (studies/partial/README.md, "The short runs"): Eq. 7's region joins
+#: start and goal on what the planner knows, a hidden wall can cut it, and the mask's bonus then holds the agent
+#: against that wall (NDR-QL's priors as on a known map: 2.4x IQL-BFS's steps; without the mask 0.90x).
+BELIEF_MASK = ("mask off on a belief map: Eq. 7's region joins start and goal on what is known, and a hidden wall "
+               "that cuts it would hold the agent")
+
+
 def _sources(request: Any, record: dict[str, Any]) -> list[Any]:
     """The request's sources in the order they are asked (loading the model when the policy names it)."""
     out: list[Any] = []
@@ -129,6 +136,11 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
     record["sources"] = [t.to_dict() for t in trials]
     used = chosen if chosen is not None else first
     priors, verdict = used if used is not None else (None, None)
+    if priors is not None:  # the named source that gave the priors (a policy may ask the model first)
+        if priors.source in NAMED_SOURCES:
+            record["prior_from"] = priors.source
+        else:
+            record.pop("prior_from", None)
     quality = _quality(trials, verdict, max(grid.shape))
     record["prediction_quality"] = quality
     fallback = settings.fallback
@@ -155,5 +167,10 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
     if any(m.n_qi for m in ran):
         record["qi_distance"] = DISTANCE_NAMES.get(priors.source, "model") if distance is not None else "straight line"
     weights = ORACLE_NAME if priors.source == "oracle" else priors.weights
+    threshold = verdict.threshold if verdict is not None else None
+    if problem.partial:  # no Eq. 6 mask on a belief map (BELIEF_MASK)
+        threshold = None
+        if any(m.n_qi for m in ran):
+            record["qi_mask"] = BELIEF_MASK
     return Predicted(priors.region_map, priors.guideline_map, priors.region, priors.guideline, weights, distance,
-                     verdict.threshold if verdict is not None else None, tuple(ran), tuple(swaps), trials, record)
+                     threshold, tuple(ran), tuple(swaps), trials, record)

@@ -188,6 +188,8 @@ class PlanReport:
         threshold that joins them, so the two verdicts do not read as a contradiction."""
         if method not in self.thresholds or self.thresholds[method] is not None:
             return None
+        if self.info.get("qi_mask"):
+            return str(self.info["qi_mask"])
         if self.request is None:
             return "mask 0 everywhere"
         cfg = self.request.constants(method, max(self.grid.blocked.shape))[1]

@@ -235,7 +235,7 @@ def request_sources(predictions: Any, weights: Any, kind: str, partial: bool,
     if weights is not None or (settings is not None and any(getattr(settings, k) != getattr(plain, k)
                                                             for k in MODEL_SETTINGS)):
         return ("model",)
-    return default_policy(kind, partial)
+    return default_policy(kind, partial, partial and plan_weights(None, True) is not None)
 
 
 #: What the API's object arguments may be (anything else is one NdrqlError, never an AttributeError deep inside).

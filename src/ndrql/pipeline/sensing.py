@@ -177,14 +177,15 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
                  distance: np.ndarray | None, sensing: SenseConfig, record: dict | None = None) -> list[PlanResult]:
     """Every method with every seed (methods outer) revealed as it moves: the learning ``grid`` is the truth, the
     priors start on ``belief`` (a :class:`PlanningGrid` on the same cells) and are rebuilt, the prediction
-    (``region``, ``guideline``, ``distance``) kept, as the robot senses the cells it stands on. ``record``
+    (``region``, ``guideline``, ``distance``) kept, as the robot senses the cells it stands on; Eq. 6's mask stays
+    off (:data:`ndrql.pipeline.prior_stage.BELIEF_MASK`). ``record``
     receives ``sensing``: radius, recomputation interval and, per run, the recomputations and the known share."""
     known = ~unknown_cells(unknown_px, grid)
     known[grid.start] = known[grid.goal] = True
     out, runs = [], []
     for m in methods:
         ql, pc = consts(m.name)
-        priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc, distance)  # noqa: E731
+        priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc, distance, None)  # noqa: E731
         for seed in seeds:
             r = run_sensed(grid.blocked, belief.blocked, known, grid.start, grid.goal, m.name, seed, ql, priors_on, sensing)
             out.append(r.result)

@@ -288,12 +288,16 @@ class GivenSource:
         return _view_priors(self.name, view, g, None)
 
 
-def default_policy(kind: str = "map", partial: bool = False) -> tuple[str, ...]:
-    """The sources a plan consults when the caller names none (studies/judge/README.md, rules 1 and 4): on a
-    dataset sample (the paper's setting) and on a map the planner does not fully know (a belief map), the network;
-    on a map it fully knows, the exact-distance prior, which on the development sets needed no more steps than the
-    network's prediction in any grid band and costs no model. Where every source is rejected, the plan runs the
-    request's fallback (IQL-BFS on a user's map)."""
-    if kind == "sample" or partial:
+def default_policy(kind: str = "map", partial: bool = False, belief_model: bool = False) -> tuple[str, ...]:
+    """The sources a plan consults when the caller names none (studies/judge/README.md, rules 1 and 4;
+    studies/partial/README.md): on a dataset sample (the paper's setting), the network; on a map it fully knows,
+    the exact-distance prior, which on the development sets needed no more steps than the network's prediction in
+    any grid band and costs no model; on a map it does not fully know (a belief map), the network when weights
+    with an input for unknown cells are installed (``belief_model``), then the exact prior of the belief (unknown
+    counted free), which there needed 0.90x IQL-BFS's steps with Eq. 6's mask off. Where every source is rejected,
+    the plan runs the request's fallback (IQL-BFS on a user's map)."""
+    if kind == "sample":
         return ("model",)
+    if partial:
+        return ("model", "exact") if belief_model else ("exact",)
     return ("exact",)

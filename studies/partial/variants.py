@@ -11,7 +11,8 @@ rows here keep the model and change only how its outputs enter Q-learning, each 
   free the belief's BFS distance can only be shorter than the truth's, so the maximum keeps what the model adds
   (detours) and never promises less than the belief allows;
 - ``NDR-QL (lower bound)``: NDR-QL with that distance and its region;
-- ``NDR-QL (no mask)``: that, with Eq. 6's mask term off (no threshold); ``NDR-QL (no guideline)``: with a zero
+- ``NDR-QL (no mask)``: that, with Eq. 6's mask term off (no threshold); ``NDR-QL (no mask, model distance)``: the
+  model's own distance there (what ``plan`` builds from the model source); ``NDR-QL (no guideline)``: with a zero
   guideline (Eq. 4's guideline reward and the tie-break off); ``NDR-QL (IQL constants)``: NDR-QL's priors built
   and learned with IQL-BFS's constants of the preset; ``exact (no mask)``: no model, the belief's exact priors
   (its shortest path drawn as the labels are, its BFS distance), Eq. 6's mask off: what the model must beat.
@@ -36,7 +37,7 @@ import model_eval  # noqa: E402
 
 from ndrql.experiments.stats import geomean_ratio, outcomes  # noqa: E402
 from ndrql.model.predict import Predictor  # noqa: E402
-from ndrql.pipeline.sources import drawn_priors  # noqa: E402
+from ndrql.pipeline.sources import drawn_priors, exact_distance_field  # noqa: E402
 from ndrql.planning import priors as P  # noqa: E402
 from ndrql.planning.methods import Priors, build_priors  # noqa: E402
 from ndrql.planning.preset import load_preset  # noqa: E402
@@ -58,9 +59,8 @@ def rows_for(case, bcase, unknown, model: Predictor, preset, seeds) -> dict:
     out = model.predict_view(bcase.blocked, s, g, unknown=unknown if model.sees_unknown else None)
     ql_i, cfg_i = preset.configs("IQL-BFS", grid=n)
     ql_n, cfg_n = preset.configs("NDR-QL", grid=n)
-    bfs = P.exact_distance(bcase.blocked, g)
     ex = drawn_priors("exact", bcase.blocked, s, g, None)
-    lower = np.maximum(np.asarray(out.distance, float), bfs)
+    lower = np.maximum(np.asarray(out.distance, float), exact_distance_field(bcase.blocked, g))  # = plan's belief_floor
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ThresholdWarning)
         jobs = {REF: ("IQL-BFS", ql_i, build_priors("IQL-BFS", bcase.blocked, s, g, cfg=cfg_i)),
@@ -72,6 +72,8 @@ def rows_for(case, bcase, unknown, model: Predictor, preset, seeds) -> dict:
                                                                       out.guideline, cfg_n, lower)),
                 "NDR-QL (no mask)": ("NDR-QL", ql_n, build_priors("NDR-QL", bcase.blocked, s, g, out.region,
                                                                   out.guideline, cfg_n, lower, threshold=None)),
+                "NDR-QL (no mask, model distance)": ("NDR-QL", ql_n, build_priors(
+                    "NDR-QL", bcase.blocked, s, g, out.region, out.guideline, cfg_n, out.distance, threshold=None)),
                 "NDR-QL (no guideline)": ("NDR-QL", ql_n, build_priors("NDR-QL", bcase.blocked, s, g, out.region,
                                                                        np.zeros_like(out.guideline), cfg_n, lower)),
                 "NDR-QL (IQL constants)": ("IQL-BFS", ql_i, build_priors("NDR-QL", bcase.blocked, s, g, out.region,

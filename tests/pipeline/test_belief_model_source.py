@@ -77,3 +77,18 @@ def test_plan_with_hide_feeds_a_belief_model(tmp_path):
     info = report.to_dict()
     assert info["sources"][0]["source"] == "model" and info["sources"][0]["accepted"]
     assert info["model_input"]["unknown_cells"] > 0
+
+
+def test_a_predicted_distance_on_a_belief_map_never_goes_below_the_beliefs_bfs():
+    """The belief's BFS distance (unknown counted free) is the shortest the truth can hold: the floor keeps the
+    predicted detours and lifts the predicted shortcuts to it."""
+    from ndrql.pipeline.sources import belief_floor, exact_distance_field
+
+    grid = _problem(_hidden()).grid
+    bfs = exact_distance_field(grid.blocked, grid.goal)
+    shortcut = np.zeros(grid.blocked.shape)
+    np.testing.assert_array_equal(belief_floor(shortcut, grid), bfs)
+    detour = bfs + 7.0
+    np.testing.assert_array_equal(belief_floor(detour, grid), detour)
+    mixed = np.where(np.arange(bfs.size).reshape(bfs.shape) % 2 == 0, bfs - 3.0, bfs + 5.0)
+    np.testing.assert_array_equal(belief_floor(mixed, grid), np.maximum(mixed, bfs))

@@ -101,6 +101,7 @@ def test_the_installed_belief_model_is_asked_before_the_exact_prior(monkeypatch,
     info = _plan(hide=_hidden()).to_dict()
     assert info["policy"] == ["model", "exact"] and info["sources"][0]["source"] == "model"
     assert info["ndr_qi_threshold"]["NDR-QL"] is None  # whichever source serves, no mask on a belief map
+    assert info["model_input"]["distance_floor"] == "the belief's BFS distance"
 
 
 def test_a_known_map_keeps_its_exact_prior(monkeypatch, belief_file):

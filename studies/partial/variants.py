@@ -74,6 +74,8 @@ def rows_for(case, bcase, unknown, model: Predictor, preset, seeds) -> dict:
                                                                   out.guideline, cfg_n, lower, threshold=None)),
                 "NDR-QL (no mask, model distance)": ("NDR-QL", ql_n, build_priors(
                     "NDR-QL", bcase.blocked, s, g, out.region, out.guideline, cfg_n, out.distance, threshold=None)),
+                "NDR-QL (no mask, no guideline)": ("NDR-QL", ql_n, build_priors(
+                    "NDR-QL", bcase.blocked, s, g, out.region, np.zeros_like(out.guideline), cfg_n, lower, threshold=None)),
                 "NDR-QL (no guideline)": ("NDR-QL", ql_n, build_priors("NDR-QL", bcase.blocked, s, g, out.region,
                                                                        np.zeros_like(out.guideline), cfg_n, lower)),
                 "NDR-QL (IQL constants)": ("IQL-BFS", ql_i, build_priors("NDR-QL", bcase.blocked, s, g, out.region,

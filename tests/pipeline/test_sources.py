@@ -138,13 +138,23 @@ def test_digests_say_what_the_predictions_depend_on():
     assert len(model.digest()) == 16 and model.digest() == str(model.predictor.weights_digest)[:16]
 
 
-def test_the_default_policy_and_the_sources_a_request_names():
+def test_the_default_policy_and_the_sources_a_request_names(monkeypatch):
+    from pathlib import Path
+
+    from ndrql.model import weights as w
+
+    shipped = w.shipped_weights
+    monkeypatch.setattr(w, "shipped_weights", lambda name: Path("/nonexistent/ndr_belief.pt") if name == "belief"
+                        else shipped(name))  # no belief weights installed
+    monkeypatch.delenv("NDRQL_WEIGHTS", raising=False)
     assert default_policy() == default_policy("map") == ("exact",)
     assert default_policy("sample") == ("model",) and default_policy("map", partial=True) == ("exact",)
     assert default_policy("map", partial=True, belief_model=True) == ("model", "exact")
     assert request_sources(None, None, "map", False) == ("exact",)
     assert request_sources(None, None, "sample", False) == ("model",)
-    assert request_sources(None, None, "map", True) == ("exact",)  # no belief weights installed in the checkout
+    assert request_sources(None, None, "map", True) == ("exact",)
+    monkeypatch.setattr(w, "shipped_weights", shipped)
+    assert request_sources(None, None, "map", True) == (("model", "exact") if w.installed("belief") else ("exact",))
     assert request_sources(None, "paper", "map", False) == ("model",)  # weights name the model
     assert request_sources("oracle", None, "map", False) == ("oracle",)
     assert request_sources(given_arrays(), None, "map", False) == ("file",)

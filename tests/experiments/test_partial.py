@@ -76,6 +76,10 @@ def test_three_maps_of_partial_dev_through_plans_request(tmp_path, belief_file):
         direct = run_rows(pc.case, {REF: ("IQL-BFS", plain_priors("IQL-BFS", pc.bcase, preset), 0.0)}, preset, [0])
         assert r["rows"][REF]["steps"] == direct["rows"][REF]["steps"]
         assert r["rows"]["NDR-QL (model)"]["steps"] == r["rows"]["NDR-QL"]["steps"]  # the judge accepted the model
+        # IQL-NDR through the same request: Eq. 5 on the model's distance (floored at the belief's BFS distance)
+        assert r["iql_ndr"] == {"served": "model", "qi_distance": "model", "fallback": None}
+        assert len(r["rows"]["IQL-NDR"]["steps"]) == 1
+    assert "**IQL-NDR / IQL-BFS (belief)**" in text and "(not judged by the floors)" in text
     partial(tmp_path / "out", **kw)
     assert "running 0" in logs[-1] or any("running 0" in m for m in logs[-3:])
 
@@ -153,3 +157,20 @@ def test_the_floors_are_judged_on_geometric_means_and_the_oracles_share():
     assert len(flat) == 1 and "under 15%" in flat[0]
     text = report_text(_records(1000, 790, 500), "# r\n", (50,), ["blobs:0.3"], (False,))
     assert text.count("**PASS**") == 3 and "| **all** | 4 | 1.00 | 0.79 | 0.50 | 1,000 |" in text
+
+
+def test_iql_ndr_is_reported_beside_ndr_ql_and_not_judged():
+    from ndrql.experiments.partial_report import floors, group_summary, joined, report_text
+
+    recs = _records(1000, 790, 500)
+    for r in recs:
+        if r["belief"]:
+            r["rows"]["IQL-NDR"] = {"steps": [849.0, 850.0, 851.0], "ratio": [1.0] * 3}
+    s = group_summary(joined(recs))
+    q = s["iql_ndr"]
+    assert q["maps"] == 4 and q["ratio"] == pytest.approx(0.85) and q["share"] == pytest.approx(0.30)
+    assert q["outcomes"]["wins"] == 4 and s["ndr"]["ratio"] == pytest.approx(0.79)  # NDR-QL's figures unchanged
+    assert floors(s) == floors(group_summary(joined(_records(1000, 790, 500))))  # the floors judge NDR-QL only
+    text = report_text(recs, "# r\n", (50,), ["blobs:0.3"], (False,))
+    assert "**IQL-NDR / IQL-BFS (belief)** (4 maps): **0.850**" in text and "share of the oracle's gain 30%" in text
+    assert "| **all** | 4 | 1.00 | 0.79 | 0.85 | 0.50 | 1,000 |" in text

@@ -50,6 +50,8 @@ def _priors(gen: np.random.Generator, blocked: np.ndarray, s: int, g: int) -> tu
         region = gen.random((h, w))
         guideline = gen.random((h, w))
         distance = gen.random((h, w)) * (h + w) if gen.random() < 0.5 else None
+        if distance is None and METHODS[name].model_distance:  # IQL-NDR needs one: the region's, scaled
+            distance = region * (h + w)
         with warnings.catch_warnings():  # start and goal may be apart: NDR-QI then says its mask is empty
             warnings.simplefilter("ignore", ThresholdWarning)
             pr = build_priors(name, blocked, divmod(s, w), divmod(g, w), region, guideline, distance=distance)

@@ -14,6 +14,7 @@ from scipy import ndimage
 from ndrql.errors import NoPathError, PointError
 from ndrql.maps.astar import astar4, path_is_valid
 from ndrql.planning import METHODS, PlanJob, QLConfig, run_many, run_plan
+from ndrql.planning.priors import exact_distance
 from ndrql.planning.results import PlanResult, summarize
 
 
@@ -65,6 +66,8 @@ def problem():
 
 
 def run(problem, method, seed=0, **kw):
+    if method == "IQL-NDR":  # Eq. 5 on a prior source's goal distance: here the exact one
+        kw.setdefault("distance", exact_distance(problem["blocked"], problem["goal"]))
     return run_plan(problem["blocked"], problem["start"], problem["goal"], method, seed,
                     region=problem["region"], guideline=problem["guideline"], **kw)
 
@@ -152,8 +155,9 @@ def test_dataset_sample_all_methods(dataset_root):
     pg = PlanningGrid.from_map(sample.map, sample.start, sample.goal)
     region = area_downscale(sample.region.astype(float))
     guide = area_downscale(sample.guideline.astype(float))
-    jobs = [PlanJob(pg.blocked, pg.start, pg.goal, m, s, region=region, guideline=guide)
-            for m in METHODS for s in (0, 1)]
+    dist = exact_distance(pg.blocked, pg.goal)  # IQL-NDR's goal distance (the exact source's)
+    jobs = [PlanJob(pg.blocked, pg.start, pg.goal, m, s, region=region, guideline=guide,
+                    distance=dist if m == "IQL-NDR" else None) for m in METHODS for s in (0, 1)]
     results = run_many(jobs, workers=2)
     for res in results:
         check_result(res, pg.blocked, pg.start, pg.goal)

@@ -152,8 +152,11 @@ def test_method_table_of_spec_section_4():
         "O-QL": (False, False, True, False),
         "NDR-QL": (True, True, True, True),
         "IQL-BFS": (True, False, True, False),  # beyond the paper: IQL with Eq. 5 on the exact BFS distance
+        "IQL-NDR": (True, False, True, False),  # beyond the paper: IQL with Eq. 5 on the prior source's distance
     }
-    assert [n for n, m in METHODS.items() if m.exact_distance or m.constants] == ["IQL-BFS"]
+    assert [n for n, m in METHODS.items() if m.exact_distance] == ["IQL-BFS"]
+    assert [n for n, m in METHODS.items() if m.model_distance] == ["IQL-NDR"]
+    assert {n: m.constants for n, m in METHODS.items() if m.constants} == {"IQL-BFS": "IQL", "IQL-NDR": "IQL"}
 
 
 def test_unknown_method_lists_valid_names():

@@ -208,7 +208,7 @@ def test_build_priors_of_every_method_is_unchanged_on_a_large_grid():
             ref_q, ref_thd = old_ndr_qi(blocked, start, goal, region, cfg, mask_only=m.qi_mask_only,
                                         distance=distance, guideline=guideline)
         elif m.d_qi:
-            exact = P.exact_distance(blocked, goal) if m.exact_distance else None
+            exact = P.exact_distance(blocked, goal) if m.exact_distance else distance if m.model_distance else None
             ref_q, ref_thd = old_d_qi(blocked, goal, exact), None
         else:
             ref_q, ref_thd = np.zeros((blocked.size, 4)), None

@@ -38,7 +38,7 @@ def test_search_spaces_per_method():
     assert names["QL"] == base and names["O-QL"] == base and names["D-Q"] == base  # D-QI has no constant
     assert names["D-C"] == base + ["r_max", "G"]
     assert names["N-C"] == base + ["r_max"]
-    assert names["IQL"] == base + ["r_max", "G"]
+    assert names["IQL"] == names["IQL-BFS"] == names["IQL-NDR"] == base + ["r_max", "G"]
     assert names["N-Q"] == base + ["omega_qi", "mask_low", "thd_start", "thd_step"]
     assert names["NDR-QL"] == base + ["r_max", "G", "omega_crf", "omega_qi", "mask_low", "thd_start", "thd_step"]
 

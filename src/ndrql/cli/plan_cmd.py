@@ -49,8 +49,9 @@ EXAMPLES = """examples:
   ndrql plan office.yaml --start-world 2.5,4.0 --goal-world 12.0,1.5,1.57 --robot-radius 0.2 --path-out plan.yaml
   ndrql plan floor.png --start 300,200 --goal 1700,1800 --grid area --size 50   # the paper's grid instead of the safe one
 
-methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL (the paper's), and IQL-BFS (IQL
-with Eq. 5 on the exact BFS distance: a reference that needs no model); N-C, N-Q and NDR-QL use the
+methods (default NDR-QL): QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL (the paper's), IQL-BFS (IQL
+with Eq. 5 on the exact BFS distance: a reference that needs no model) and IQL-NDR (IQL with Eq. 5 on the
+prior source's goal distance: the model's on a belief map); N-C, N-Q, NDR-QL and IQL-NDR use the
 NDR model (shipped paper, general or belief weights, or --weights FILE, or $NDRQL_WEIGHTS) where their prior source is the
 model; on a map the planner fully knows their priors come from the exact BFS distance (--prior-from says which). Points are ROW,COL map pixels. Seeds S..S+N-1 (--seed S --seeds N); the same
 seed gives the same run on any machine load and any number of workers. Time per stage: load (model

@@ -180,6 +180,8 @@ def summary_lines(report: Any) -> list[str]:
     for name, thd in report.thresholds.items():
         lines.append(f"{name}: NDR-QI threshold {f'{thd:.2f}' if thd is not None else no_threshold(report, name)}"
                      + (f"; Eq. 6's distance: {report.info['qi_distance']}" if through else ""))
+    if "IQL-NDR" in report.methods and report.info.get("qi_distance"):  # Eq. 5 on the prior source's distance
+        lines.append(f"IQL-NDR: Eq. 5's distance from the prior source: {report.info['qi_distance']}")
     not_conv = sum(not r.converged for r in report.results)
     if not_conv:
         lines.append(f"{not_conv} of {len(report.results)} runs did not converge (reported, not dropped)")

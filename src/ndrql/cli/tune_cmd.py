@@ -44,7 +44,7 @@ Use the result with --preset FILE on plan, demo and reproduce.
 def register(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "tune", help="search a planner's constants on validation maps (needs ndrql[tune])",
                     description=__doc__, examples=EXAMPLES)
-    p.add_argument("--method", metavar="NAME", help="method to tune (QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL, IQL-BFS)")
+    p.add_argument("--method", metavar="NAME", help="method to tune (QL, D-C, N-C, D-Q, N-Q, IQL, O-QL, NDR-QL, IQL-BFS, IQL-NDR)")
     p.add_argument("--trials", type=int, default=200, metavar="N", help="finished trials per method, the spec "
                    "preset's point included (default: 200)")
     p.add_argument("--samples", type=int, default=100, metavar="K", help="validation maps per evaluation (default: 100)")

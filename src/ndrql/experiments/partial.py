@@ -12,6 +12,8 @@ the ladder on which the truth connects start and goal, as ``reproduce transfer``
   distance of the belief, unknown counted free): the reference;
 - ``NDR-QL``: what ``ndrql plan MAP --hide MASK --size n`` runs: the same request and pipeline, the model source,
   the judge and the IQL-BFS fallback included (the record says which source served, or why it fell back);
+- ``IQL-NDR``: what ``ndrql plan MAP --hide MASK --size n --methods IQL-NDR`` runs: IQL's priors with Eq. 5 on the
+  served source's goal distance (the model's, floored at the belief's BFS distance), the same pipeline and fallback;
 - ``NDR-QL (model)``: the model's own priors on the belief's grid (Eq. 6's mask off, as ``plan`` on a belief map),
   no judge (when the judge accepted them they are the ``NDR-QL`` row's; with sensing on the row is not run);
 - ``NDR-QL (oracle)``: the oracle's priors of the true grid (:func:`~ndrql.experiments.ceiling.oracle_priors`): the
@@ -62,7 +64,9 @@ DEFAULT_BELIEFS = "blobs:0.1,blobs:0.3,blobs:0.5,sensed,outdated"
 #: The reference row every other row is divided by.
 REF = "IQL-BFS (belief)"
 #: The report's rows, in order.
-ROWS = ("IQL", REF, "NDR-QL", "NDR-QL (model)", "NDR-QL (oracle)")
+ROWS = ("IQL", REF, "NDR-QL", "IQL-NDR", "NDR-QL (model)", "NDR-QL (oracle)")
+#: The methods whose request names the task's weights (the rows that ask the model through ``plan``).
+MODEL_METHODS = ("NDR-QL", "IQL-NDR")
 #: The rows that do not depend on the belief (one task per map and grid).
 TRUTH_ROWS = ("IQL", "NDR-QL (oracle)")
 #: The records' format tag (:class:`~ndrql.io.jsonl.BatchLog`).
@@ -305,7 +309,7 @@ def plan_request(pc: PartialCase, task: Task, method: str) -> Any:
     radius = round(SENSE_SHARE * pc.case.n, 3) if task.sense else None
     return build_request(pc.obstacles, pc.start, pc.goal, methods=[method], seeds=list(task.seeds), hide=pc.belief,
                          size=pc.case.n, preset=task.preset, sense=radius,
-                         weights=task.weights if method == "NDR-QL" else None)
+                         weights=task.weights if method in MODEL_METHODS else None)
 
 
 def _pipeline_row(report: Any) -> dict[str, Any]:
@@ -339,7 +343,27 @@ def belief_rows(pc: PartialCase, task: Task, preset: Any) -> dict[str, Any]:
         s = request.settings
         job, _ = model_job(load_predictor(request.weights_file, s.threads, s.backend, s.symmetries), pc, preset)
         rows["NDR-QL (model)"] = run_rows(pc.case, {"NDR-QL (model)": job}, preset, list(task.seeds))["rows"]["NDR-QL (model)"]
-    return {"astar": astar_length(pc.case.blocked, pc.case.start_cell, pc.case.goal_cell), "rows": rows, "ndr": ndr}
+    out = {"astar": astar_length(pc.case.blocked, pc.case.start_cell, pc.case.goal_cell), "rows": rows, "ndr": ndr}
+    iql_ndr = iql_ndr_row(pc, task)
+    if "row" in iql_ndr:
+        rows["IQL-NDR"] = iql_ndr.pop("row")
+    return {**out, "iql_ndr": iql_ndr}
+
+
+def iql_ndr_row(pc: PartialCase, task: Task) -> dict[str, Any]:
+    """The ``IQL-NDR`` row through ``plan``'s request (``row``), which source served and the fallback; a request
+    ``plan`` refuses (e.g. weights without a distance head) is recorded as ``refused``, the other rows kept."""
+    try:
+        with warnings.catch_warnings():
+            for category in (FallbackWarning, SnapWarning, ThresholdWarning):
+                warnings.simplefilter("ignore", category)
+            report = task.runner(plan_request(pc, task, "IQL-NDR"))
+    except NdrqlError as exc:
+        return {"refused": str(exc)[:300]}
+    served = next((t["source"] for t in report.info.get("sources", []) if t.get("accepted")), None)
+    fb = report.info.get("fallback")
+    return {"row": _pipeline_row(report), "served": served, "qi_distance": report.info.get("qi_distance"),
+            "fallback": None if fb is None else fb["ran"]}
 
 
 def _label(path: str | None) -> str | None:
@@ -347,6 +371,6 @@ def _label(path: str | None) -> str | None:
 
 
 __all__ = ["DEFAULT_BELIEFS", "FORMAT", "MASK_SEED", "REF", "ROWS", "SENSE_SHARE", "BeliefSetting", "PartialCase", "Task",
-           "belief_case", "belief_rows", "case_unknown", "model_job", "ndr_priors", "one_case", "oracle_job",
+           "belief_case", "belief_rows", "case_unknown", "iql_ndr_row", "model_job", "ndr_priors", "one_case", "oracle_job",
            "parse_beliefs", "parse_sense", "partial_cases", "plain_priors", "plan_request", "row_record", "run_rows",
            "run_task", "steps_of"]

@@ -3,7 +3,8 @@
 Per belief setting, sensing and grid: first the oracle's headroom over IQL-BFS (belief) (``1 - oracle / IQL-BFS``,
 geometric mean over maps with a 95% bootstrap interval), then NDR-QL / IQL-BFS (belief) with the release report's
 statistics (:mod:`ndrql.experiments.stats`: geometric mean and its interval, clear wins / ties / losses over seeds,
-the share of the oracle's gain ``(1 - model) / (1 - oracle)``), which source served NDR-QL, every row per family,
+the share of the oracle's gain ``(1 - model) / (1 - oracle)``), IQL-NDR beside it with the same statistics (not
+judged by the floors), which source served NDR-QL, every row per family,
 path quality (learned path / A* on the true map) and the seconds of prediction and priors. Then the floors of issue
 54 at blobs 30% without sensing (:data:`FLOORS`), each PASS or MISS.
 """
@@ -77,9 +78,16 @@ def group_summary(group: list[dict]) -> dict[str, Any]:
     o_ndr = outcomes([r["rows"]["NDR-QL"]["steps"] for r in full], [r["rows"][REF]["steps"] for r in full])
     fams = {f: _ratio([r for r in full if r["family"] == f], "NDR-QL")["ratio"] for f in sorted({r["family"] for r in full})}
     worst = max(fams, key=fams.get)
-    return {"maps": len(full), "oracle": orc, "ndr": ndr, "oracle_outcomes": o_orc, "ndr_outcomes": o_ndr,
-            "headroom": 1 - orc["ratio"], "share": share_of_oracle_geomean(ndr["ratio"], orc["ratio"]),
-            "families": fams, "worst": (worst, fams[worst])}
+    out = {"maps": len(full), "oracle": orc, "ndr": ndr, "oracle_outcomes": o_orc, "ndr_outcomes": o_ndr,
+           "headroom": 1 - orc["ratio"], "share": share_of_oracle_geomean(ndr["ratio"], orc["ratio"]),
+           "families": fams, "worst": (worst, fams[worst])}
+    both = [r for r in full if "IQL-NDR" in r["rows"]]  # beside NDR-QL, not judged by the floors
+    if both:
+        iql = _ratio(both, "IQL-NDR")
+        out["iql_ndr"] = {"maps": len(both), **iql, "share": share_of_oracle_geomean(iql["ratio"], orc["ratio"]),
+                          "outcomes": outcomes([r["rows"]["IQL-NDR"]["steps"] for r in both],
+                                               [r["rows"][REF]["steps"] for r in both])}
+    return out
 
 
 def floors(summary: dict[str, Any]) -> list[str]:
@@ -110,6 +118,17 @@ def _sources_line(group: list[dict]) -> str:
     return line + "\n"
 
 
+def _iql_ndr_line(s: dict[str, Any]) -> list[str]:
+    """IQL-NDR / IQL-BFS (belief) beside NDR-QL (Eq. 5 on the served source's distance; not judged by the floors)."""
+    q = s.get("iql_ndr")
+    if q is None:
+        return []
+    o = q["outcomes"]
+    return [f"- **IQL-NDR / IQL-BFS (belief)** ({q['maps']} maps): **{q['ratio']:.3f}** ({q['low']:.3f} .. "
+            f"{q['high']:.3f}); clear wins / ties / losses {o['wins']} / {o['ties']} / {o['losses']}; share of the "
+            f"oracle's gain {_pct(q['share'])} (not judged by the floors)"]
+
+
 def group_text(title: str, group: list[dict], skipped: int, refused: int) -> str:
     """The section of one setting, sensing and grid."""
     s = group_summary(group)
@@ -126,7 +145,7 @@ def group_text(title: str, group: list[dict], skipped: int, refused: int) -> str
               f"- **NDR-QL / IQL-BFS (belief)**: **{n['ratio']:.3f}** ({n['low']:.3f} .. {n['high']:.3f}); clear wins / "
               f"ties / losses {s['ndr_outcomes']['wins']} / {s['ndr_outcomes']['ties']} / {s['ndr_outcomes']['losses']}; "
               f"share of the oracle's gain {_pct(s['share'])}; worst family {s['worst'][0]} {s['worst'][1]:.3f}",
-              "- " + _sources_line(group)]
+              *_iql_ndr_line(s), "- " + _sources_line(group)]
     present = [row for row in ROWS if row != REF and any(row in r["rows"] for r in group)]
     lines += ["| family | maps | " + " | ".join(f"{row} / {REF}" for row in present) + f" | {REF} steps |",
               "|---|---:|" + "---:|" * len(present) + "---:|"]

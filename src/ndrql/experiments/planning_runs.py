@@ -95,7 +95,8 @@ def preset_json(opts: SweepOptions) -> dict | None:
 def method_fields(m: Method) -> dict[str, Any]:
     """What of a method determines its runs (its name and priors; the description does not), for fingerprints."""
     return {"name": m.name, "d_crf": m.d_crf, "n_crf": m.n_crf, "d_qi": m.d_qi, "n_qi": m.n_qi,
-            "qi_mask_only": m.qi_mask_only, **({"exact_distance": True} if m.exact_distance else {})}
+            "qi_mask_only": m.qi_mask_only, **({"exact_distance": True} if m.exact_distance else {}),
+            **({"model_distance": True} if m.model_distance else {})}
 
 
 def plan_task(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, int], method: Method,
@@ -147,7 +148,7 @@ def make_tasks(problems: Sequence[Problem], methods: Sequence[Method], opts: Swe
             fp = fingerprint(TASK_VERSION, p.key, array_digest(p.blocked), p.start, p.goal, method_fields(m),
                              opts.seed_list, asdict(ql), asdict(pc), prior_id(source, p) if m.needs_ndr else None, rec)
             key = f"{p.key}__{m.name}".replace(" ", "_") + (ORACLE_KEY if m.needs_ndr and is_oracle(source) else "")
-            distance = p.distance if m.n_qi else None
+            distance = p.distance if m.needs_distance else None
             tasks.append(Task(key, plan_task, (p.blocked, p.start, p.goal, m, opts.seed_list, ql,
                                                pc, region, guideline, rec, distance), fp))
     return tasks

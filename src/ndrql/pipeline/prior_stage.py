@@ -30,7 +30,7 @@ from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, get_method
 from ndrql.synth.oracle import ORACLE_NAME
 
-#: What Eq. 6's distance is called in the summary, per source.
+#: What Eq. 6's distance (and Eq. 5's for IQL-NDR) is called in the summary, per source.
 DISTANCE_NAMES = {"model": "model", "file": "model", "exact": "exact BFS distance", "oracle": "true map's BFS distance",
                   "head": "straight line"}
 #: ``plan --prior-from`` names that are sources rather than files.
@@ -164,7 +164,7 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
     if "prior_grid" in priors.info:
         record["prior_grid"] = priors.info["prior_grid"]
     distance = priors.distance
-    if any(m.n_qi for m in ran):
+    if any(m.needs_distance for m in ran):  # Eq. 6's distance (NDR-QI), and Eq. 5's for IQL-NDR
         record["qi_distance"] = DISTANCE_NAMES.get(priors.source, "model") if distance is not None else "straight line"
     weights = ORACLE_NAME if priors.source == "oracle" else priors.weights
     threshold = verdict.threshold if verdict is not None else None

@@ -337,7 +337,7 @@ def build_request(
     check_points_known(belief, p_start, p_goal)
     sensing = sense_config(sense, sense_every, belief is not None)
     if predictions is not None and not any(get_method(m).needs_ndr for m in ms):
-        raise NdrqlError(f"predictions are given but none of {', '.join(ms)} uses them (N-C, N-Q, NDR-QL do)")
+        raise NdrqlError(f"predictions are given but none of {', '.join(ms)} uses them (N-C, N-Q, NDR-QL, IQL-NDR do)")
     if isinstance(predictions, str) and predictions not in SOURCE_NAMES[:-1]:
         raise NdrqlError(f"predictions must be (region, guideline) arrays, a prediction file's contents, or one of "
                          f"{', '.join(SOURCE_NAMES[:-1])}, got {predictions[:40]!r}")

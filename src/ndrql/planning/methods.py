@@ -14,6 +14,7 @@ IQL       D-C + D-Q (Low et al.: its distance-based initialisation and continuou
 O-QL      D-Q (see below)
 NDR-QL    D-C + N-C (mixed by Eq. 4) + D-Q + N-Q (Eq. 6)
 IQL-BFS   IQL with Eq. 5 on the exact BFS distance to the goal (beyond the paper; no model)
+IQL-NDR   IQL with Eq. 5 on the prior source's goal distance (beyond the paper; D-Q with the model's distance)
 ========  ===============================================================================
 
 Composition: rewards use Eq. 4 when both D-C and N-C are on, else Eq. 2 or Eq. 3 alone; the
@@ -37,6 +38,14 @@ Q-table with ``dist`` the exact number of moves to the goal through free cells
 search over the whole grid; on large grids it takes about as few steps as NDR-QL or fewer
 (studies/large_view/history.md#distance-through-the-region), which is why the reports carry it as the row
 ``IQL (BFS distance)``. It takes IQL's constants from a preset unless the preset has its own entry.
+
+**IQL-NDR** (beyond the paper) is IQL's priors (Eq. 2's D-CRF reward, Eq. 5's D-QI) with Eq. 5's ``dist`` the
+prior source's goal distance (``build_priors``'s ``distance``: the network's learned distance, on a belief map
+floored at the belief's BFS distance, or the exact source's BFS distance): Table 2's D-C + D-Q with the model's
+distance in D-Q. It uses neither region nor guideline, but it needs a prior source, so the prediction stage, the
+judge and the fallback treat it as an NDR method (``needs_ndr``). On belief maps it is the most reliable use of the
+belief model (studies/partial/variants.py, row "IQL (lower bound)": 0.857x IQL-BFS's steps on the development set,
+17 / 133 / 3 clear wins / ties / losses). It takes IQL's constants, as IQL-BFS does.
 """
 
 from __future__ import annotations
@@ -69,6 +78,9 @@ class Method:
     """With ``n_qi``: Eq. 6's mask term alone, without its distance term (Table 2's lone N-Q row)."""
     exact_distance: bool = False
     """With ``d_qi`` (not ``n_qi``): Eq. 5's ``dist`` is the exact BFS distance to the goal, not the straight line."""
+    model_distance: bool = False
+    """With ``d_qi`` (not ``n_qi``): Eq. 5's ``dist`` is ``build_priors``'s ``distance`` (the prior source's goal
+    distance); the method then needs a prior source (:attr:`needs_ndr`) but neither region nor guideline."""
     constants: str | None = None
     """The method whose preset entry this one takes where a preset has none of its own (``None``: none)."""
     description: str = ""
@@ -84,8 +96,13 @@ class Method:
 
     @property
     def needs_ndr(self) -> bool:
-        """Whether the method needs the NDR model's outputs (region and/or guideline)."""
-        return self.n_crf or self.n_qi
+        """Whether the method needs a prior source's outputs (region, guideline and/or goal distance)."""
+        return self.n_crf or self.n_qi or self.model_distance
+
+    @property
+    def needs_distance(self) -> bool:
+        """Whether the method's Q-table reads the prior source's goal distance (Eq. 6's, or Eq. 5's for IQL-NDR)."""
+        return self.n_qi or self.model_distance
 
 
 #: The methods of the paper, by name (docs/method.md).
@@ -104,6 +121,8 @@ METHODS: dict[str, Method] = {
         ),
         Method("IQL-BFS", d_crf=True, d_qi=True, exact_distance=True, constants="IQL",
                description="IQL with Eq. 5 on the exact BFS distance (beyond the paper; a reference, no model)"),
+        Method("IQL-NDR", d_crf=True, d_qi=True, model_distance=True, constants="IQL",
+               description="IQL with Eq. 5 on the prior source's goal distance (beyond the paper; D-C + D-Q)"),
     )
 }
 
@@ -152,8 +171,8 @@ def build_priors(
 
     ``region``/``guideline`` are NDR probabilities at the planning grid's shape; they are required
     only by methods that use them. ``distance`` (cells, the grid's shape): the model's predicted
-    distance to the goal, which then replaces the straight line in Eq. 6 (NDR-QI only; D-QI and the
-    rewards keep the straight line); ``cfg.guideline_ties`` then lets the guideline choose among equally
+    distance to the goal, which then replaces the straight line in Eq. 6 (NDR-QI), or in Eq. 5 for a method with
+    ``model_distance`` (IQL-NDR; other D-QI methods and the rewards keep the straight line); ``cfg.guideline_ties`` then lets the guideline choose among equally
     distant moves (:func:`ndrql.planning.priors.snapped_distance`). ``threshold``: Eq. 7's threshold as the judge
     found it (:func:`ndrql.pipeline.judge.judge`, the same search on the same widened region; ``None``: none joins
     start and goal); left out, NDR-QI searches it itself.
@@ -165,6 +184,9 @@ def build_priors(
         raise NdrqlError(f"method {m.name} needs the NDR guideline prediction (pass --prior-from FILE.npz)")
     if m.needs_region and region is None:
         raise NdrqlError(f"method {m.name} needs the NDR region prediction (pass --prior-from FILE.npz)")
+    if m.model_distance and not m.n_qi and distance is None:
+        raise NdrqlError(f"{m.name} needs a goal distance from the prior source (weights with a distance head, "
+                         f"or --prior-from exact)")
     for name, arr in (("region", region), ("guideline", guideline)):
         if arr is not None and np.shape(arr) != shape:
             raise NdrqlError(
@@ -183,7 +205,8 @@ def build_priors(
         q0, thd = P.ndr_qi(blocked, start, goal, region, cfg, thd=threshold,  # type: ignore[arg-type]
                            mask_only=m.qi_mask_only, distance=distance, guideline=guideline)
     elif m.d_qi:
-        q0 = P.d_qi(blocked, goal, P.exact_distance(blocked, goal) if m.exact_distance else None)
+        dist = distance if m.model_distance else P.exact_distance(blocked, goal) if m.exact_distance else None
+        q0 = P.d_qi(blocked, goal, dist)
     else:
         q0 = np.zeros((blocked.size, 4), dtype=np.float64)
     return Priors(r_c=np.ascontiguousarray(r_c, dtype=np.float64), q0=np.ascontiguousarray(q0), threshold=thd)

@@ -96,7 +96,7 @@ def run_problem(p: Problem, method: str, seeds: Sequence[int], ql: QLConfig, pc:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # NDR-QI's "no threshold connects" warning: the runs show its effect
         pri = build_priors(m, p.blocked, p.start, p.goal, p.region if m.needs_ndr else None,
-                           p.guideline if m.needs_ndr else None, pc, p.distance if m.n_qi else None)
+                           p.guideline if m.needs_ndr else None, pc, p.distance if m.needs_distance else None)
     out = []
     for s in seeds:
         r = run_plan(p.blocked, p.start, p.goal, m, int(s), ql, pc, priors=pri, astar=p.astar)

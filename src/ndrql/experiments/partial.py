@@ -48,7 +48,7 @@ from ndrql.model.predict import load_predictor
 from ndrql.model.weights import weights_label
 from ndrql.pipeline.problem import map_grid
 from ndrql.pipeline.request import build_request, request_settings
-from ndrql.pipeline.sources import ModelSource, SourceInput
+from ndrql.pipeline.sources import ModelSource, SourceInput, belief_floor
 from ndrql.planning.methods import Priors, build_priors
 from ndrql.planning.preset import load_preset
 from ndrql.planning.priors import ThresholdWarning
@@ -241,13 +241,18 @@ def oracle_job(case: GridCase, preset: Any) -> tuple[str, Priors, float]:
 
 def model_job(predictor: Any, pc: PartialCase, preset: Any) -> tuple[tuple[str, Priors, float], Any]:
     """NDR-QL with the model's own priors on the belief's grid (no judge, no fallback) and the prediction: what
-    :class:`~ndrql.pipeline.sources.ModelSource` predicts, the unknown cells given to a model with the channel."""
+    :class:`~ndrql.pipeline.sources.ModelSource` predicts, the unknown cells given to a model with the channel. Where
+    something is hidden, as ``plan --hide`` builds them (Eq. 6's mask off, the goal distance floored at the belief's
+    BFS distance, :func:`~ndrql.pipeline.sources.belief_floor`; also for a model without the channel, which ``plan``
+    would not ask); where nothing is, as on a known map (the mask on, no floor)."""
     bgrid = dataclasses.replace(safe_grid(pc.belief.planner_obstacles("free"), pc.case.n, pc.start, pc.goal),
                                 blocked=pc.bcase.blocked, start=pc.case.start_cell, goal=pc.case.goal_cell)
+    partial = bool(np.any(pc.belief.unknown))
     t0 = time.perf_counter()
     out = ModelSource(predictor).give(SourceInput(bgrid, GridMap(pc.belief.planner_obstacles("free")), pc.start, pc.goal,
                                                   unknown=pc.unknown))
-    pri = ndr_priors(pc.bcase, out.region, out.guideline, out.distance, preset, mask=False)
+    distance = belief_floor(out.distance, bgrid) if partial and out.distance is not None else out.distance
+    pri = ndr_priors(pc.bcase, out.region, out.guideline, distance, preset, mask=not partial)
     return ("NDR-QL", pri, time.perf_counter() - t0), out
 
 

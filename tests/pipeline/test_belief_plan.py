@@ -13,27 +13,11 @@ from ndrql.errors import MapFormatError, NdrqlError, NoPathError, PointError
 from ndrql.maps.belief import Belief
 from ndrql.planning.methods import build_priors
 from ndrql.planning.runner import run_plan
+from tests.helpers.belief_maps import GOAL, START, wall_map, wall_mask
 from tests.helpers.cli import assert_one_line_error, run_cli
 
-START, GOAL = (5, 5), (5, 34)
-
-
-def _wall() -> np.ndarray:
-    """40x40, a wall at column 20 from the top down to row 33 (the way round is at the bottom)."""
-    o = np.zeros((40, 40), dtype=np.uint8)
-    o[0:34, 20] = 1
-    return o
-
-
-def _mask() -> np.ndarray:
-    """Hides the wall's top rows: the belief sees a short way across."""
-    m = np.zeros((40, 40), dtype=np.uint8)
-    m[0:12, 16:25] = 1
-    return m
-
-
 def test_priors_read_the_belief_and_the_agent_learns_on_the_truth():
-    o, m = _wall(), _mask()
+    o, m = wall_map(), wall_mask()
     report = ndrql.solve(o, start=START, goal=GOAL, methods=["IQL-BFS"], seeds=[3], hide=m, size=40)
     run = report.results[0]
     truth, belief = report.grid.blocked, report.setup.belief.blocked
@@ -53,7 +37,7 @@ def test_priors_read_the_belief_and_the_agent_learns_on_the_truth():
 
 
 def test_a_mask_of_zeros_plans_as_the_known_map():
-    o = _wall()
+    o = wall_map()
     a = ndrql.solve(o, start=START, goal=GOAL, methods=["IQL-BFS", "IQL"], seeds=[0, 1], size=40, workers=1)
     b = ndrql.solve(o, start=START, goal=GOAL, methods=["IQL-BFS", "IQL"], seeds=[0, 1], size=40, hide=np.zeros_like(o),
                     workers=1)
@@ -62,7 +46,7 @@ def test_a_mask_of_zeros_plans_as_the_known_map():
 
 
 def test_oracle_predictions_come_from_the_truth():
-    o, m = _wall(), _mask()
+    o, m = wall_map(), wall_mask()
     report = ndrql.solve(o, start=START, goal=GOAL, methods=["NDR-QL"], seeds=[0], hide=m, size=40, predictions="oracle",
                          fallback=None)
     region = np.asarray(report.region) if report.region is not None else None
@@ -71,7 +55,7 @@ def test_oracle_predictions_come_from_the_truth():
 
 
 def test_an_outdated_belief_with_a_door_closed_that_is_open():
-    o = _wall()
+    o = wall_map()
     believed = o.astype(bool).copy()
     believed[34:40, 20] = True  # the belief closes the only way round
     with pytest.raises(NoPathError, match="not connected"):
@@ -85,14 +69,14 @@ def test_an_outdated_belief_with_a_door_closed_that_is_open():
 
 
 def test_the_truth_must_connect_at_the_size_the_belief_chose():
-    o = _wall()
+    o = wall_map()
     o[34:40, 20] = 1  # the wall closes the map; the mask hides a part of it: only the belief sees a way
     with pytest.raises(NoPathError, match="connect on the belief map but not on the true map"):
-        ndrql.solve(o, start=START, goal=GOAL, methods=["IQL"], seeds=[0], hide=_mask(), size=40)
+        ndrql.solve(o, start=START, goal=GOAL, methods=["IQL"], seeds=[0], hide=wall_mask(), size=40)
 
 
 def test_bad_masks_are_one_clear_error():
-    o = _wall()
+    o = wall_map()
     with pytest.raises(MapFormatError, match="is 39x40 .* the map is 40x40"):
         ndrql.build_request(o, START, GOAL, methods=["IQL"], hide=np.zeros((39, 40)))
     m = np.zeros_like(o)
@@ -108,8 +92,8 @@ def test_bad_masks_are_one_clear_error():
 
 
 def _files(tmp_path):
-    np.save(tmp_path / "map.npy", _wall())
-    np.save(tmp_path / "mask.npy", _mask())
+    np.save(tmp_path / "map.npy", wall_map())
+    np.save(tmp_path / "mask.npy", wall_mask())
     return tmp_path / "map.npy", tmp_path / "mask.npy"
 
 
@@ -157,7 +141,7 @@ def test_ros_unknown_space_as_obstacle_or_free(tmp_path):
 
 
 def test_the_paper_grid_takes_a_belief_too():
-    report = ndrql.solve(_wall(), start=START, goal=GOAL, methods=["IQL-BFS"], seeds=[0], hide=_mask(), grid="area",
+    report = ndrql.solve(wall_map(), start=START, goal=GOAL, methods=["IQL-BFS"], seeds=[0], hide=wall_mask(), grid="area",
                          size=40)
     rec = report.info["belief"]
     assert report.setup.rule == "area" and rec["true_optimum"] == 87 and rec["belief_optimum"] == 29

@@ -18,24 +18,8 @@ from ndrql.planning.config import PriorConfig
 from ndrql.planning.methods import build_priors, get_method
 from ndrql.planning.preset import load_preset
 from ndrql.planning.rules import next_table
+from tests.helpers.belief_maps import GOAL, START, wall_map, wall_mask
 from tests.helpers.cli import assert_one_line_error, run_cli
-
-START, GOAL = (5, 5), (5, 34)
-
-
-def _wall() -> np.ndarray:
-    """40x40, a wall at column 20 from the top down to row 33 (the way round is at the bottom)."""
-    o = np.zeros((40, 40), dtype=np.uint8)
-    o[0:34, 20] = 1
-    return o
-
-
-def _mask() -> np.ndarray:
-    """Hides the wall's top rows: the belief sees a short way across."""
-    m = np.zeros((40, 40), dtype=np.uint8)
-    m[0:12, 16:25] = 1
-    return m
-
 
 def test_priors_by_hand_are_d_crf_plus_d_qi_on_the_given_distance():
     blocked = np.zeros((4, 5), dtype=bool)
@@ -57,7 +41,7 @@ def test_priors_by_hand_are_d_crf_plus_d_qi_on_the_given_distance():
 
 
 def test_on_the_exact_distance_its_q_table_is_iql_bfss():
-    o = _wall().astype(bool)
+    o = wall_map().astype(bool)
     goal = GOAL
     cfg = load_preset("general").configs("IQL-NDR", grid=40)[1]
     ndr = build_priors("IQL-NDR", o, START, goal, cfg=cfg, distance=exact_distance_field(o, goal))
@@ -89,7 +73,7 @@ def test_method_flags_constants_and_fallback():
 
 
 def test_pipeline_asks_a_source_judges_it_and_names_the_distance():
-    o, m = _wall(), _mask()
+    o, m = wall_map(), wall_mask()
     a = ndrql.solve(o, start=START, goal=GOAL, methods=["IQL-NDR", "IQL-BFS"], seeds=[0, 1], hide=m, size=40,
                     predictions="exact", workers=1)
     assert a.methods == ("IQL-NDR", "IQL-BFS") and a.info["qi_distance"] == "exact BFS distance"
@@ -99,8 +83,8 @@ def test_pipeline_asks_a_source_judges_it_and_names_the_distance():
 
 
 def test_cli_and_api_give_the_same_run_on_a_belief_map(ndrql_exe, tmp_path):
-    np.save(tmp_path / "map.npy", _wall())
-    np.save(tmp_path / "mask.npy", _mask())
+    np.save(tmp_path / "map.npy", wall_map())
+    np.save(tmp_path / "mask.npy", wall_mask())
     r = run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34", "--hide",
                 tmp_path / "mask.npy", "--method", "IQL-NDR", "--prior-from", "exact", "--seeds", "2", "--size", "40",
                 "--json", tmp_path / "out.json")
@@ -114,7 +98,7 @@ def test_cli_and_api_give_the_same_run_on_a_belief_map(ndrql_exe, tmp_path):
 
 
 def test_cli_a_source_without_a_distance_exits_2_with_one_line(ndrql_exe, tmp_path):
-    np.save(tmp_path / "map.npy", _wall())
+    np.save(tmp_path / "map.npy", wall_map())
     r = run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34", "--method", "IQL-NDR",
                 "--prior-from", "head", "--size", "40", "--fallback", "none")
     assert_one_line_error(r, "IQL-NDR needs a goal distance from the prior source")

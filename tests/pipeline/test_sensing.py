@@ -129,3 +129,22 @@ def test_every_carry_converges_and_the_rebuild_changes_the_run(carry):
     assert r.converged and r.recomputes >= 1 and r.path_length >= 43
     with pytest.raises(ValueError, match="carry"):
         SenseConfig(radius=3, carry="forget")
+
+
+def test_the_predicted_distance_is_floored_at_the_grown_beliefs_bfs():
+    """A rebuild after sensing floors the prediction's distance at the BFS of the belief as it now stands: a wall
+    the robot has seen lengthens the floor behind it; with no distance (IQL, straight-line methods) nothing to do."""
+    import numpy as np
+
+    from ndrql.maps.fields import bfs4_filled
+    from ndrql.pipeline.sensing import floored
+
+    first = np.zeros((12, 12), dtype=bool)
+    grown = first.copy()
+    grown[0:11, 6] = True  # a wall the robot sensed: the way to the goal now goes round its bottom end
+    goal = (0, 11)
+    shortcut = bfs4_filled(first, goal)  # what the first belief allowed
+    assert floored(None, grown, goal) is None
+    out = floored(shortcut, grown, goal)
+    np.testing.assert_array_equal(out, np.maximum(shortcut, bfs4_filled(grown, goal)))
+    assert out[0, 0] > shortcut[0, 0] and out[0, 0] == bfs4_filled(grown, goal)[0, 0]

@@ -25,6 +25,7 @@ import numpy as np
 from ndrql.planning.config import QLConfig
 from ndrql.errors import NdrqlError
 from ndrql.maps.belief import unknown_cells  # noqa: F401  (its home; re-exported here)
+from ndrql.maps.fields import bfs4_filled
 from ndrql.maps.grid import PlanningGrid
 from ndrql.planning.methods import Method, Priors, build_priors
 from ndrql.planning.results import PlanResult
@@ -172,6 +173,13 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
     return out
 
 
+def floored(distance: np.ndarray | None, belief: np.ndarray, goal: Cell) -> np.ndarray | None:
+    """The prediction's goal distance, never below the BFS distance of the belief as it now stands (unknown counted
+    free, so still the shortest the truth can hold; :func:`ndrql.pipeline.sources.belief_floor` on the first belief):
+    what the robot has sensed tightens the floor at every rebuild."""
+    return None if distance is None else np.maximum(distance, bfs4_filled(np.asarray(belief, bool), goal))
+
+
 def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarray, methods: list[Method],
                  seeds: list[int], consts: Callable, region: np.ndarray | None, guideline: np.ndarray | None,
                  distance: np.ndarray | None, sensing: SenseConfig, record: dict | None = None) -> list[PlanResult]:
@@ -185,7 +193,8 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
     out, runs = [], []
     for m in methods:
         ql, pc = consts(m.name)
-        priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc, distance, None)  # noqa: E731
+        priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc,  # noqa: E731
+                                                       floored(distance, b, grid.goal), None)
         for seed in seeds:
             r = run_sensed(grid.blocked, belief.blocked, known, grid.start, grid.goal, m.name, seed, ql, priors_on, sensing)
             out.append(r.result)
@@ -198,5 +207,5 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
     return out
 
 
-__all__ = ["DEFAULT_EVERY", "PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "learn_sensed", "run_sensed", "sense",
+__all__ = ["DEFAULT_EVERY", "PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "floored", "learn_sensed", "run_sensed", "sense",
            "sense_config", "unknown_cells"]

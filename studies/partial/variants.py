@@ -37,7 +37,7 @@ import model_eval  # noqa: E402
 
 from ndrql.experiments.stats import geomean_ratio, outcomes  # noqa: E402
 from ndrql.model.predict import Predictor  # noqa: E402
-from ndrql.pipeline.sources import drawn_priors, exact_distance_field  # noqa: E402
+from ndrql.pipeline.sources import belief_floor, drawn_priors  # noqa: E402
 from ndrql.planning import priors as P  # noqa: E402
 from ndrql.planning.methods import Priors, build_priors  # noqa: E402
 from ndrql.planning.preset import load_preset  # noqa: E402
@@ -60,7 +60,7 @@ def rows_for(case, bcase, unknown, model: Predictor, preset, seeds) -> dict:
     ql_i, cfg_i = preset.configs("IQL-BFS", grid=n)
     ql_n, cfg_n = preset.configs("NDR-QL", grid=n)
     ex = drawn_priors("exact", bcase.blocked, s, g, None)
-    lower = np.maximum(np.asarray(out.distance, float), exact_distance_field(bcase.blocked, g))  # = plan's belief_floor
+    lower = belief_floor(out.distance, bcase.blocked, g)  # what plan builds on a belief map
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ThresholdWarning)
         jobs = {REF: ("IQL-BFS", ql_i, build_priors("IQL-BFS", bcase.blocked, s, g, cfg=cfg_i)),

@@ -87,8 +87,8 @@ def test_a_predicted_distance_on_a_belief_map_never_goes_below_the_beliefs_bfs()
     grid = _problem(_hidden()).grid
     bfs = exact_distance_field(grid.blocked, grid.goal)
     shortcut = np.zeros(grid.blocked.shape)
-    np.testing.assert_array_equal(belief_floor(shortcut, grid), bfs)
+    np.testing.assert_array_equal(belief_floor(shortcut, grid.blocked, grid.goal), bfs)
     detour = bfs + 7.0
-    np.testing.assert_array_equal(belief_floor(detour, grid), detour)
+    np.testing.assert_array_equal(belief_floor(detour, grid.blocked, grid.goal), detour)
     mixed = np.where(np.arange(bfs.size).reshape(bfs.shape) % 2 == 0, bfs - 3.0, bfs + 5.0)
-    np.testing.assert_array_equal(belief_floor(mixed, grid), np.maximum(mixed, bfs))
+    np.testing.assert_array_equal(belief_floor(mixed, grid.blocked, grid.goal), np.maximum(mixed, bfs))

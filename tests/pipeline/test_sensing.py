@@ -137,7 +137,7 @@ def test_the_predicted_distance_is_floored_at_the_grown_beliefs_bfs():
     import numpy as np
 
     from ndrql.maps.fields import bfs4_filled
-    from ndrql.pipeline.sensing import floored
+    from ndrql.pipeline.sources import belief_floor as floored
 
     first = np.zeros((12, 12), dtype=bool)
     grown = first.copy()

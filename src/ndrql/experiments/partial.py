@@ -251,7 +251,7 @@ def model_job(predictor: Any, pc: PartialCase, preset: Any) -> tuple[tuple[str, 
     t0 = time.perf_counter()
     out = ModelSource(predictor).give(SourceInput(bgrid, GridMap(pc.belief.planner_obstacles("free")), pc.start, pc.goal,
                                                   unknown=pc.unknown))
-    distance = belief_floor(out.distance, bgrid) if partial and out.distance is not None else out.distance
+    distance = belief_floor(out.distance, bgrid.blocked, bgrid.goal) if partial else out.distance
     pri = ndr_priors(pc.bcase, out.region, out.guideline, distance, preset, mask=not partial)
     return ("NDR-QL", pri, time.perf_counter() - t0), out
 

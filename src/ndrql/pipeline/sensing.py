@@ -25,8 +25,8 @@ import numpy as np
 from ndrql.planning.config import QLConfig
 from ndrql.errors import NdrqlError
 from ndrql.maps.belief import unknown_cells  # noqa: F401  (its home; re-exported here)
-from ndrql.maps.fields import bfs4_filled
 from ndrql.maps.grid import PlanningGrid
+from ndrql.pipeline.sources import belief_floor
 from ndrql.planning.methods import Method, Priors, build_priors
 from ndrql.planning.results import PlanResult
 from ndrql.planning.runner import astar_length, run_plan
@@ -173,20 +173,14 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
     return out
 
 
-def floored(distance: np.ndarray | None, belief: np.ndarray, goal: Cell) -> np.ndarray | None:
-    """The prediction's goal distance, never below the BFS distance of the belief as it now stands (unknown counted
-    free, so still the shortest the truth can hold; :func:`ndrql.pipeline.sources.belief_floor` on the first belief):
-    what the robot has sensed tightens the floor at every rebuild."""
-    return None if distance is None else np.maximum(distance, bfs4_filled(np.asarray(belief, bool), goal))
-
-
 def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarray, methods: list[Method],
                  seeds: list[int], consts: Callable, region: np.ndarray | None, guideline: np.ndarray | None,
                  distance: np.ndarray | None, sensing: SenseConfig, record: dict | None = None) -> list[PlanResult]:
     """Every method with every seed (methods outer) revealed as it moves: the learning ``grid`` is the truth, the
     priors start on ``belief`` (a :class:`PlanningGrid` on the same cells) and are rebuilt, the prediction
     (``region``, ``guideline``, ``distance``) kept, as the robot senses the cells it stands on; Eq. 6's mask stays
-    off (:data:`ndrql.pipeline.prior_stage.BELIEF_MASK`). ``record``
+    off (:data:`ndrql.pipeline.prior_stage.BELIEF_MASK`) and the distance is floored at each belief's BFS distance
+    (:func:`~ndrql.pipeline.sources.belief_floor`). ``record``
     receives ``sensing``: radius, recomputation interval and, per run, the recomputations and the known share."""
     known = ~unknown_cells(unknown_px, grid)
     known[grid.start] = known[grid.goal] = True
@@ -194,7 +188,7 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
     for m in methods:
         ql, pc = consts(m.name)
         priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc,  # noqa: E731
-                                                       floored(distance, b, grid.goal), None)
+                                                       belief_floor(distance, b, grid.goal), None)
         for seed in seeds:
             r = run_sensed(grid.blocked, belief.blocked, known, grid.start, grid.goal, m.name, seed, ql, priors_on, sensing)
             out.append(r.result)
@@ -207,5 +201,5 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
     return out
 
 
-__all__ = ["DEFAULT_EVERY", "PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "floored", "learn_sensed", "run_sensed", "sense",
+__all__ = ["DEFAULT_EVERY", "PriorsOn", "SenseConfig", "SensedRun", "chunk_seed", "learn_sensed", "run_sensed", "sense",
            "sense_config", "unknown_cells"]

@@ -167,16 +167,19 @@ class ModelSource:
             out = GridPriors(out.source, out.region, out.guideline, None, out.region_map, out.guideline_map, out.info,
                              out.weights)
         if problem.partial and out.distance is not None:
-            out = dataclasses.replace(out, distance=belief_floor(out.distance, problem.grid),
+            out = dataclasses.replace(out, distance=belief_floor(out.distance, problem.grid.blocked, problem.grid.goal),
                                       info={**out.info, "distance_floor": "the belief's BFS distance"})
         return out
 
 
-def belief_floor(distance: np.ndarray, grid: PlanningGrid) -> np.ndarray:
-    """A predicted goal distance on a belief map, never below the belief's own BFS distance: with unknown cells
-    counted free the belief's shortest way is the shortest the truth can hold, so the maximum keeps the detours the
-    model infers and drops the shortcuts it cannot know (studies/partial/README.md, "The long run")."""
-    return np.maximum(np.asarray(distance, dtype=np.float64), exact_distance_field(grid.blocked, grid.goal))
+def belief_floor(distance: np.ndarray | None, blocked: np.ndarray, goal: Point) -> np.ndarray | None:
+    """A predicted goal distance on a belief map, never below the BFS distance of the belief ``blocked`` (``None``
+    stays ``None``): with unknown cells counted free the belief's shortest way is the shortest the truth can hold, so
+    the maximum keeps the detours the model infers and drops the shortcuts it cannot know; as sensing grows the
+    belief the floor tightens (:func:`ndrql.pipeline.sensing.learn_sensed`; studies/partial/README.md)."""
+    if distance is None:
+        return None
+    return np.maximum(np.asarray(distance, dtype=np.float64), exact_distance_field(blocked, goal))
 
 
 def exact_distance_field(blocked: np.ndarray, goal: Point) -> np.ndarray:

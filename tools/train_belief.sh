@@ -9,6 +9,8 @@
 #   TAG=belief-short-a tools/train_belief.sh short          # a short run: SHORT_MIN minutes (default 20)
 #   TAG=belief-short-b LR=1e-3 tools/train_belief.sh short  # another candidate (studies/partial/README.md, "Training plan")
 #   TAG=belief-long LR=... tools/train_belief.sh long       # the long run: LONG_MIN minutes (default 100)
+#   SEED=2 MASK_SEED=55 tools/train_belief.sh data         # a second set: other maps, other beliefs
+#   TAG=belief-long3 INIT=src/ndrql/data/ndr_belief.pt EXTRA=$CACHE/gen/train-s2-belief-m55-n12000:3 tools/train_belief.sh long
 #   TAG=belief-long tools/train_belief.sh export            # best.pt -> $CACHE/belief/ndr_belief.pt (view coarse:128)
 #
 # The maps are general's training maps (its twelve families, 201/401/801 px, SEED=1: the known-map samples
@@ -32,6 +34,7 @@ NONE=${NONE:-0.2}
 MASKS=${MASKS:-blobs:0.1-0.5,sensed,outdated,none:$NONE}
 PAPER=${PAPER:-1}                     # weight of the paper's dataset (known maps); 0 = left out
 WEIGHT=${WEIGHT:-3}                   # weight of the belief set
+EXTRA=${EXTRA:-}                      # more sources, "DIR:WEIGHT,..." (e.g. a second belief set of other seeds)
 TRAIN_SEED=${TRAIN_SEED:-0}
 LR=${LR:-5e-4}
 THREADS=${THREADS:-2}
@@ -55,6 +58,7 @@ train() {  # train EPOCHS STEPS RUN_DIR [extra flags]
   local epochs=$1 steps=$2 run=$3
   shift 3
   local sources="$GEN:$WEIGHT"
+  [ -n "$EXTRA" ] && sources="$sources,$EXTRA"
   [ "$PAPER" != 0 ] && sources="paper:$PAPER,$sources"
   local resume=()
   [ -f "$run/last.pt" ] && resume=(--resume)

@@ -335,8 +335,8 @@ def test_load_preset_errors(tmp_path):
 def test_cli_preset_and_tune_errors(ndrql_exe, tmp_path):
     r = run_cli(ndrql_exe, "plan", "src/ndrql/data/sample_map.png", "--start", "25,179", "--goal", "167,5",
                 "--preset", "nope", cwd=REPO_ROOT)
-    assert r.returncode == 2 and r.stderr.strip() == ("ndrql: error: unknown preset 'nope': give spec, tuned, general "
-                                                      "or a preset JSON file")
+    assert r.returncode == 2 and r.stderr.strip() == ("ndrql: error: unknown preset 'nope': give spec, tuned, general, "
+                                                      "belief or a preset JSON file")
     assert_one_line_error(run_cli(ndrql_exe, "tune"), "give --method NAME")
     assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QQL"), "unknown method 'QQL'")
     assert_one_line_error(run_cli(ndrql_exe, "tune", "--method", "QL", "--trials", "0"), "--trials must be an integer")
@@ -373,7 +373,7 @@ def test_per_grid_presets_take_the_nearest_size_on_a_log_scale(tmp_path):
     assert p.with_overrides(ql={"gamma": 0.9}).configs("IQL", grid=100)[0] == QLConfig(alpha=0.2, gamma=0.9)
     write_preset(tmp_path / "g.json", p)
     assert load_preset(tmp_path / "g.json").configs("IQL", grid=128)[0].alpha == 0.2
-    with pytest.raises(PresetError, match="unknown preset 'nope': give spec, tuned, general or"):
+    with pytest.raises(PresetError, match="unknown preset 'nope': give spec, tuned, general, belief or"):
         load_preset("nope")
 
 

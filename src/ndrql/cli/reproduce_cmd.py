@@ -16,7 +16,7 @@ from ndrql.limits import MAX_WORKERS, check_int, check_seeds
 from ndrql.model.symmetry import DEFAULT_COUNT
 from ndrql.model.weights import PAPER_WEIGHTS
 from ndrql.planning.config import PriorConfig, QLConfig
-from ndrql.planning.preset import builtin_path, load_preset
+from ndrql.planning.preset import builtin_path, load_preset, plan_default_preset
 from ndrql.synth.oracle import PRIOR_SOURCES
 from ndrql.workers import ray_available
 
@@ -118,7 +118,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--preset", metavar="LIST", help="constants per method: spec, tuned or a preset FILE, or several "
                    "separated by commas, each run into its own folder and compared side by side (default: spec,tuned "
                    "for table2, table3 and scale; spec for dynamic and transfer; general for release, with --weights "
-                   "general); flags below override a preset's values")
+                   "general; for partial, plan's preset on a belief map: belief); flags below override a preset's values")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     add_config_flags(p.add_argument_group("Q-learning (docs/method.md)"), QLConfig, _QL_FLAGS)
     add_config_flags(p.add_argument_group("priors (docs/method.md)"), PriorConfig, _PRIOR_FLAGS)
@@ -208,7 +208,7 @@ def _partial(args: argparse.Namespace, opts, out: Path, log) -> str:
     if changed:
         raise NdrqlError(f"partial runs a preset's constants as plan does; --{changed[0].replace('_', '-')} does not "
                          f"apply (give --preset FILE)")
-    preset = args.preset or "general"
+    preset = args.preset or plan_default_preset(args.weights, partial=True)  # plan's on a belief map
     if "," in preset:
         raise NdrqlError("partial takes one --preset")
     load_preset(preset)

@@ -5,7 +5,8 @@ setting (:class:`BeliefSetting`: :mod:`ndrql.synth.masks`' blobs hiding a share 
 sensed along routes, an outdated map; drawn from ``default_rng([MASK_SEED, map index, kind, percent])``) and
 sensing off or on, the agent learns on the **true** map's safe grid of ``n`` cells (or the first larger size of
 the ladder on which the truth connects start and goal, as ``reproduce transfer``), with the same seeds and the
-``general`` preset's constants. Rows, each a ratio to **IQL-BFS (belief)**:
+preset ``plan`` takes on a belief map (``belief``: general's constants, NDR-QL's searched on belief maps; the rows
+of the true map, a known map, take ``general``'s). Rows, each a ratio to **IQL-BFS (belief)**:
 
 - ``IQL``: straight-line priors (no map);
 - ``IQL-BFS (belief)``: what ``ndrql plan MAP --hide MASK --methods IQL-BFS --size n`` runs (Eq. 5 on the exact BFS
@@ -50,7 +51,7 @@ from ndrql.pipeline.problem import map_grid
 from ndrql.pipeline.request import build_request, request_settings
 from ndrql.pipeline.sources import ModelSource, SourceInput, belief_floor
 from ndrql.planning.methods import Priors, build_priors
-from ndrql.planning.preset import load_preset
+from ndrql.planning.preset import BELIEF_PRESET, load_preset
 from ndrql.planning.priors import ThresholdWarning
 from ndrql.planning.runner import astar_length, run_plan
 from ndrql.synth.masks import KINDS, draw_belief
@@ -296,7 +297,8 @@ def run_task(task: Task) -> dict[str, Any]:
                            "belief": task.belief, "sense": task.sense}
     if pc.case is None:
         return {**rec, "skipped": "start and goal do not connect on the ladder"}
-    preset = load_preset(task.preset)
+    known = task.belief is None and task.preset == BELIEF_PRESET  # the truth's rows: a known map's constants
+    preset = load_preset("general" if known else task.preset)
     rec["n"] = pc.case.n
     t0 = time.perf_counter()
     if task.belief is None:

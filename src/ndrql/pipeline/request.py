@@ -18,7 +18,7 @@ What :func:`build_request` decides, once:
 - the weights: as named, else ``$NDRQL_WEIGHTS`` or ``general``; on a belief map with none named, the shipped
   ``belief`` weights when installed (:func:`~ndrql.model.weights.plan_weights`);
 - the constants: the preset (default :func:`~ndrql.planning.preset.plan_default_preset` of the file
-  the weights resolve to, ``$NDRQL_WEIGHTS`` included), with the fields the caller set explicitly
+  the weights resolve to, ``$NDRQL_WEIGHTS`` included; ``belief`` on a belief map), with the fields the caller set explicitly
   (``ql={...}``, ``priors={...}``) on top of every method's entry. A field set to its default value is
   still set: ``priors={"guideline_ties": 0.0}`` turns a preset's value back to the paper's.
 """
@@ -140,8 +140,10 @@ def _overrides(values: Mapping[str, Any] | None, names: tuple[str, ...], what: s
 
 
 def _constants(preset: Any, config: QLConfig | None, prior_config: PriorConfig | None, ql: Mapping[str, Any] | None,
-               priors: Mapping[str, Any] | None, weights_file: str | None) -> tuple[Preset, PriorConfig, dict]:
-    """The preset with the explicitly set fields, and the prior constants the prediction is judged with."""
+               priors: Mapping[str, Any] | None, weights_file: str | None,
+               partial: bool = False) -> tuple[Preset, PriorConfig, dict]:
+    """The preset with the explicitly set fields, and the prior constants the prediction is judged with; no preset
+    given: :func:`~ndrql.planning.preset.plan_default_preset` (``belief`` on a belief map, ``partial``)."""
     q_set = _overrides(ql, QL_FIELDS, "Q-learning")
     p_set = _overrides(priors, PRIOR_FIELDS, "prior")
     if config is not None or prior_config is not None:  # a whole config is every one of its fields set
@@ -153,7 +155,7 @@ def _constants(preset: Any, config: QLConfig | None, prior_config: PriorConfig |
         if prior_config is not None:
             p_set = {**{k: getattr(prior_config, k) for k in PRIOR_FIELDS}, **p_set}
     label = weights_label(weights_file) if weights_file is not None else None
-    base = load_preset(preset if preset is not None else plan_default_preset(label))
+    base = load_preset(preset if preset is not None else plan_default_preset(label, partial))
     try:
         quality = dataclasses.replace(PriorConfig(), **p_set)
         dataclasses.replace(QLConfig(), **q_set)
@@ -348,7 +350,7 @@ def build_request(
     uses_model = "model" in sources
     asked = plan_weights(weights, belief is not None) if uses_model else weights  # a belief map: the belief weights
     weights_file = str(resolve_weights(asked)) if uses_model or preset is None else None
-    preset_obj, _, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file)
+    preset_obj, _, set_fields = _constants(preset, config, prior_config, ql, priors, weights_file, belief is not None)
     record["preset"] = preset_obj.name
     return PlanRequest(grid_map=grid_map, belief=belief, unknown_rule=unknown_rule, sensing=sensing, sources=sources, kind=kind, start=p_start, goal=p_goal, methods=ms, seeds=seed_list,
                        settings=s, preset=preset_obj, weights=None if weights is None else

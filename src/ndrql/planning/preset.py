@@ -13,6 +13,9 @@ values that differ from the frozen configs' defaults (:class:`~ndrql.planning.co
   budget and a check on fresh seeds recorded beside them.
 - ``general``: the same search for the ``general`` weights on held-out generated maps of every family,
   once per planning-grid size (``ndrql tune --maps generated --grid N``): a ``grids`` entry per size.
+- ``belief``: ``general`` with NDR-QL's constants searched on belief maps (priors from the belief model on what
+  the planner knows, Eq. 6's mask off, learning on the true map; ``studies/partial/tune_belief.py``); every other
+  method's entry is general's. ``plan`` uses it on a belief map when no preset is given.
 
 A preset file looks like (every constant of :data:`PRESET_FIELDS` is written out; a missing one
 takes the config's default)::
@@ -54,7 +57,9 @@ FORMAT = "ndrql-preset"
 VERSION = 2
 READS = (1, 2)
 #: Presets shipped with the package, by name.
-BUILTIN = ("spec", "tuned", "general")
+BUILTIN = ("spec", "tuned", "general", "belief")
+#: The preset ``plan`` uses on a map the planner does not fully know (``--hide``) when none is given.
+BELIEF_PRESET = "belief"
 #: The constants a preset may set, per config: what the search explores, and the choices beyond the
 #: paper that a preset fixes per grid (region_dilation, guideline_ties: docs/results.md#transfer;
 #: region_distance: studies/large_view/history.md#distance-through-the-region;
@@ -287,11 +292,15 @@ def load_preset(name_or_path: str | os.PathLike | Preset | None = None) -> Prese
     return preset_from_dict(data, source=str(path) if key not in BUILTIN else key)
 
 
-def plan_default_preset(weights: str | os.PathLike | None = None) -> str:
+def plan_default_preset(weights: str | os.PathLike | None = None, partial: bool = False) -> str:
     """The preset ``ndrql plan`` uses without ``--preset``: the one searched for its weights (``tuned``
     for ``paper``; ``general`` for ``general``, the default, or a weights file) when that search's
-    constants won their check on fresh seeds (``plan_default``), else ``tuned`` if its did, else ``spec``."""
+    constants won their check on fresh seeds (``plan_default``), else ``tuned`` if its did, else ``spec``.
+    On a map the planner does not fully know (``partial``), ``belief`` (:data:`BELIEF_PRESET`) in place of
+    ``general`` when it is installed and won its check on belief maps (``plan_default``)."""
     first = "tuned" if weights is not None and os.fspath(weights) == "paper" else "general"
+    if partial and first == "general" and builtin_path(BELIEF_PRESET).is_file() and load_preset(BELIEF_PRESET).plan_default:
+        return BELIEF_PRESET
     for name in dict.fromkeys((first, "tuned")):
         if builtin_path(name).is_file() and load_preset(name).plan_default:
             return name
@@ -327,6 +336,6 @@ def configs_dict(ql: QLConfig, priors: PriorConfig) -> dict[str, dict[str, Any]]
             "priors": {k: getattr(priors, k) for k in PRESET_FIELDS["priors"]}}
 
 
-__all__ = ["ANY", "BUILTIN", "READS", "nearest_grid", "FORMAT", "MethodSetting", "PRESET_FIELDS", "Preset", "PresetError", "VERSION", "builtin_path",
+__all__ = ["ANY", "BELIEF_PRESET", "BUILTIN", "READS", "nearest_grid", "FORMAT", "MethodSetting", "PRESET_FIELDS", "Preset", "PresetError", "VERSION", "builtin_path",
            "configs_dict", "load_preset", "method_configs", "plan_default_preset", "preset_from_dict", "preset_to_dict", "spec_preset",
            "write_preset"]

@@ -16,8 +16,11 @@ MedianPruner over chunks of the search maps) sees the search half only; ``--chec
     PYTHONPATH=src nice -n 10 python studies/partial/tune_belief.py --grid 50 --check --both
     PYTHONPATH=src python studies/partial/tune_belief.py --report results/partial/tune_belief
 
-``--weights W.pt`` replaces the shipped belief weights (its own cache); ``--method IQL-BFS`` searches IQL-BFS's own
-constants with the same budget (the fairness row). Sealed sets are refused (:func:`eval_spec`).
+``--weights W.pt`` replaces the shipped belief weights (its own cache; give ``--tag`` to keep its files apart);
+``--all`` runs the search at each of ``--grids``, the check and the report in one command; ``--write-preset`` writes
+the ``belief`` preset from the searches. ``--method IQL-BFS`` searches IQL-BFS's own constants with the same budget
+(the fairness row). Each map takes the preset entry its planning size takes (:func:`serves`, as ``plan``): the
+search at grid G sees only the maps that entry serves. Sealed sets are refused (:func:`eval_spec`).
 """
 
 from __future__ import annotations
@@ -342,6 +345,7 @@ def main(argv=None) -> int:
     ap.add_argument("--both", action="store_true")
     ap.add_argument("--cache-only", action="store_true")
     ap.add_argument("--report", default=None)
+    ap.add_argument("--all", action="store_true", help="search every --grids grid, check both halves, report")
     ap.add_argument("--write-preset", action="store_true", help="write the belief preset from --grids' searches")
     ap.add_argument("--grids", default="50,100")
     ap.add_argument("--preset-out", default="src/ndrql/planning/presets/belief.json")
@@ -351,6 +355,13 @@ def main(argv=None) -> int:
         return report(args.report)
     if args.write_preset:
         return write_belief_preset(args)
+    if args.all:  # the whole study in one command: search each grid, then check both halves, then the report
+        for grid in (int(g) for g in args.grids.split(",")):
+            search(args, grid)
+        for grid in (int(g) for g in args.grids.split(",")):
+            args.both = True
+            check(args, grid)
+        return report(args.out)
     if args.cache_only:
         build_cache(args, args.grid)
         return 0

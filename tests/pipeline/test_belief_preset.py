@@ -26,8 +26,8 @@ def test_the_preset_loads_and_only_ndr_ql_at_the_searched_grids_differs_from_gen
     searched = belief.meta["searched"]["grids"]
     for grid in (int(g) for g in searched):
         assert belief.configs("NDR-QL", grid=grid) != general.configs("NDR-QL", grid=grid)
-        ql, pri = belief.configs("NDR-QL", grid=grid)
-        g_ql, g_pri = general.configs("NDR-QL", grid=grid)
+        pri = belief.configs("NDR-QL", grid=grid)[1]
+        g_pri = general.configs("NDR-QL", grid=grid)[1]
         assert (pri.region_distance, pri.thd_tail, pri.mask_low) == (g_pri.region_distance, g_pri.thd_tail, g_pri.mask_low)
     assert belief.configs("NDR-QL", grid=256) == general.configs("NDR-QL", grid=256)  # grids not searched: general's
 

@@ -69,3 +69,13 @@ def test_cli_and_api_name_the_same_preset_and_give_the_same_steps(ndrql_exe, tmp
     r = run_cli(ndrql_exe, *base, "--preset", "general", "--json", tmp_path / "b.json")
     assert r.returncode == 0, r.stderr
     assert json.loads((tmp_path / "b.json").read_text())["preset"] == "general" and "constants: preset general" in r.stdout
+
+
+def test_the_summary_names_the_preset_once_when_the_model_served(ndrql_exe, tmp_path):
+    mp, mask = tmp_path / "map.npy", tmp_path / "mask.npy"
+    np.save(mp, wall_map())
+    np.save(mask, wall_mask())
+    r = run_cli(ndrql_exe, "plan", mp, "--start", "5,5", "--goal", "5,34", "--hide", mask, "--method", "NDR-QL",
+                "--seeds", "1", "--size", "40")
+    assert r.returncode == 0, r.stderr
+    assert "model: " in r.stdout and r.stdout.count("constants: preset belief") == 1, r.stdout

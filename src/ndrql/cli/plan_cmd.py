@@ -337,9 +337,9 @@ def run(args: argparse.Namespace) -> int:
         how = ("its per-cell arrays, made on this very grid, used as given" if report.info["prior_grid"] == "as given"
                else "averaged from the map's pixels onto this grid")
         echo(f"predictions: {_short(str(args.prior_from))} ({how})")
+    if not report.weights or report.info.get("prior_from") in ("oracle", "exact"):  # else the model line names it
+        echo(f"constants: preset {request.preset.name}")
     lines = _summary(report)
-    if report.weights and report.info.get("prior_from") not in ("oracle", "exact"):  # the model line named the preset
-        lines = [x for x in lines if x != f"constants: preset {request.preset.name}"]
     timed = [x for x in lines if x.startswith("time (s): ")][-1:]  # printed last, with the outputs' time
     echo("\n".join(x for x in lines if x not in timed))
     t_out = time.perf_counter()

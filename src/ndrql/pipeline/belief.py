@@ -150,8 +150,6 @@ def belief_lines(info: dict[str, Any]) -> list[str]:
     lines = [f"belief ({b['kind']}): {share} of the free space unknown to the planner (counted free); "
              f"priors from the belief, learning on the map; optimum {b['true_optimum']} moves on the map, "
              + (f"{seen} on the belief" if seen is not None else "none on the belief")]
-    if info.get("preset"):  # a belief map has its own default preset (plan_default_preset): say which served
-        lines.append(f"constants: preset {info['preset']}")
     if b.get("note"):
         lines.append(f"note: {b['note']}")
     s = info.get("sensing")

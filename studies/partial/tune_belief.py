@@ -127,7 +127,20 @@ def serves(preset, n: int) -> int:
 
 
 def split(maps: list[dict], half: str) -> list[dict]:
-    return [m for m in maps if m["index"] % 2 == (0 if half == "search" else 1)]
+    """``all``, or a half by index parity (``search`` = even, else odd): on a set that cycles through its twelve
+    families, parity splits the families too (studies/partial/README.md, "The fourth round")."""
+    return maps if half == "all" else [m for m in maps if m["index"] % 2 == (0 if half == "search" else 1)]
+
+
+def lift(data: dict, method: str = "NDR-QL") -> dict:
+    """A preset file's ``method`` entry at its largest searched grid copied to every larger grid (the entries above
+    100 cells were never searched on beliefs); ``data`` is changed and returned."""
+    searched = [int(g) for g in data.get("meta", {}).get("searched", {}).get("grids", {})] or [100]
+    top = max(searched)
+    for g, entries in data["grids"].items():
+        if int(g) > top:
+            entries[method] = json.loads(json.dumps(data["grids"][str(top)][method]))
+    return data
 
 
 def configs(params: dict, base_ql: QLConfig, base_pri: PriorConfig, space) -> tuple[QLConfig, PriorConfig]:
@@ -149,7 +162,8 @@ def search(args, grid: int) -> int:
     import optuna
 
     preset = load_preset(args.preset)
-    maps = [m for m in split(build_cache(args, grid), "search") if serves(preset, m["n"]) == grid]
+    maps = [m for m in split(build_cache(args, grid), "search" if args.half == "even" else "all")
+            if serves(preset, m["n"]) == grid]
     order = np.random.default_rng(args.order_seed).permutation(len(maps))
     maps = [maps[i] for i in order]
     chunks = np.array_split(np.arange(len(maps)), args.chunks)
@@ -192,7 +206,7 @@ def search(args, grid: int) -> int:
     best = study.best_trial
     ql, pri = configs(best.params, ql0, pri0, space)
     res = {"method": row, "grid": grid, "set": args.set, "belief": f"{args.kind}:{args.fraction:g}",
-           "weights": str(resolve_weights(args.weights)), "half": "search (even indices)", "maps": len(maps),
+           "weights": str(resolve_weights(args.weights)), "half": "search (even indices)" if args.half == "even" else "all", "maps": len(maps),
            "seeds": seeds, "max_episodes": args.max_episodes, "trials": len(study.trials),
            "pruned": sum(t.state.name == "PRUNED" for t in study.trials), "sampler_seed": args.sampler_seed,
            "first_trial": study.trials[0].value, "best_trial": best.number, "best_value": best.value,
@@ -218,6 +232,12 @@ def check(args, grid: int) -> int:
     the entry its planning size takes (:func:`serves`, as ``plan``); one JSON line per map."""
     general = load_preset(args.preset)
     presets = {"NDR-QL (belief preset)": ("NDR-QL", preset_from_dict(candidate(args), "candidate"))}
+    if args.check_set:  # the shipped preset beside the candidate, as it is and with 100's entry above 100 cells
+        from ndrql.planning.preset import builtin_path
+
+        shipped = json.loads(builtin_path("belief").read_text())
+        presets["NDR-QL (shipped belief)"] = ("NDR-QL", preset_from_dict(shipped, "shipped"))
+        presets["NDR-QL (shipped belief, lifted)"] = ("NDR-QL", preset_from_dict(lift(shipped), "shipped-lifted"))
     if any((Path(args.out) / f"best-IQL-BFS-g{g}{args.tag}.json").exists() for g in args.grids.split(",")):
         presets["IQL-BFS (searched)"] = ("IQL-BFS", preset_from_dict(candidate(args, "IQL-BFS", "iql-bfs"), "candidate"))
 
@@ -233,16 +253,18 @@ def check(args, grid: int) -> int:
             out[name] = (row, *p.configs(row, grid=n))
         return out
 
-    out = Path(args.out) / f"check-g{grid}{args.tag}.jsonl"
+    other = f"-{args.check_set}" if args.check_set else ""
+    out = Path(args.out) / f"check-g{grid}{args.tag}{other}.jsonl"
     done = {json.loads(x)["index"] for x in out.read_text().splitlines()} if out.exists() else set()
-    maps = build_cache(args, grid)
-    halves = [m for m in maps if m["index"] % 2 == 1] + ([m for m in maps if m["index"] % 2 == 0] if args.both else [])
+    maps = build_cache(argparse.Namespace(**{**vars(args), "set": args.check_set or args.set}), grid)
+    halves = [m for m in maps if m["index"] % 2 == 1 or args.check_set] + (
+        [m for m in maps if m["index"] % 2 == 0] if args.both and not args.check_set else [])
     with out.open("a") as f:
         for m in halves:
             if m["index"] in done:
                 continue
             rec = {"index": m["index"], "family": m["family"], "grid": grid, "n": m["n"], "entry": serves(general, m["n"]),
-                   "half": "check" if m["index"] % 2 else "search", "rows": {"IQL-BFS (belief)": m["ref"]}}
+                   "half": "check" if m["index"] % 2 or args.check_set else "search", "rows": {"IQL-BFS (belief)": m["ref"]}}
             for name, (row, ql, pri) in rows_of(m["n"]).items():
                 rec["rows"][name] = map_steps(row, m, ql, pri, SEEDS)
             f.write(json.dumps(rec) + "\n")
@@ -302,12 +324,16 @@ def candidate(args, method: str = "NDR-QL", name: str = "belief") -> dict:
         searched[str(grid)] = {k: b[k] for k in ("set", "belief", "half", "maps", "seeds", "max_episodes", "trials",
                                                  "sampler_seed", "best_trial", "best_value", "first_trial")}
         searched[str(grid)]["weights"] = Path(b["weights"]).name
+    if args.above:
+        data.setdefault("meta", {})["searched"] = {"grids": searched}
+        lift(data, method)
     data["name"] = name
     data["plan_default"] = True
     data["meta"] = {"from": "general", "searched": {"method": method, "grids": searched,
                                                     "objective": "geomean of NDR-QL / IQL-BFS (belief) mean steps",
                                                     "script": "studies/partial/tune_belief.py"},
-                    "check": args.check_note, "why": "plan's preset on a belief map (--hide): NDR-QL's constants "
+                    "check": args.check_note, "above": "the top searched grid's entry at every larger grid"
+                    if args.above else "general's entries above the searched grids", "why": "plan's preset on a belief map (--hide): NDR-QL's constants "
                     "searched there; IQL and IQL-BFS keep general's, so the reference IQL-BFS (belief) is unchanged"}
     return data
 
@@ -315,6 +341,13 @@ def candidate(args, method: str = "NDR-QL", name: str = "belief") -> dict:
 def write_belief_preset(args) -> int:
     """``--preset-out`` (default ``src/ndrql/planning/presets/belief.json``): :func:`candidate`."""
     data = candidate(args)
+    if args.with_reference:  # IQL-BFS's searched entries too (the rule's reference, when they won the check)
+        ref = candidate(args, "IQL-BFS", "iql-bfs")
+        for g, entries in data["grids"].items():
+            entries["IQL-BFS"] = ref["grids"][g].get("IQL-BFS", entries.get("IQL-BFS"))
+        data["meta"]["reference"] = {"method": "IQL-BFS", "grids": ref["meta"]["searched"]["grids"]}
+        data["meta"]["why"] = ("plan's preset on a belief map (--hide): NDR-QL's and IQL-BFS's constants searched "
+                               "there (IQL-BFS's won the check at both grids); every other method keeps general's")
     target = Path(args.preset_out)  # a file of the package: write_json refuses those, so a plain atomic replace
     tmp = target.with_suffix(".tmp")
     tmp.write_text(json.dumps(data, indent=2) + "\n")
@@ -343,6 +376,10 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="results/partial/tune_belief")
     ap.add_argument("--check", action="store_true", help="evaluate the rows on the check half (and --both: search half)")
     ap.add_argument("--both", action="store_true")
+    ap.add_argument("--half", default="even", choices=("even", "all"), help="the search's maps: the even half or all")
+    ap.add_argument("--check-set", default=None, help="check on every map of this set (with the shipped preset's rows)")
+    ap.add_argument("--above", action="store_true", help="the top searched grid's entry also at every larger grid")
+    ap.add_argument("--with-reference", action="store_true", help="--write-preset: IQL-BFS's searched entries too")
     ap.add_argument("--cache-only", action="store_true")
     ap.add_argument("--report", default=None)
     ap.add_argument("--all", action="store_true", help="search every --grids grid, check both halves, report")

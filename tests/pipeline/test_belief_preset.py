@@ -17,19 +17,26 @@ pytestmark = pytest.mark.skipif(not builtin_path(BELIEF_PRESET).is_file(), reaso
 METHODS = ("QL", "O-QL", "IQL", "IQL-BFS", "IQL-NDR", "NDR-QL")
 
 
-def test_the_preset_loads_and_only_ndr_ql_at_the_searched_grids_differs_from_general():
+def test_the_preset_loads_and_only_the_searched_methods_differ_from_general():
     belief, general = load_preset(BELIEF_PRESET), load_preset("general")
     assert belief.name == "belief" and belief.plan_default
-    for grid in (None, 20, 50, 70, 100, 128, 256):
-        for m in METHODS[:-1]:  # IQL-BFS (the reference row) and every other method: general's constants
-            assert belief.configs(m, grid=grid) == general.configs(m, grid=grid), (m, grid)
     searched = belief.meta["searched"]["grids"]
-    for grid in (int(g) for g in searched):
-        assert belief.configs("NDR-QL", grid=grid) != general.configs("NDR-QL", grid=grid)
-        pri = belief.configs("NDR-QL", grid=grid)[1]
-        g_pri = general.configs("NDR-QL", grid=grid)[1]
-        assert (pri.region_distance, pri.thd_tail, pri.mask_low) == (g_pri.region_distance, g_pri.thd_tail, g_pri.mask_low)
-    assert belief.configs("NDR-QL", grid=256) == general.configs("NDR-QL", grid=256)  # grids not searched: general's
+    top = max(int(g) for g in searched)
+    reference = belief.meta.get("reference")  # IQL-BFS's searched entries, when they won the check (the rule)
+    moved = ("NDR-QL", "IQL-BFS") if reference else ("NDR-QL",)
+    for grid in (None, 20, 50, 70, 100, 128, 256):
+        for m in (x for x in METHODS if x not in moved):  # every other method: general's constants
+            assert belief.configs(m, grid=grid) == general.configs(m, grid=grid), (m, grid)
+    for m in moved:
+        for grid in (int(g) for g in searched):
+            assert belief.configs(m, grid=grid) != general.configs(m, grid=grid), (m, grid)
+            pri, g_pri = belief.configs(m, grid=grid)[1], general.configs(m, grid=grid)[1]
+            assert (pri.region_distance, pri.thd_tail, pri.mask_low) == (g_pri.region_distance, g_pri.thd_tail,
+                                                                          g_pri.mask_low)
+        for grid in (128, 256):  # above the searched grids: the top searched entry (never searched there)
+            want = belief.configs(m, grid=top) if "top searched" in belief.meta.get("above", "") else \
+                general.configs(m, grid=grid)
+            assert belief.configs(m, grid=grid) == want, (m, grid)
 
 
 def test_plan_default_preset_on_a_belief_map():
@@ -49,7 +56,8 @@ def test_the_request_takes_the_belief_preset_on_a_belief_map_and_an_explicit_one
     belief, general = load_preset("belief"), load_preset("general")
     assert hidden.constants("NDR-QL", 40) == belief.configs("NDR-QL", grid=40) != general.configs("NDR-QL", grid=40)
     assert given.constants("NDR-QL", 40) == general.configs("NDR-QL", grid=40)
-    assert hidden.constants("IQL-BFS", 40) == known.constants("IQL-BFS", 40)  # the reference row is unchanged
+    assert hidden.constants("IQL-BFS", 40) == belief.configs("IQL-BFS", grid=40)  # the reference: the preset's
+    assert known.constants("IQL-BFS", 40) == general.configs("IQL-BFS", grid=40)
 
 
 def test_cli_and_api_name_the_same_preset_and_give_the_same_steps(ndrql_exe, tmp_path):

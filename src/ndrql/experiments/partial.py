@@ -5,8 +5,8 @@ setting (:class:`BeliefSetting`: :mod:`ndrql.synth.masks`' blobs hiding a share 
 sensed along routes, an outdated map; drawn from ``default_rng([MASK_SEED, map index, kind, percent])``) and
 sensing off or on, the agent learns on the **true** map's safe grid of ``n`` cells (or the first larger size of
 the ladder on which the truth connects start and goal, as ``reproduce transfer``), with the same seeds and the
-preset ``plan`` takes on a belief map (``belief``: general's constants, NDR-QL's searched on belief maps; the rows
-of the true map, a known map, take ``general``'s). Rows, each a ratio to **IQL-BFS (belief)**:
+preset ``plan`` takes on a belief map (``belief``: general's constants, NDR-QL's and IQL-BFS's searched on belief maps;
+the rows of the true map, a known map, take ``general``'s). Rows, each a ratio to **IQL-BFS (belief)**:
 
 - ``IQL``: straight-line priors (no map);
 - ``IQL-BFS (belief)``: what ``ndrql plan MAP --hide MASK --methods IQL-BFS --size n`` runs (Eq. 5 on the exact BFS

@@ -13,9 +13,10 @@ values that differ from the frozen configs' defaults (:class:`~ndrql.planning.co
   budget and a check on fresh seeds recorded beside them.
 - ``general``: the same search for the ``general`` weights on held-out generated maps of every family,
   once per planning-grid size (``ndrql tune --maps generated --grid N``): a ``grids`` entry per size.
-- ``belief``: ``general`` with NDR-QL's constants searched on belief maps (priors from the belief model on what
-  the planner knows, Eq. 6's mask off, learning on the true map; ``studies/partial/tune_belief.py``); every other
-  method's entry is general's. ``plan`` uses it on a belief map when no preset is given.
+- ``belief``: ``general`` with NDR-QL's and IQL-BFS's constants searched on belief maps (priors from the belief
+  model or the belief's BFS on what the planner knows, Eq. 6's mask off, learning on the true map;
+  ``studies/partial/tune_belief.py``), grid 100's entries also above 100 cells; every other method's entry is
+  general's. ``plan`` uses it on a belief map when no preset is given.
 
 A preset file looks like (every constant of :data:`PRESET_FIELDS` is written out; a missing one
 takes the config's default)::

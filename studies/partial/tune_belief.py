@@ -20,7 +20,9 @@ MedianPruner over chunks of the search maps) sees the search half only; ``--chec
 ``--all`` runs the search at each of ``--grids``, the check and the report in one command; ``--write-preset`` writes
 the ``belief`` preset from the searches. ``--method IQL-BFS`` searches IQL-BFS's own constants with the same budget
 (the fairness row). Each map takes the preset entry its planning size takes (:func:`serves`, as ``plan``): the
-search at grid G sees only the maps that entry serves. Sealed sets are refused (:func:`eval_spec`).
+search at grid G sees only the maps that entry serves. Sealed sets are refused (:func:`eval_spec`). ``--half all``
+searches every map; ``--check-set partial-dev-c`` checks on every map of another set; ``--above`` gives the top
+searched grid's entry to every larger grid; ``--with-reference`` writes IQL-BFS's searched entries into the preset.
 """
 
 from __future__ import annotations

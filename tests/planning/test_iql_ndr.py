@@ -74,8 +74,9 @@ def test_method_flags_constants_and_fallback():
 
 def test_pipeline_asks_a_source_judges_it_and_names_the_distance():
     o, m = wall_map(), wall_mask()
+    # general's constants: IQL-NDR and IQL-BFS share them (the belief preset gives IQL-BFS its own, searched on beliefs)
     a = ndrql.solve(o, start=START, goal=GOAL, methods=["IQL-NDR", "IQL-BFS"], seeds=[0, 1], hide=m, size=40,
-                    predictions="exact", workers=1)
+                    predictions="exact", workers=1, preset="general")
     assert a.methods == ("IQL-NDR", "IQL-BFS") and a.info["qi_distance"] == "exact BFS distance"
     assert a.info["prediction_quality"]["informative"] and a.info["sources"]  # the judge ran
     steps = {(r.method, r.seed): r.total_steps for r in a.results}

@@ -134,11 +134,11 @@ def split(maps: list[dict], half: str) -> list[dict]:
     return maps if half == "all" else [m for m in maps if m["index"] % 2 == (0 if half == "search" else 1)]
 
 
-def lift(data: dict, method: str = "NDR-QL") -> dict:
+def lift(data: dict, method: str = "NDR-QL", top: int | None = None) -> dict:
     """A preset file's ``method`` entry at its largest searched grid copied to every larger grid (the entries above
     100 cells were never searched on beliefs); ``data`` is changed and returned."""
-    searched = [int(g) for g in data.get("meta", {}).get("searched", {}).get("grids", {})] or [100]
-    top = max(searched)
+    if top is None:  # a preset file's own record of its searched grids
+        top = max([int(g) for g in data.get("meta", {}).get("searched", {}).get("grids", {})] or [100])
     for g, entries in data["grids"].items():
         if int(g) > top:
             entries[method] = json.loads(json.dumps(data["grids"][str(top)][method]))
@@ -326,9 +326,8 @@ def candidate(args, method: str = "NDR-QL", name: str = "belief") -> dict:
         searched[str(grid)] = {k: b[k] for k in ("set", "belief", "half", "maps", "seeds", "max_episodes", "trials",
                                                  "sampler_seed", "best_trial", "best_value", "first_trial")}
         searched[str(grid)]["weights"] = Path(b["weights"]).name
-    if args.above:
-        data.setdefault("meta", {})["searched"] = {"grids": searched}
-        lift(data, method)
+    if args.above and searched:
+        lift(data, method, max(int(g) for g in searched))
     data["name"] = name
     data["plan_default"] = True
     data["meta"] = {"from": "general", "searched": {"method": method, "grids": searched,

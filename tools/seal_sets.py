@@ -34,14 +34,15 @@ WEAK_FAMILIES = ("maze", "corridor_maze", "floor", "warehouse", "scatter")
 #: twelve). tools/train_general.sh: SEED=1, 201/401/801 px; the large-grid companion (studies/large_view/history.md):
 #: ``--family all`` at seed 4 (201-1,024 px) and seed 6 (512/1,024 px), :data:`HARD_FAMILIES` at seed 7,
 #: :data:`WEAK_FAMILIES` at seed 8, ``--family all`` at seed 9 (512/1,024 px); the belief model's second set
-#: (``SEED=2 MASK_SEED=55 tools/train_belief.sh data``: the twelve, 201/401/801 px, seed 2).
+#: (``SEED=2 MASK_SEED=55 tools/train_belief.sh data``: the twelve, 201/401/801 px, seed 2) and its third (seed 3).
 TRAINING_SETS = {"train_general (seed 1)": (1, (201, 401, 801), None),
                  "train large (seed 4)": (4, (201, 401, 512, 801, 1024), "all"),
                  "train large (seed 6)": (6, (512, 1024), "all"),
                  "train large, hard families (seed 7)": (7, (512, 1024), HARD_FAMILIES),
                  "train large, weak families (seed 8)": (8, (512, 1024), WEAK_FAMILIES),
                  "train large (seed 9)": (9, (512, 1024), "all"),
-                 "train belief, second set (seed 2)": (2, (201, 401, 801), None)}
+                 "train belief, second set (seed 2)": (2, (201, 401, 801), None),
+                 "train belief, third set (seed 3)": (3, (201, 401, 801), None)}
 
 
 def training_record(seed: int, sizes: tuple[int, ...], count: int, families: str | tuple[str, ...] | None = None) -> dict:

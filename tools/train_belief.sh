@@ -11,6 +11,9 @@
 #   TAG=belief-long LR=... tools/train_belief.sh long       # the long run: LONG_MIN minutes (default 100)
 #   SEED=2 MASK_SEED=55 tools/train_belief.sh data         # a second set: other maps, other beliefs
 #   TAG=belief-long3 INIT=src/ndrql/data/ndr_belief.pt EXTRA=$CACHE/gen/train-s2-belief-m55-n12000:3 tools/train_belief.sh long
+#   SEED=3 MASK_SEED=56 MASKS=blobs:0.1-0.5,sensed,none:0.1 tools/train_belief.sh data   # the third set (leg 5)
+#   TAG=belief-leg5 INIT=src/ndrql/data/ndr_belief.pt GEN=$CACHE/gen/train-s3-belief-m56-n12000 \
+#     EXTRA=$CACHE/gen/train-s1-belief-m54-n12000:3,$CACHE/gen/train-s2-belief-m55-n12000:3 UNKNOWN_WEIGHT=2 LR=3e-4 tools/train_belief.sh long
 #   TAG=belief-long tools/train_belief.sh export            # best.pt -> $CACHE/belief/ndr_belief.pt (view coarse:128)
 #
 # The maps are general's training maps (its twelve families, 201/401/801 px, SEED=1: the known-map samples
@@ -37,6 +40,7 @@ WEIGHT=${WEIGHT:-3}                   # weight of the belief set
 EXTRA=${EXTRA:-}                      # more sources, "DIR:WEIGHT,..." (e.g. a second belief set of other seeds)
 TRAIN_SEED=${TRAIN_SEED:-0}
 LR=${LR:-5e-4}
+UNKNOWN_WEIGHT=${UNKNOWN_WEIGHT:-0}   # extra loss weight of the unknown pixels (--unknown-weight; 0 = legs 1-4)
 THREADS=${THREADS:-2}
 STEPS_PER_MIN=${STEPS_PER_MIN:-36}    # measured by `bench`; 36 = 0.6 steps/s (see studies/partial/README.md)
 SHORT_MIN=${SHORT_MIN:-20}
@@ -64,7 +68,7 @@ train() {  # train EPOCHS STEPS RUN_DIR [extra flags]
   [ -f "$run/last.pt" ] && resume=(--resume)
   echo "run: $run ($epochs x $steps steps, lr $LR, $THREADS threads, sources $sources)"
   "$NDRQL" train --data "$DATA" --sources "$sources" --model ndr-stdc1-half --encoding point+unknown \
-      --input-mode grid --grid-sizes "$GRIDS" --distance-head --distance-decoder skips --distance-rank raw+snapped \
+      --input-mode grid --grid-sizes "$GRIDS" --distance-head --distance-decoder skips --distance-rank raw+snapped --unknown-weight "$UNKNOWN_WEIGHT" \
       --init-weights "$INIT" --epochs "$epochs" --steps-per-epoch "$steps" --lr "$LR" --warmup-steps 100 \
       --seed "$TRAIN_SEED" --threads "$THREADS" --batch-size 16 --val-per-source 96 --checkpoint-minutes 3 \
       --no-progress --run-dir "$run" "${resume[@]}" "$@"

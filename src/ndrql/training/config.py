@@ -49,6 +49,11 @@ def check_train_config(cfg: "TrainConfig") -> None:
         raise ValueError(f"--train-only: unknown part {', '.join(unknown)}; valid: {', '.join(TRAIN_PARTS)}")
     if cfg.distance_decoder and not cfg.distance_head:
         raise ValueError("--distance-decoder needs --distance-head")
+    uw = cfg.unknown_weight
+    if not isinstance(uw, (int, float)) or isinstance(uw, bool) or not math.isfinite(uw) or uw < 0:
+        raise bad("unknown_weight", "a finite number >= 0", uw)
+    if uw > 0 and "unknown" not in str(cfg.encoding):
+        raise ValueError("--unknown-weight needs an encoding with the unknown channel (--encoding point+unknown)")
     if cfg.distance_rank not in RANK_ON:
         raise ValueError(f"--distance-rank must be one of {', '.join(RANK_ON)}, got {str(cfg.distance_rank)[:40]}")
     if cfg.view != "native":
@@ -131,6 +136,8 @@ class TrainConfig:
     """Kind of distance head with --distance-head: coarse (v4) or skips (decoded with the walls at strides 4 and 2); empty: the model preset's."""
     distance_rank: str = "raw"
     """Ranking term of the distance-head loss: raw (v5), raw+snapped (also ranks the detours as Eq. 6 snaps them; v6) or raw+snapped+moves (also scores each cell's greedy move; training.losses.distance_loss)."""
+    unknown_weight: float = 0.0
+    """Extra weight of the pixels unknown to the planner in the per-pixel terms of the loss (BCE of region and guideline, the distance head): pixel weight ``1 + W`` there, 1 elsewhere; needs an encoding with the unknown channel (0: every pixel alike)."""
     view: str = "native"
     """How the model sees planning grids in grid mode (ndrql.dataset.views.GridView): native (4 px per cell), cap:PX, coarse:CELLS (above CELLS, cells merged so the input stays at most 4 x CELLS px) or walls:CELLS (merged, thin walls kept); saved in the model's config."""
     train_only: str = ""

@@ -37,7 +37,7 @@ from ndrql.model.checkpoint import load_checkpoint, save_checkpoint
 from ndrql.training.config import TrainConfig
 from ndrql.training.evaluate import evaluate, evaluate_rendered
 from ndrql.training.records import metrics_row, val_score, write_metrics_row
-from ndrql.training.losses import ndr_loss
+from ndrql.training.losses import ndr_loss, unknown_pixel_weight
 from ndrql.training.start import freeze_except, warm_start
 
 
@@ -56,16 +56,18 @@ def peak_lr(cfg: TrainConfig, world_size: int) -> float:
 
 
 def train_step(net: nn.Module, opt: torch.optim.Optimizer, batch: tuple[torch.Tensor, torch.Tensor, torch.Tensor], lr: float,
-               precision: D.Precision, scaler: torch.amp.GradScaler | None = None, distance_rank: str = "raw") -> torch.Tensor:
+               precision: D.Precision, scaler: torch.amp.GradScaler | None = None, distance_rank: str = "raw",
+               unknown_weight: float = 0.0) -> torch.Tensor:
     """One optimisation step on one batch (``net`` may be DDP-wrapped: its backward all-reduces the gradients);
-    ``distance_rank``: the distance loss's ranking term (:data:`ndrql.training.config.RANK_ON`)."""
+    ``distance_rank``: the distance loss's ranking term (:data:`ndrql.training.config.RANK_ON`); ``unknown_weight``:
+    the extra loss weight of the pixels the input's unknown channel marks (:func:`unknown_pixel_weight`)."""
     x, region, guide, *dist_target = batch
     for group in opt.param_groups:
         group["lr"] = lr
     with precision.autocast():
         r_logit, g_logit, *dist = net(x.contiguous(memory_format=torch.channels_last))
     loss = ndr_loss(r_logit, g_logit, region, guide, dist[0] if dist else None, dist_target[0] if dist_target else None,
-                    rank_on=distance_rank)
+                    rank_on=distance_rank, pixel_weight=unknown_pixel_weight(x, unknown_weight, tuple(region.shape[-2:])))
     opt.zero_grad(set_to_none=True)
     if scaler is not None:
         scaler.scale(loss).backward()
@@ -341,7 +343,7 @@ def _run(cfg: TrainConfig, run_dir: Path, resume: bool, progress: bool, log, wor
             if device.type != "cpu":
                 batch = tuple(t.to(device, non_blocking=True) for t in batch)
             loss_t = train_step(net, opt, batch, learning_rate(cfg, state["global_step"], total_steps, peak), precision, scaler,
-                                cfg.distance_rank)
+                                cfg.distance_rank, cfg.unknown_weight)
             dt = time.perf_counter() - t0
             loss = float(loss_t)
             state["train_seconds"] += dt

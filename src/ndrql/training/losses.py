@@ -18,9 +18,15 @@ def dice_loss(logits: torch.Tensor, target: torch.Tensor, eps: float = 1.0) -> t
     return (1 - (2 * inter + eps) / (prob.sum(1) + target.sum(1) + eps)).mean()
 
 
-def bce_dice(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Binary cross-entropy plus Dice loss."""
-    return F.binary_cross_entropy_with_logits(logits.float(), target) + dice_loss(logits, target)
+def bce_dice(logits: torch.Tensor, target: torch.Tensor, weight: torch.Tensor | None = None) -> torch.Tensor:
+    """Binary cross-entropy plus Dice loss; ``weight`` (broadcast to ``target``, optional) weighs the BCE's pixels
+    (a weighted mean: uniform weights give the plain BCE); the Dice term is the image's and takes none."""
+    if weight is None:
+        bce = F.binary_cross_entropy_with_logits(logits.float(), target)
+    else:
+        w = weight.float().expand_as(target)
+        bce = (F.binary_cross_entropy_with_logits(logits.float(), target, reduction="none") * w).sum() / w.sum().clamp(min=1e-6)
+    return bce + dice_loss(logits, target)
 
 
 #: Weight of the ranking term in :func:`distance_loss` (the relative L1 term has weight 1).
@@ -49,16 +55,31 @@ def soft_snap(detour: torch.Tensor) -> torch.Tensor:
 
 def ndr_loss(region_logits: torch.Tensor, guide_logits: torch.Tensor | None, region: torch.Tensor, guide: torch.Tensor,
              distance: torch.Tensor | None = None, distance_target: torch.Tensor | None = None,
-             rank_on: str = "raw") -> torch.Tensor:
+             rank_on: str = "raw", pixel_weight: torch.Tensor | None = None) -> torch.Tensor:
     """Sum of BCE + Dice on the region and (when present) the guideline output, plus
-    :func:`distance_loss` (ranking on ``rank_on``) when the model predicts a distance and the batch has its label."""
-    loss = bce_dice(region_logits, region)
+    :func:`distance_loss` (ranking on ``rank_on``) when the model predicts a distance and the batch has its label.
+    ``pixel_weight`` (B, 1, H, W, optional; :func:`unknown_pixel_weight`) weighs the pixels of the BCE terms and
+    multiplies the distance loss's own weights."""
+    loss = bce_dice(region_logits, region, pixel_weight)
     if guide_logits is not None:
-        loss = loss + bce_dice(guide_logits, guide)
+        loss = loss + bce_dice(guide_logits, guide, pixel_weight)
     if distance is not None and distance_target is not None:
-        loss = loss + distance_loss(distance, distance_target, weight=1.0 + REGION_WEIGHT * region, rank_on=rank_on,
-                                    route=guide)
+        w = 1.0 + REGION_WEIGHT * region
+        loss = loss + distance_loss(distance, distance_target, weight=w if pixel_weight is None else w * pixel_weight,
+                                    rank_on=rank_on, route=guide)
     return loss
+
+
+def unknown_pixel_weight(x: torch.Tensor, extra: float, shape: tuple[int, int]) -> torch.Tensor | None:
+    """Per-pixel loss weight ``1 + extra`` on the pixels the input's unknown channel (the last of ``x``, (B, C, H,
+    W)) marks, 1 elsewhere, at the labels' ``shape`` (nearest resampling when it differs); ``None`` when ``extra``
+    is 0 (every pixel alike)."""
+    if extra <= 0:
+        return None
+    unknown = (x[:, -1:].float() > 0.5).float()
+    if tuple(unknown.shape[-2:]) != tuple(shape):
+        unknown = F.interpolate(unknown, size=tuple(shape), mode="nearest")
+    return 1.0 + float(extra) * unknown
 
 
 def distance_loss(pred: torch.Tensor, target: torch.Tensor, unit: float = DISTANCE_UNIT, px_per_cell: int = PX_PER_CELL,

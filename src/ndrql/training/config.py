@@ -137,7 +137,7 @@ class TrainConfig:
     distance_rank: str = "raw"
     """Ranking term of the distance-head loss: raw (v5), raw+snapped (also ranks the detours as Eq. 6 snaps them; v6) or raw+snapped+moves (also scores each cell's greedy move; training.losses.distance_loss)."""
     unknown_weight: float = 0.0
-    """Extra weight of the pixels unknown to the planner in the per-pixel terms of the loss (BCE of region and guideline, the distance head): pixel weight ``1 + W`` there, 1 elsewhere; needs an encoding with the unknown channel (0: every pixel alike)."""
+    """Loss weight 1 + W on the pixels unknown to the planner (BCE and distance terms; needs the unknown channel)."""
     view: str = "native"
     """How the model sees planning grids in grid mode (ndrql.dataset.views.GridView): native (4 px per cell), cap:PX, coarse:CELLS (above CELLS, cells merged so the input stays at most 4 x CELLS px) or walls:CELLS (merged, thin walls kept); saved in the model's config."""
     train_only: str = ""

@@ -84,6 +84,8 @@ def run(args) -> int:
 
 
 def summary(recs: list[dict]) -> str:
+    if not recs:
+        return "0 maps"
     a = [np.mean(r["rows"][ROW]) for r in recs]
     b = [np.mean(r["rows"][REF]) for r in recs]
     g = geomean_ratio(a, b)

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """NDR-QL with the shipped ``belief`` preset on a development set's beliefs, the prediction averaged over N
-orientations (``--symmetries``; issue 54, studies/partial/README.md, "The fifth leg"). Development data only.
+orientations (``--symmetries``) or its inferred detour scaled (``--detour-scale L``: the goal distance
+``BFS + L (d - BFS)``, ``d`` the prediction floored at the belief's BFS distance); issue 54,
+studies/partial/README.md, "The fifth leg". Development data only.
 
 The cases, IQL-BFS (belief)'s steps and the constants are :mod:`tune_belief`'s (its cache of the same weights and
 set is read, or built, for the reference's steps); only the prediction is redone with ``--symmetries`` orientations
@@ -28,6 +30,7 @@ from tune_belief import SEEDS, build_cache, cache_path, map_steps, serves  # noq
 from ndrql.experiments.eval_sets import eval_set, eval_spec  # noqa: E402
 from ndrql.experiments.partial import BeliefSetting, model_job, partial_cases  # noqa: E402
 from ndrql.experiments.stats import geomean_ratio, outcomes  # noqa: E402
+from ndrql.maps.grid import bfs_distances  # noqa: E402
 from ndrql.model.predict import load_predictor  # noqa: E402
 from ndrql.model.weights import resolve_weights  # noqa: E402
 from ndrql.pipeline.sources import belief_floor  # noqa: E402
@@ -63,19 +66,32 @@ def sym_cache(args, grid: int) -> list[dict]:
     return out
 
 
+def scaled(m: dict, factor: float) -> dict:
+    """Map ``m`` with its floored distance's detour over the belief's BFS distance times ``factor`` (free cells)."""
+    bfs = bfs_distances(m["bblocked"], m["goal"]).astype(np.float64)
+    d = np.asarray(m["distance"], np.float64)
+    ok = bfs >= 0
+    out = d.copy()
+    out[ok] = bfs[ok] + factor * np.maximum(d[ok] - bfs[ok], 0.0)
+    return {**m, "distance": out}
+
+
 def run(args) -> int:
     shipped = load_preset("belief")
     w = Path(str(resolve_weights(args.weights)))
     tag = hashlib.sha256(w.read_bytes()).hexdigest()[:12]
-    out = Path(args.out) / f"sym-{args.set}-g{args.grid}-{tag}-sym{args.symmetries}.jsonl"
+    scale = "" if args.detour_scale == 1.0 else f"-x{args.detour_scale:g}"
+    out = Path(args.out) / f"sym-{args.set}-g{args.grid}-{tag}-sym{args.symmetries}{scale}.jsonl"
     done = {json.loads(x)["index"] for x in out.read_text().splitlines()} if out.exists() else set()
     with out.open("a") as f:
         for m in sym_cache(args, args.grid):
             if m["index"] in done:
                 continue
             ql, pri = shipped.configs("NDR-QL", grid=m["n"])
+            if args.detour_scale != 1.0:
+                m = scaled(m, args.detour_scale)
             rec = {"index": m["index"], "family": m["family"], "grid": args.grid, "n": m["n"],
-                   "entry": serves(shipped, m["n"]), "weights": tag, "symmetries": args.symmetries,
+                   "entry": serves(shipped, m["n"]), "weights": tag + scale, "symmetries": args.symmetries,
                    "rows": {REF: m["ref"], ROW: map_steps("NDR-QL", m, ql, pri, SEEDS)}}
             f.write(json.dumps(rec) + "\n")
             f.flush()
@@ -121,6 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--grid", type=int, default=50)
     ap.add_argument("--preset", default="general", help="the cache's preset (IQL-BFS (belief)'s constants)")
     ap.add_argument("--symmetries", type=int, default=1, choices=(1, 2, 4, 8))
+    ap.add_argument("--detour-scale", type=float, default=1.0, help="the inferred detour times this (1: as predicted)")
     ap.add_argument("--out", default="results/partial/tune_belief")
     ap.add_argument("--report", nargs="*", default=None, metavar="JSONL")
     args = ap.parse_args(argv)

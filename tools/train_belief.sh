@@ -12,8 +12,9 @@
 #   SEED=2 MASK_SEED=55 tools/train_belief.sh data         # a second set: other maps, other beliefs
 #   TAG=belief-long3 INIT=src/ndrql/data/ndr_belief.pt EXTRA=$CACHE/gen/train-s2-belief-m55-n12000:3 tools/train_belief.sh long
 #   SEED=3 MASK_SEED=56 MASKS=blobs:0.1-0.5,sensed,none:0.1 tools/train_belief.sh data   # the third set (leg 5)
-#   TAG=belief-leg5 INIT=src/ndrql/data/ndr_belief.pt GEN=$CACHE/gen/train-s3-belief-m56-n12000 \
+#   SEED=3 MASK_SEED=56 MASKS=blobs:0.1-0.5,sensed,none:0.1 TAG=belief-leg5 INIT=src/ndrql/data/ndr_belief.pt \
 #     EXTRA=$CACHE/gen/train-s1-belief-m54-n12000:3,$CACHE/gen/train-s2-belief-m55-n12000:3 UNKNOWN_WEIGHT=2 LR=3e-4 tools/train_belief.sh long
+#                                                         # leg 5 (kept in studies/partial/weights, not shipped)
 #   TAG=belief-long tools/train_belief.sh export            # best.pt -> $CACHE/belief/ndr_belief.pt (view coarse:128)
 #
 # The maps are general's training maps (its twelve families, 201/401/801 px, SEED=1: the known-map samples

@@ -16,7 +16,6 @@ taken part from the oracle (the true grid's exact region, guideline and distance
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -24,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sym_check import case_parser  # noqa: E402
 from tune_belief import SEEDS, build_cache  # noqa: E402
 
 from ndrql.experiments.partial import ndr_priors, steps_of  # noqa: E402
@@ -61,15 +61,7 @@ def steps(m: dict, variant: str, preset) -> list[int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--weights", default="src/ndrql/data/ndr_belief.pt")
-    ap.add_argument("--set", default="partial-dev-b")
-    ap.add_argument("--kind", default="blobs")
-    ap.add_argument("--fraction", type=float, default=0.3)
-    ap.add_argument("--grid", type=int, default=50)
-    ap.add_argument("--preset", default="general", help="the cache's preset (IQL-BFS (belief)'s constants)")
-    ap.add_argument("--out", default="results/partial/tune_belief")
-    args = ap.parse_args(argv)
+    args = case_parser(__doc__, "partial-dev-b").parse_args(argv)
     preset = load_preset("belief")
     out = Path(args.out) / f"decompose-{args.set}-g{args.grid}.jsonl"
     recs = []

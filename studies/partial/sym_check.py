@@ -128,17 +128,23 @@ def report(paths: list[str]) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def case_parser(doc: str, set_name: str) -> argparse.ArgumentParser:
+    """The options that name :func:`tune_belief.build_cache`'s cases (weights, set, belief, grid, preset, out)."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--weights", default="src/ndrql/data/ndr_belief.pt")
-    ap.add_argument("--set", default="partial-dev-c")
+    ap.add_argument("--set", default=set_name)
     ap.add_argument("--kind", default="blobs")
     ap.add_argument("--fraction", type=float, default=0.3)
     ap.add_argument("--grid", type=int, default=50)
     ap.add_argument("--preset", default="general", help="the cache's preset (IQL-BFS (belief)'s constants)")
+    ap.add_argument("--out", default="results/partial/tune_belief")
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = case_parser(__doc__, "partial-dev-c")
     ap.add_argument("--symmetries", type=int, default=1, choices=(1, 2, 4, 8))
     ap.add_argument("--detour-scale", type=float, default=1.0, help="the inferred detour times this (1: as predicted)")
-    ap.add_argument("--out", default="results/partial/tune_belief")
     ap.add_argument("--report", nargs="*", default=None, metavar="JSONL")
     args = ap.parse_args(argv)
     return report(args.report) if args.report is not None else run(args)

@@ -217,6 +217,7 @@ BOUNDS: dict[str, Bound] = {
     "--batch-size": Bound(1, 4096, "samples in memory at once"), "train --batch-size": Bound(1, 1024, "samples per step"),
     "--lr": Bound(1e-8, 10, "a larger rate diverges", integer=False),
     "--weight-decay": Bound(0, 10, "a larger decay erases the weights", integer=False),
+    "train --unknown-weight": Bound(0, 100, "a larger weight drowns the known pixels in the loss", integer=False),
     "--warmup-steps": Bound(0, 10**7, "optimisation steps"),
     "--val-fraction": Bound(0.001, 0.5, "more leaves too little to train on", integer=False),
     "--loader-workers": Bound(0, 64, "processes building batches"),

@@ -42,8 +42,8 @@ class _Case:
         self.blocked, self.start_cell, self.goal_cell = blocked, start, goal
 
 
-def steps(m: dict, variant: str, preset) -> list[int]:
-    truth = drawn_priors("oracle", m["blocked"], m["start"], m["goal"], None)
+def steps(m: dict, variant: str, preset, truth) -> list[int]:
+    """NDR-QL's steps per seed on map ``m`` with ``variant``'s priors (``truth``: the oracle's drawn priors)."""
     belief = _Case(m["bblocked"], m["start"], m["goal"])
     if variant == "model":
         pri = ndr_priors(belief, m["region"], m["guideline"], m["distance"], preset, mask=False)
@@ -67,8 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     recs = []
     with out.open("w") as f:
         for m in build_cache(args, args.grid):
+            truth = drawn_priors("oracle", m["blocked"], m["start"], m["goal"], None)  # once per map
             rec = {"index": m["index"], "family": m["family"], "ref": m["ref"],
-                   "rows": {v: steps(m, v, preset) for v in VARIANTS}}
+                   "rows": {v: steps(m, v, preset, truth) for v in VARIANTS}}
             recs.append(rec)
             f.write(json.dumps(rec) + "\n")
     ref = [np.mean(r["ref"]) for r in recs]

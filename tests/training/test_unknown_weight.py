@@ -58,9 +58,10 @@ def test_weight_on_unknown_pixels_moves_the_loss_toward_their_errors():
     assert float(bce_dice(logits, target, w)) > float(bce_dice(logits, target))
 
 
-@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf")])
+@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), 101.0])
 def test_bad_unknown_weight_is_one_clear_error(value):
-    with pytest.raises(ValueError, match="--unknown-weight must be a finite number >= 0"):
+    """The config checks the range the CLI declares (ndrql.limits.BOUNDS), one door for both."""
+    with pytest.raises(ValueError, match=r"--unknown-weight must be a finite number in \[0, 100\]"):
         TrainConfig(encoding="point+unknown", unknown_weight=value)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ndrql.limits import SEED_LIMIT
+from ndrql.limits import BOUNDS, SEED_LIMIT, check_bound
 
 #: What the ranking term of the distance-head loss compares (:func:`ndrql.training.losses.distance_loss`):
 #: the raw predicted distances (v5), or the mean of that and the same loss on the distances as Eq. 6
@@ -49,9 +49,7 @@ def check_train_config(cfg: "TrainConfig") -> None:
         raise ValueError(f"--train-only: unknown part {', '.join(unknown)}; valid: {', '.join(TRAIN_PARTS)}")
     if cfg.distance_decoder and not cfg.distance_head:
         raise ValueError("--distance-decoder needs --distance-head")
-    uw = cfg.unknown_weight
-    if not isinstance(uw, (int, float)) or isinstance(uw, bool) or not math.isfinite(uw) or uw < 0:
-        raise bad("unknown_weight", "a finite number >= 0", uw)
+    uw = check_bound(cfg.unknown_weight, BOUNDS["train --unknown-weight"], "--unknown-weight")  # the flag's own range
     if uw > 0 and "unknown" not in str(cfg.encoding):
         raise ValueError("--unknown-weight needs an encoding with the unknown channel (--encoding point+unknown)")
     if cfg.distance_rank not in RANK_ON:

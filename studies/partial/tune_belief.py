@@ -100,6 +100,17 @@ def build_cache(args, grid: int) -> list[dict]:
     return out
 
 
+def with_distance(args, maps: list[dict], grid: int) -> list[dict]:
+    """``--distance model``: the cases as cached; ``geo:k`` / ``maxgeo:k``: their goal distance replaced by the
+    region-weighted one of :mod:`geodesic`."""
+    if args.distance == "model":
+        return maps
+    from geodesic import distance_of, unknown_masks
+
+    masks = unknown_masks(args, grid)
+    return [{**m, "distance": distance_of(args.distance, m, masks[m["index"]])} for m in maps]
+
+
 # --- the rows ------------------------------------------------------------------------------------------------
 
 
@@ -164,7 +175,7 @@ def search(args, grid: int) -> int:
     import optuna
 
     preset = load_preset(args.preset)
-    maps = [m for m in split(build_cache(args, grid), "search" if args.half == "even" else "all")
+    maps = [m for m in split(with_distance(args, build_cache(args, grid), grid), "search" if args.half == "even" else "all")
             if serves(preset, m["n"]) == grid]
     order = np.random.default_rng(args.order_seed).permutation(len(maps))
     maps = [maps[i] for i in order]
@@ -373,6 +384,7 @@ def main(argv=None) -> int:
     ap.add_argument("--chunks", type=int, default=1, help="Optuna's MedianPruner over this many chunks of maps (1: none)")
     ap.add_argument("--sampler-seed", type=int, default=0)
     ap.add_argument("--order-seed", type=int, default=0)
+    ap.add_argument("--distance", default="model", help="NDR-QL's goal distance: model, geo:k or maxgeo:k (geodesic.py)")
     ap.add_argument("--tag", default="", help="suffix of the output files (e.g. a weights' name)")
     ap.add_argument("--out", default="results/partial/tune_belief")
     ap.add_argument("--check", action="store_true", help="evaluate the rows on the check half (and --both: search half)")

@@ -7,7 +7,9 @@ distance replaced by a region-weighted shortest-path cost on the belief (:func:`
 
 - ``model``: the shipped distance (the prediction floored at the belief's BFS distance);
 - ``geo:k``: each known free cell costs 1 to enter, each unknown one ``1 + k (1 - p)``, ``p`` the predicted region;
-- ``maxgeo:k``: the larger of ``geo:k`` and the shipped distance.
+- ``maxgeo:k``: the larger of ``geo:k`` and the shipped distance;
+- ``above100:k``: ``geo:k`` on the maps whose planning size takes the preset's grid-100 entry or a larger one, the
+  shipped distance on the others.
 
     PYTHONPATH=src python studies/partial/geodesic.py --set partial-dev-b --grid 50 --variants model,geo:1,geo:4
 """
@@ -26,7 +28,7 @@ from scipy.sparse.csgraph import dijkstra
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decompose import _Case  # noqa: E402
 from sym_check import case_parser  # noqa: E402
-from tune_belief import SEEDS, build_cache  # noqa: E402
+from tune_belief import SEEDS, build_cache, serves  # noqa: E402
 
 from ndrql.experiments.eval_sets import eval_set, eval_spec  # noqa: E402
 from ndrql.experiments.partial import BeliefSetting, ndr_priors, partial_cases, steps_of  # noqa: E402
@@ -74,10 +76,16 @@ def unknown_masks(args, grid: int) -> dict[int, np.ndarray]:
     return out
 
 
-def distance_of(variant: str, m: dict, unknown: np.ndarray) -> np.ndarray:
+def distance_of(variant: str, m: dict, unknown: np.ndarray, preset=None) -> np.ndarray:
+    """Map ``m``'s goal distance under ``variant`` (``above100:k``: ``geo:k`` where the map's planning size takes
+    ``preset``'s grid-100 entry or a larger one, the shipped distance elsewhere)."""
     if variant == "model":
         return m["distance"]
     kind, k = variant.split(":")
+    if kind == "above100":
+        if serves(preset, m["n"]) < 100:
+            return m["distance"]
+        kind = "geo"
     geo = region_distance(m["bblocked"], unknown, m["region"], m["goal"], float(k))
     return np.maximum(geo, m["distance"]) if kind == "maxgeo" else geo
 
@@ -100,11 +108,11 @@ def main(argv: list[str] | None = None) -> int:
             ql = preset.configs("NDR-QL", grid=m["n"])[0]
             rows = {}
             for v in variants:
-                pri = ndr_priors(belief, m["region"], m["guideline"], distance_of(v, m, masks[m["index"]]), preset,
+                pri = ndr_priors(belief, m["region"], m["guideline"], distance_of(v, m, masks[m["index"]], preset), preset,
                                  mask=False)
                 rows[v] = [steps_of(run_plan(m["blocked"], m["start"], m["goal"], "NDR-QL", s, ql, priors=pri))
                            for s in SEEDS]
-            rec = {"index": m["index"], "family": m["family"], "ref": m["ref"], "rows": rows}
+            rec = {"index": m["index"], "family": m["family"], "n": m["n"], "ref": m["ref"], "rows": rows}
             recs.append(rec)
             f.write(json.dumps(rec) + "\n")
     ref = [np.mean(r["ref"]) for r in recs]

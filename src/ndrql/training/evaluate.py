@@ -64,6 +64,22 @@ def order_accuracy(pred: np.ndarray, target: np.ndarray, step: int = 4) -> tuple
     return right, total
 
 
+def hidden_route_counts(pred: np.ndarray, detour: np.ndarray, base: np.ndarray, hidden: np.ndarray,
+                        step: int = 4) -> tuple[int, int, float, int]:
+    """The goal distance where a belief map's planner cannot see and the true route runs (``hidden``: unknown
+    pixels inside the route's region label): neighbour pairs both there ordered right (:func:`order_accuracy` of
+    ``pred + base`` against ``detour + base``), and the summed absolute detour error there in moves, with the
+    pixels counted: ``(right, pairs, error, pixels)``. ``pred``, ``detour`` and ``base`` are the distance head's
+    output and label in its units (:func:`ndrql.dataset.mixture.distance_target`; ``detour`` -1: no label). On
+    belief maps NDR-QL's steps follow this part of the distance (studies/partial/README.md, "What the distance
+    measures say")."""
+    hid = np.asarray(hidden, dtype=bool) & (detour >= 0)
+    truth = np.where(hid, detour + base, -1.0)
+    right, pairs = order_accuracy(pred + base, truth, step)
+    error = float(np.abs(pred - detour)[hid].sum()) * DISTANCE_UNIT
+    return right, pairs, error, int(hid.sum())
+
+
 def evaluate(model: torch.nn.Module, data: SplitArrays, indices: np.ndarray | None = None, batch_size: int = 32, encoding: str = "point", bf16: bool = False, progress: bool = False) -> EvalResult:
     """F1 of ``model`` on ``data`` (all samples, or ``indices``), threshold 0.5."""
     from tqdm import tqdm
@@ -140,7 +156,9 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     overall and per group (``region_f1/<group>``); for a model with a distance head also the percentage of
     neighbouring cells whose goal distances it orders right (``distance_order/all``, :func:`order_accuracy`),
     raw and with the detour snapped as Eq. 6 takes it (``distance_order_snapped/all``,
-    :func:`ndrql.planning.priors.snap_detour`)."""
+    :func:`ndrql.planning.priors.snap_detour`), and on the belief maps among ``items`` the same order and the
+    mean absolute detour error in moves where the belief hides the true route (``distance_order/hidden_route``,
+    ``detour_error/hidden_route``, :func:`hidden_route_counts`)."""
     from ndrql.dataset.mixture import stack  # lazy: loads scipy
 
     model.eval()
@@ -151,7 +169,7 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     for j, (_, r) in enumerate(items):
         by_side.setdefault(r.obstacles.shape[0], []).append(j)
     order: list[int] = []
-    ordered, snapped = [0, 0], [0, 0]
+    ordered, snapped, hidden = [0, 0], [0, 0], [0, 0, 0.0, 0]
     for side in sorted(by_side):
         idx = by_side[side]
         for s in range(0, len(idx), batch_size):
@@ -166,6 +184,10 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
                     ordered = [u + v for u, v in zip(ordered, got)]
                     got = order_accuracy(snap_detour(DISTANCE_UNIT * d[j]) / DISTANCE_UNIT + base, truth)
                     snapped = [u + v for u, v in zip(snapped, got)]
+                    item = items[sel[j]][1]
+                    if item.unknown is not None:
+                        got = hidden_route_counts(d[j], t, base, item.unknown & item.region)
+                        hidden = [u + v for u, v in zip(hidden, got)]
             rf.extend(f1_per_image(r >= 0.5, region[:, 0].numpy() > 0.5).tolist())
             gf.extend((f1_per_image(g >= 0.5, guide[:, 0].numpy() > 0.5) if g is not None else np.full(len(sel), np.nan)).tolist())
             order.extend(sel)
@@ -176,6 +198,10 @@ def evaluate_rendered(model: torch.nn.Module, items: list, encoding: str = "poin
     if ordered[1]:
         out["distance_order/all"] = 100.0 * ordered[0] / ordered[1]
         out["distance_order_snapped/all"] = 100.0 * snapped[0] / snapped[1]
+    if hidden[1]:
+        out["distance_order/hidden_route"] = 100.0 * hidden[0] / hidden[1]
+    if hidden[3]:
+        out["detour_error/hidden_route"] = hidden[2] / hidden[3]
     for name in sorted(set(groups)):
         sel = np.array([g == name for g in groups])
         out[f"region_f1/{name}"] = float(100 * rf_a[sel].mean())

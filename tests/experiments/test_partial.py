@@ -155,6 +155,9 @@ def test_the_floors_are_judged_on_geometric_means_and_the_oracles_share():
     assert [line.count("**MISS**") for line in miss] == [1, 1, 1]
     flat = floors(group_summary(joined(_records(1000, 1000, 950))))
     assert len(flat) == 1 and "under 15%" in flat[0]
+    tiny = report_text(_records(1000, 1060, 998), "# r\n", (50,), ["blobs:0.3"], (False,))  # 0.2% headroom
+    assert "share of the oracle's gain not given (the oracle's headroom 0.2% is under 15%)" in tiny
+    assert "%;" not in tiny.split("share of the oracle's gain")[1].split("\n")[0]  # no -3,000% share
     text = report_text(_records(1000, 790, 500), "# r\n", (50,), ["blobs:0.3"], (False,))
     assert text.count("**PASS**") == 3 and "| **all** | 4 | 1.00 | 0.79 | 0.50 | 1,000 |" in text
 

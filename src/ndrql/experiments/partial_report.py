@@ -60,6 +60,14 @@ def _pct(x: float) -> str:
     return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.0%}"
 
 
+def _share_text(share: float, headroom: float) -> str:
+    """The share of the oracle's gain, or why it is not given: under :data:`MIN_HEADROOM` the oracle's gain is too
+    small for a share of it to mean anything (a 0.2% headroom turns a 6% loss into -3,000%)."""
+    if headroom < MIN_HEADROOM:
+        return f"not given (the oracle's headroom {headroom:.1%} is under {MIN_HEADROOM:.0%})"
+    return _pct(share)
+
+
 def _quantiles(values: list[float]) -> str:
     if not values:
         return "-"
@@ -126,7 +134,7 @@ def _iql_ndr_line(s: dict[str, Any]) -> list[str]:
     o = q["outcomes"]
     return [f"- **IQL-NDR / IQL-BFS (belief)** ({q['maps']} maps): **{q['ratio']:.3f}** ({q['low']:.3f} .. "
             f"{q['high']:.3f}); clear wins / ties / losses {o['wins']} / {o['ties']} / {o['losses']}; share of the "
-            f"oracle's gain {_pct(q['share'])} (not judged by the floors)"]
+            f"oracle's gain {_share_text(q['share'], s['headroom'])} (not judged by the floors)"]
 
 
 def group_text(title: str, group: list[dict], skipped: int, refused: int) -> str:
@@ -144,7 +152,8 @@ def group_text(title: str, group: list[dict], skipped: int, refused: int) -> str
               f"{s['oracle_outcomes']['wins']} / {s['oracle_outcomes']['ties']} / {s['oracle_outcomes']['losses']} maps",
               f"- **NDR-QL / IQL-BFS (belief)**: **{n['ratio']:.3f}** ({n['low']:.3f} .. {n['high']:.3f}); clear wins / "
               f"ties / losses {s['ndr_outcomes']['wins']} / {s['ndr_outcomes']['ties']} / {s['ndr_outcomes']['losses']}; "
-              f"share of the oracle's gain {_pct(s['share'])}; worst family {s['worst'][0]} {s['worst'][1]:.3f}",
+              f"share of the oracle's gain {_share_text(s['share'], s['headroom'])}; worst family {s['worst'][0]} "
+              f"{s['worst'][1]:.3f}",
               *_iql_ndr_line(s), "- " + _sources_line(group)]
     present = [row for row in ROWS if row != REF and any(row in r["rows"] for r in group)]
     lines += ["| family | maps | " + " | ".join(f"{row} / {REF}" for row in present) + f" | {REF} steps |",

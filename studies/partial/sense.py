@@ -66,7 +66,7 @@ def measure(args: argparse.Namespace) -> int:
                 known[s] = known[g] = True
                 n = max(case.blocked.shape)
                 ql, pc = preset.configs("IQL-BFS", grid=n)
-                priors_on = lambda b: build_priors("IQL-BFS", b, s, g, cfg=pc)  # noqa: E731
+                priors_on = lambda b, known=None: build_priors("IQL-BFS", b, s, g, cfg=pc)  # noqa: E731
                 radius = max(1.0, args.radius * n)
                 t0 = time.perf_counter()
                 rows: dict = {}

@@ -20,7 +20,7 @@ def _truth() -> np.ndarray:
     return t
 
 
-def _priors_on(b: np.ndarray):
+def _priors_on(b: np.ndarray, known: np.ndarray | None = None):
     return build_priors("IQL-BFS", b, S, G)
 
 

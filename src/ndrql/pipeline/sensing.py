@@ -38,8 +38,8 @@ Cell = tuple[int, int]
 DEFAULT_EVERY = 1
 #: What a rebuild of the priors does to the Q-table (:attr:`SenseConfig.carry`).
 CARRY = ("shift", "reset", "keep")
-#: Priors of a method on a belief grid (``True`` = blocked).
-PriorsOn = Callable[[np.ndarray], Priors]
+#: Priors of a method on a belief grid (``True`` = blocked) and the cells known in it.
+PriorsOn = Callable[[np.ndarray, np.ndarray], Priors]
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
     truth = np.asarray(truth, dtype=bool)
     known = np.asarray(known, dtype=bool) | sense(truth, np.array([start]), sensing.radius)
     belief = np.where(known, truth, np.asarray(belief, dtype=bool))
-    pri = priors_on(belief)
+    pri = priors_on(belief, known)
     q = np.array(pri.q0, dtype=np.float64, copy=True)
     opt = astar_length(truth, start, goal)
     out = SensedRun(converged=False, steps=0, episodes=0, path_length=None, astar_length=opt)
@@ -156,7 +156,7 @@ def run_sensed(truth: np.ndarray, belief: np.ndarray, known: np.ndarray, start: 
         out.known_share.append(float(known.mean()))
         since += 1
         if pending and since >= sensing.every:
-            fresh = priors_on(belief)
+            fresh = priors_on(belief, known)
             if sensing.carry == "shift":
                 q = np.ascontiguousarray(q + (fresh.q0 - pri.q0))
             elif sensing.carry == "reset":
@@ -187,8 +187,8 @@ def learn_sensed(grid: PlanningGrid, belief: PlanningGrid, unknown_px: np.ndarra
     out, runs = [], []
     for m in methods:
         ql, pc = consts(m.name)
-        priors_on = lambda b, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc,  # noqa: E731
-                                                       belief_floor(distance, b, grid.goal), None)
+        priors_on = lambda b, kn, m=m, pc=pc: build_priors(m, b, grid.start, grid.goal, region, guideline, pc,  # noqa: E731
+                                                           belief_floor(distance, b, grid.goal), None)
         for seed in seeds:
             r = run_sensed(grid.blocked, belief.blocked, known, grid.start, grid.goal, m.name, seed, ql, priors_on, sensing)
             out.append(r.result)

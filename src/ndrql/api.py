@@ -120,7 +120,7 @@ def run_request(request: PlanRequest, *, workers: int | None = None, keep_record
     with clock.stage("learn"):
         sensed = None if request.sensing is None else learn_sensed(  # revealed as it moves
             pg, prior_pg, request.belief.unknown, ms, list(request.seeds), consts, pred.region, pred.guideline,
-            pred.distance, request.sensing, pred.record)
+            pred.distance, request.sensing, pred.record, pred.repredict)
         results = sensed if sensed is not None else learn(pg, ms, request.seeds, consts, priors, pred.region, pred.guideline, n_workers, keep_records,
                         progress, pred.distance, pred.threshold)
     with clock.stage("route"):

@@ -82,7 +82,8 @@ def test_sense_through_the_api_reveals_and_records(tmp_path):
     assert rep.info["sensing"]["radius_cells"] == 3.0 and rep.info["sensing"]["every"] == 2 and len(runs) == 4
     assert all(r["known_end"] > r["known_start"] for r in runs) and any(r["recomputes"] >= 1 for r in runs)
     assert all(r.converged and r.astar_length == 87 for r in rep.results)
-    assert rep.request.to_dict()["sense"] == {"radius": 3.0, "every": 2, "carry": "shift", "max_chunks": 10_000}
+    assert rep.request.to_dict()["sense"] == {"radius": 3.0, "every": 2, "carry": "shift", "max_chunks": 10_000,
+                                              "predict_again": False}
 
 
 def test_sense_errors_are_one_clear_line():
@@ -148,3 +149,73 @@ def test_the_predicted_distance_is_floored_at_the_grown_beliefs_bfs():
     out = floored(shortcut, grown, goal)
     np.testing.assert_array_equal(out, np.maximum(shortcut, bfs4_filled(grown, goal)))
     assert out[0, 0] > shortcut[0, 0] and out[0, 0] == bfs4_filled(grown, goal)[0, 0]
+
+
+def test_a_belief_model_predicts_again_on_each_grown_belief():
+    """With ``predict_again`` the NDR methods' priors come from a fresh prediction on the belief as it stands (the
+    cells still unknown in the model's channel); the same belief is predicted once (every seed starts from it);
+    without it the model is not asked, and IQL-BFS never asks it."""
+    from ndrql.maps.grid import PlanningGrid
+    from ndrql.pipeline.sensing import learn_sensed
+    from ndrql.planning.config import PriorConfig
+    from ndrql.planning.methods import get_method
+
+    o, m = _wall_map()
+    ends = dict(source_shape=o.shape, source_start=(5, 5), source_goal=(5, 34))
+    truth = PlanningGrid(o.astype(bool), (5, 5), (5, 34), **ends)
+    belief = PlanningGrid(np.where(m > 0, False, o > 0), (5, 5), (5, 34), **ends)
+    asked: list[np.ndarray] = []
+
+    def repredict(blocked, unknown):
+        asked.append(unknown.copy())
+        region = np.where(blocked, 0.0, 0.5)
+        return region, region, None
+
+    flat = np.full(o.shape, 0.5)
+    consts = lambda name: (QLConfig(max_episodes=400), PriorConfig())  # noqa: E731
+    for methods, calls in (([get_method("NDR-QL"), get_method("IQL-BFS")], "some"), ([get_method("IQL-BFS")], "none")):
+        asked.clear()
+        rec: dict = {}
+        learn_sensed(truth, belief, m.astype(bool), methods, [0, 1], consts, flat, flat, None,
+                     SenseConfig(radius=3, every=1, predict_again=True), rec, repredict)
+        assert rec["sensing"]["predictions"] == len(asked)
+        if calls == "none":
+            assert asked == []
+            continue
+        assert rec["sensing"]["predict_again"] and len(asked) >= 2  # the first belief and at least one rebuild
+        assert asked[0].sum() == m.astype(bool).sum()  # nothing hidden within 3 cells of the start
+        assert min(u.sum() for u in asked) < asked[0].sum()  # then the rebuilds see a grown belief
+        assert all(u.sum() <= asked[0].sum() for u in asked)  # which only grows
+        rebuilds = sum(r["recomputes"] for r in rec["sensing"]["runs"] if r["method"] == "NDR-QL")
+        assert len(asked) <= 1 + rebuilds  # both seeds start from one belief: predicted once
+    asked.clear()
+    rec = {}
+    learn_sensed(truth, belief, m.astype(bool), [get_method("NDR-QL")], [0], consts, flat, flat, None,
+                 SenseConfig(radius=3, every=1, predict_again=False), rec, repredict)
+    assert asked == [] and not rec["sensing"]["predict_again"] and rec["sensing"]["predictions"] == 0
+
+
+def test_plan_with_sense_keeps_the_first_prediction_unless_asked_and_cli_equals_api(ndrql_exe, tmp_path):
+    import dataclasses
+    import json
+
+    import ndrql
+    from tests.helpers.cli import run_cli
+
+    o, m = _wall_map()
+    np.save(tmp_path / "map.npy", o)
+    np.save(tmp_path / "mask.npy", m)
+    req = ndrql.build_request(str(tmp_path / "map.npy"), (5, 5), (5, 34), methods=["NDR-QL"], seeds=2, size=40,
+                              hide=str(tmp_path / "mask.npy"), sense=3)
+    kept = ndrql.solve(req)
+    assert not kept.info["sensing"]["predict_again"] and kept.info["sensing"]["predictions"] == 0
+    again = ndrql.solve(dataclasses.replace(req, sensing=dataclasses.replace(req.sensing, predict_again=True)))
+    assert again.info["sensing"]["predict_again"] and again.info["sensing"]["predictions"] >= 1
+    assert all(r.converged for r in kept.results + again.results)
+    r = run_cli(ndrql_exe, "plan", tmp_path / "map.npy", "--start", "5,5", "--goal", "5,34", "--hide",
+                tmp_path / "mask.npy", "--sense", "3", "--method", "NDR-QL", "--seeds", "2", "--size", "40", "--json",
+                tmp_path / "out.json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "out.json").read_text())
+    assert [x["total_steps"] for x in doc["runs"]] == [x.total_steps for x in kept.results]
+    assert doc["sensing"]["predictions"] == 0

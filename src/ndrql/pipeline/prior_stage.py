@@ -25,7 +25,8 @@ from ndrql.model.predict import load_predictor
 from ndrql.pipeline.fallback import Fallback, fall_back, min_threshold
 from ndrql.pipeline.judge import Trial, consult
 from ndrql.pipeline.report import StageClock
-from ndrql.pipeline.sources import ExactSource, GivenSource, HeadSource, ModelSource, OracleSource, SourceInput
+from ndrql.pipeline.sources import (ExactSource, GivenSource, HeadSource, ModelSource, OracleSource, Repredict,
+                                   SourceInput, belief_predictor)
 from ndrql.planning.config import PriorConfig, QLConfig
 from ndrql.planning.methods import Method, get_method
 from ndrql.synth.oracle import ORACLE_NAME
@@ -63,6 +64,9 @@ class Predicted:
     """The sources asked, in order, with the judge's verdicts."""
     record: dict[str, Any] = field(default_factory=dict)
     """What the JSON says about them: sources, model input, backend, prediction quality, fallback."""
+    repredict: Repredict | None = None
+    """On a belief map served by a model with the unknown channel: how it predicts again on a belief grown by
+    sensing (:func:`~ndrql.pipeline.sources.belief_predictor`); ``None`` otherwise."""
 
 
 #: Why Eq. 6's mask term is off on a belief map (studies/partial/README.md, "The short runs"): Eq. 7's region joins
@@ -172,5 +176,8 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
         threshold = None
         if any(m.n_qi for m in ran):
             record["qi_mask"] = BELIEF_MASK
+    again = None
+    if problem.partial and priors.source == "model":
+        again = belief_predictor(next((s for s in sources if s.name == "model"), None), grid)
     return Predicted(priors.region_map, priors.guideline_map, priors.region, priors.guideline, weights, distance,
-                     threshold, tuple(ran), tuple(swaps), trials, record)
+                     threshold, tuple(ran), tuple(swaps), trials, record, again)

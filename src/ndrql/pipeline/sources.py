@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -38,7 +38,7 @@ from ndrql.maps.fields import bfs4_filled
 from ndrql.maps.grid import GridMap, PlanningGrid
 from ndrql.maps.route_cells import route_cells
 from ndrql.model import propagation
-from ndrql.pipeline.predictions import GivenPredictions, ModelView, oracle_view, predict_region
+from ndrql.pipeline.predictions import GivenPredictions, ModelView, oracle_view, predict_on_grid, predict_region
 from ndrql.planning.methods import downscale_priors
 from ndrql.synth.labels import GUIDE_PX, REGION_PX, near_optimal_path
 
@@ -170,6 +170,27 @@ class ModelSource:
             out = dataclasses.replace(out, distance=belief_floor(out.distance, problem.grid.blocked, problem.grid.goal),
                                       info={**out.info, "distance_floor": "the belief's BFS distance"})
         return out
+
+
+#: A prediction on a belief grid: ``(blocked, unknown) -> (region, guideline, distance)`` per planning cell.
+Repredict = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, "np.ndarray | None", "np.ndarray | None"]]
+
+
+def belief_predictor(source: Any, grid: PlanningGrid) -> Repredict | None:
+    """How ``source`` predicts again on a belief of ``grid`` that sensing has grown (the same start and goal, the
+    cells still unknown in the model's unknown channel): a grid-mode model with the channel, else ``None``
+    (:func:`ndrql.pipeline.sensing.learn_sensed`). The same model and view as the first prediction; the distance
+    as :class:`ModelSource` gives it (``None`` without ``learned_distance``), floored by the caller."""
+    p = getattr(source, "predictor", None)
+    if not isinstance(source, ModelSource) or getattr(p, "input_mode", "map") != "grid" or not sees_unknown(p):
+        return None
+
+    def predict(blocked: np.ndarray, unknown: np.ndarray):
+        region, guide, _, distance = predict_on_grid(p, blocked, grid.start, grid.goal, unknown)
+        as64 = lambda a: None if a is None else np.asarray(a, np.float64)  # noqa: E731  (as GridPriors holds them)
+        return as64(region), as64(guide), as64(distance) if source.learned_distance else None
+
+    return predict
 
 
 def belief_floor(distance: np.ndarray | None, blocked: np.ndarray, goal: Point) -> np.ndarray | None:

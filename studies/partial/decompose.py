@@ -26,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sym_check import case_parser  # noqa: E402
 from tune_belief import SEEDS, build_cache  # noqa: E402
 
+from ndrql.experiments.ceiling import GridCase  # noqa: E402
 from ndrql.experiments.partial import ndr_priors, steps_of  # noqa: E402
 from ndrql.experiments.stats import geomean_ratio  # noqa: E402
 from ndrql.pipeline.sources import drawn_priors  # noqa: E402
@@ -35,16 +36,15 @@ from ndrql.planning.runner import run_plan  # noqa: E402
 VARIANTS = ("model", "oracle distance", "oracle region", "oracle on belief", "oracle")
 
 
-class _Case:
-    """The fields of a grid case :func:`ndr_priors` reads."""
-
-    def __init__(self, blocked: np.ndarray, start: tuple, goal: tuple):
-        self.blocked, self.start_cell, self.goal_cell = blocked, start, goal
+def grid_only_case(blocked: np.ndarray, start: tuple, goal: tuple) -> GridCase:
+    """A :class:`GridCase` of a planning grid alone (the grid stands for the map: one pixel per cell)."""
+    return GridCase(blocked, start, goal, name="cached", group="", n=max(blocked.shape), blocked=blocked,
+                    start_cell=start, goal_cell=goal)
 
 
 def steps(m: dict, variant: str, preset, truth) -> list[int]:
     """NDR-QL's steps per seed on map ``m`` with ``variant``'s priors (``truth``: the oracle's drawn priors)."""
-    belief = _Case(m["bblocked"], m["start"], m["goal"])
+    belief = grid_only_case(m["bblocked"], m["start"], m["goal"])
     if variant == "model":
         pri = ndr_priors(belief, m["region"], m["guideline"], m["distance"], preset, mask=False)
     elif variant == "oracle distance":
@@ -54,7 +54,7 @@ def steps(m: dict, variant: str, preset, truth) -> list[int]:
     elif variant == "oracle on belief":
         pri = ndr_priors(belief, truth.region, truth.guideline, truth.distance, preset, mask=False)
     else:
-        pri = ndr_priors(_Case(m["blocked"], m["start"], m["goal"]), truth.region, truth.guideline, truth.distance,
+        pri = ndr_priors(grid_only_case(m["blocked"], m["start"], m["goal"]), truth.region, truth.guideline, truth.distance,
                          preset)
     ql = preset.configs("NDR-QL", grid=m["n"])[0]
     return [steps_of(run_plan(m["blocked"], m["start"], m["goal"], "NDR-QL", s, ql, priors=pri)) for s in SEEDS]

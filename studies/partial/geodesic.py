@@ -26,7 +26,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from decompose import _Case  # noqa: E402
+from decompose import grid_only_case  # noqa: E402
 from sym_check import case_parser  # noqa: E402
 from tune_belief import SEEDS, build_cache, serves  # noqa: E402
 
@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     recs = []
     with out.open("w") as f:
         for m in build_cache(args, args.grid):
-            belief = _Case(m["bblocked"], m["start"], m["goal"])
+            belief = grid_only_case(m["bblocked"], m["start"], m["goal"])
             ql = preset.configs("NDR-QL", grid=m["n"])[0]
             rows = {}
             for v in variants:

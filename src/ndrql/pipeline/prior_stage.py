@@ -65,8 +65,9 @@ class Predicted:
     record: dict[str, Any] = field(default_factory=dict)
     """What the JSON says about them: sources, model input, backend, prediction quality, fallback."""
     repredict: Repredict | None = None
-    """On a belief map served by a model with the unknown channel: how it predicts again on a belief grown by
-    sensing (:func:`~ndrql.pipeline.sources.belief_predictor`); ``None`` otherwise."""
+    """On a sensed belief map that asks for it (``SenseConfig.predict_again``), served by a model with the unknown
+    channel: how it predicts again on a belief grown by sensing (:func:`~ndrql.pipeline.sources.belief_predictor`);
+    ``None`` otherwise (nothing is built on plan's path by default)."""
 
 
 #: Why Eq. 6's mask term is off on a belief map (studies/partial/README.md, "The short runs"): Eq. 7's region joins
@@ -176,8 +177,9 @@ def predict_for(request: Any, grid: PlanningGrid, clock: StageClock,
         threshold = None
         if any(m.n_qi for m in ran):
             record["qi_mask"] = BELIEF_MASK
-    again = None
-    if problem.partial and priors.source == "model":
+    sensing = getattr(request, "sensing", None)
+    again = None  # only a sensed plan that asks for it predicts again (SenseConfig.predict_again)
+    if problem.partial and priors.source == "model" and sensing is not None and sensing.predict_again:
         again = belief_predictor(next((s for s in sources if s.name == "model"), None), grid)
     return Predicted(priors.region_map, priors.guideline_map, priors.region, priors.guideline, weights, distance,
                      threshold, tuple(ran), tuple(swaps), trials, record, again)
